@@ -1,0 +1,185 @@
+#include "rayproof/render.h"
+
+#include <png.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+namespace rayproof {
+
+Intersectors Intersectors::defaults() {
+  Intersectors isect;
+  for (ShapeKind k : kAllShapeKinds) isect.by_shape[static_cast<int>(k)] = &default_variant(k);
+  return isect;
+}
+
+bool Intersectors::use(std::string_view name) {
+  const Variant* v = find_variant(name);
+  if (!v) return false;
+  by_shape[static_cast<int>(v->shape)] = v;
+  return true;
+}
+
+SceneHit trace(const Scene& scene, const Intersectors& isect, const Ray& ray) {
+  SceneHit best;
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const Shape& shape = scene.objects[i].shape;
+    const Hit h = isect.by_shape[shape.index()]->intersect(ray, shape, isect.rule);
+    // A contact without t (a ray lying in a plane) has no point to show.
+    if (h.cls == HitClass::miss || !h.has_t()) continue;
+    if (best.object < 0 || h.t < best.hit.t) best = {static_cast<int>(i), h};
+  }
+  return best;
+}
+
+namespace {
+
+// Whether anything but object `self` blocks the segment from p to the light. The segment
+// starts at p pushed off the surface along n by a bound on p's rounding error: p = o + t·d is
+// computed with a relative error of a few ulps of |o| + |t·d| (pbrt-v4's offset-ray-origin
+// idea), so the push scales with the scene and no fixed epsilon is needed. `self` itself is
+// skipped: every shape here is convex or flat, so a point lit from the side n faces cannot be
+// shadowed by its own object.
+bool in_shadow(const Scene& scene, const Intersectors& isect, int self, const Vec3& p, const Vec3& n,
+               double error_bound, const Vec3& light) {
+  const Vec3 start = p + error_bound * n;
+  const Ray shadow{start, light - start};
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    if (static_cast<int>(i) == self) continue;
+    const Shape& shape = scene.objects[i].shape;
+    const Hit h = isect.by_shape[shape.index()]->intersect(shadow, shape, HitRule::nearest_contact);
+    if (h.cls != HitClass::miss && h.has_t() && h.t < 1) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+Vec3 shade(const Scene& scene, const Intersectors& isect, const Ray& ray) {
+  const SceneHit sh = trace(scene, isect, ray);
+  if (sh.object < 0) return scene.background;
+  const SceneObject& obj = scene.objects[sh.object];
+  const Vec3 p = ray.at(sh.hit.t);
+  switch (scene.shading) {
+    case Shading::flat: return obj.color;
+    case Shading::depth: {
+      const double distance = length(p - ray.origin);
+      const double grey = (scene.depth_far - distance) / (scene.depth_far - scene.depth_near);
+      return Vec3::Constant(std::clamp(grey, 0.0, 1.0));
+    }
+    case Shading::diffuse: {
+      Vec3 n = outward_normal(obj.shape, p);
+      if (dot(n, ray.direction) > 0) n = -n;  // the side the ray arrived from
+      const double error_bound =
+          64 * std::numeric_limits<double>::epsilon() * (max_abs(ray.origin) + max_abs(sh.hit.t * ray.direction));
+      double light_sum = 0;
+      for (const PointLight& light : scene.lights) {
+        const Vec3 w = normalized(p - light.position);
+        const double c = std::max(-dot(n, w), 0.0);
+        if (c > 0 && !in_shadow(scene, isect, sh.object, p, n, error_bound, light.position))
+          light_sum += light.intensity * c;
+      }
+      return obj.color * light_sum;
+    }
+  }
+  return scene.background;
+}
+
+Image render(const Scene& scene, const RenderOptions& options) {
+  const Camera& cam = scene.camera;
+  Image image{cam.width, cam.height, std::vector<std::uint8_t>(3 * size_t(cam.width) * cam.height)};
+  const int grid = static_cast<int>(std::lround(std::sqrt(scene.samples)));
+  std::atomic<int> next_row{0}, rows_done{0};
+  auto worker = [&] {
+    for (int y; (y = next_row.fetch_add(1)) < cam.height;) {
+      for (int x = 0; x < cam.width; ++x) {
+        Vec3 sum = Vec3::Zero();
+        for (int sy = 0; sy < grid; ++sy)
+          for (int sx = 0; sx < grid; ++sx)
+            sum += shade(scene, options.intersectors,
+                         cam.ray_through(x + (sx + 0.5) / grid, y + (sy + 0.5) / grid));
+        const Vec3 c = sum / (grid * grid);
+        for (int k = 0; k < 3; ++k)
+          image.rgb[3 * (size_t(y) * cam.width + x) + k] =
+              static_cast<std::uint8_t>(std::lround(std::clamp(c[k], 0.0, 1.0) * 255));
+      }
+      const int done = ++rows_done;
+      if (options.progress) options.progress(done, cam.height);
+    }
+  };
+  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, 256);
+  std::vector<std::thread> pool;
+  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  return image;
+}
+
+namespace {
+
+void write_png_file(const Image& image, FILE* f) {
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info) throw std::runtime_error("libpng: out of memory");
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    throw std::runtime_error("libpng: write failed");
+  }
+  png_init_io(png, f);
+  png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  for (int y = 0; y < image.height; ++y)
+    png_write_row(png, const_cast<png_bytep>(image.rgb.data() + 3 * size_t(y) * image.width));
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+}
+
+}  // namespace
+
+void write_image(const Image& image, const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext != ".png" && ext != ".ppm")
+    throw std::runtime_error(path + ": unknown image type '" + ext + "' (use .png or .ppm)");
+  const std::string tmp = path + ".tmp";
+  FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw std::runtime_error(path + ": cannot write");
+  try {
+    if (ext == ".png") {
+      write_png_file(image, f);
+    } else {
+      std::fprintf(f, "P6\n%d %d\n255\n", image.width, image.height);
+      std::fwrite(image.rgb.data(), 1, image.rgb.size(), f);
+    }
+  } catch (...) {
+    std::fclose(f);
+    std::remove(tmp.c_str());
+    throw;
+  }
+  if (std::fclose(f) != 0 || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error(path + ": cannot write");
+  }
+}
+
+Image read_png(const std::string& path) {
+  png_image img{};
+  img.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&img, path.c_str()))
+    throw std::runtime_error(path + ": " + img.message);
+  img.format = PNG_FORMAT_RGB;
+  Image out{static_cast<int>(img.width), static_cast<int>(img.height),
+            std::vector<std::uint8_t>(PNG_IMAGE_SIZE(img))};
+  if (!png_image_finish_read(&img, nullptr, out.rgb.data(), 0, nullptr))
+    throw std::runtime_error(path + ": " + img.message);
+  return out;
+}
+
+}  // namespace rayproof

@@ -1,0 +1,183 @@
+#include "rayproof/scene.h"
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+#include "rayproof/json_fields.h"
+
+namespace rayproof {
+
+Ray Camera::ray_through(double x, double y) const {
+  // scene.md: sx = left + x/W·(right − left), sy = top + y/H·(bottom − top); the look-at form
+  // is the window left = −tan(fov/2)·W/H, right = −left, top = tan(fov/2), bottom = −top.
+  const double sx = window_left + x / width * (window_right - window_left);
+  const double sy = window_top + y / height * (window_bottom - window_top);
+  return Ray{eye, forward + sx * right + sy * up};
+}
+
+namespace {
+
+int read_positive_int(const json& j, const std::string& field, int max) {
+  const double x = read_number(j, field);
+  if (x != std::floor(x) || x < 1 || x > max)
+    throw FieldError(field, "expected an integer in 1.." + std::to_string(max));
+  return static_cast<int>(x);
+}
+
+Vec3 read_color(const json& j, const std::string& field) {
+  Vec3 c = read_vec3(j, field);
+  for (int i = 0; i < 3; ++i)
+    if (c[i] < 0) throw FieldError(field, "colour components must be >= 0");
+  return c;
+}
+
+Camera read_camera(const json& j) {
+  const bool window = j.is_object() && j.contains("left");
+  if (window)
+    check_keys(j, "camera", {"eye", "left", "right", "top", "bottom", "look_at", "up", "width", "height"},
+               {"eye", "left", "right", "top", "bottom", "width", "height"});
+  else
+    check_keys(j, "camera", {"eye", "look_at", "up", "fov_deg", "width", "height"},
+               {"eye", "look_at", "up", "fov_deg", "width", "height"});
+  Camera cam;
+  cam.eye = read_vec3(j["eye"], "camera.eye");
+  const Vec3 look_at =
+      j.contains("look_at") ? read_vec3(j["look_at"], "camera.look_at") : Vec3(cam.eye + Vec3(0, 0, 1));
+  const Vec3 up = j.contains("up") ? read_vec3(j["up"], "camera.up") : Vec3(0, 1, 0);
+  cam.width = read_positive_int(j["width"], "camera.width", 16384);
+  cam.height = read_positive_int(j["height"], "camera.height", 16384);
+  const Vec3 view = look_at - cam.eye;
+  const double view_length = length(view);
+  if (!(view_length > 0) || !std::isfinite(view_length))
+    throw FieldError("camera.look_at", "must differ from eye by a finite, non-zero distance");
+  cam.forward = view / view_length;
+  const Vec3 side = cross(cam.forward, up);
+  const double side_length = length(side);
+  if (!(side_length > 0) || !std::isfinite(side_length))
+    throw FieldError("camera.up", "must be finite and not parallel to the view direction");
+  cam.right = side / side_length;
+  cam.up = cross(cam.right, cam.forward);
+  if (window) {
+    cam.window_left = read_number(j["left"], "camera.left");
+    cam.window_right = read_number(j["right"], "camera.right");
+    cam.window_top = read_number(j["top"], "camera.top");
+    cam.window_bottom = read_number(j["bottom"], "camera.bottom");
+    if (!(cam.window_left < cam.window_right)) throw FieldError("camera.right", "must be greater than left");
+    if (cam.window_top == cam.window_bottom) throw FieldError("camera.bottom", "must differ from top");
+  } else {
+    const double fov = read_number(j["fov_deg"], "camera.fov_deg");
+    if (!(fov > 0 && fov < 180)) throw FieldError("camera.fov_deg", "must be in (0, 180)");
+    const double half = std::tan(fov * std::numbers::pi / 360);
+    const double aspect = static_cast<double>(cam.width) / cam.height;
+    cam.window_left = -half * aspect;
+    cam.window_right = half * aspect;
+    cam.window_top = half;
+    cam.window_bottom = -half;
+  }
+  return cam;
+}
+
+Scene read_scene(const json& j) {
+  check_keys(j, "", {"camera", "shading", "background", "lights", "objects", "depth", "samples"},
+             {"camera", "objects"});
+  Scene scene;
+  scene.camera = read_camera(j["camera"]);
+  if (j.contains("shading")) {
+    if (!j["shading"].is_string()) throw FieldError("shading", "expected a string");
+    const std::string s = j["shading"];
+    if (s == "flat") scene.shading = Shading::flat;
+    else if (s == "diffuse") scene.shading = Shading::diffuse;
+    else if (s == "depth") scene.shading = Shading::depth;
+    else throw FieldError("shading", "unknown shading \"" + s + "\" (flat, diffuse, depth)");
+  }
+  if (j.contains("background")) scene.background = read_color(j["background"], "background");
+  if (j.contains("lights")) {
+    const json& lights = j["lights"];
+    if (!lights.is_array()) throw FieldError("lights", "expected an array");
+    for (size_t i = 0; i < lights.size(); ++i) {
+      const std::string f = "lights[" + std::to_string(i) + "]";
+      check_keys(lights[i], f, {"type", "position", "intensity"}, {"type", "position"});
+      if (lights[i]["type"] != "point") throw FieldError(f + ".type", "only \"point\" lights exist");
+      PointLight light{read_vec3(lights[i]["position"], f + ".position"), 1};
+      if (lights[i].contains("intensity")) {
+        light.intensity = read_number(lights[i]["intensity"], f + ".intensity");
+        if (light.intensity < 0) throw FieldError(f + ".intensity", "must be >= 0");
+      }
+      scene.lights.push_back(light);
+    }
+  }
+  const json& objects = j["objects"];
+  if (!objects.is_array()) throw FieldError("objects", "expected an array");
+  for (size_t i = 0; i < objects.size(); ++i) {
+    const std::string f = "objects[" + std::to_string(i) + "]";
+    SceneObject obj;
+    obj.shape = read_shape(objects[i], f, {"color", "id"});
+    if (objects[i].contains("color")) obj.color = read_color(objects[i]["color"], f + ".color");
+    if (objects[i].contains("id")) {
+      if (!objects[i]["id"].is_string()) throw FieldError(f + ".id", "expected a string");
+      obj.id = objects[i]["id"];
+    }
+    scene.objects.push_back(std::move(obj));
+  }
+  if (scene.shading == Shading::depth) {
+    if (!j.contains("depth")) throw FieldError("depth", "depth shading needs {\"near\": .., \"far\": ..}");
+    check_keys(j["depth"], "depth", {"near", "far"}, {"near", "far"});
+    scene.depth_near = read_number(j["depth"]["near"], "depth.near");
+    scene.depth_far = read_number(j["depth"]["far"], "depth.far");
+    if (!(scene.depth_near < scene.depth_far)) throw FieldError("depth.far", "must be greater than near");
+  } else if (j.contains("depth")) {
+    check_keys(j["depth"], "depth", {"near", "far"}, {});
+  }
+  if (j.contains("samples")) {
+    scene.samples = read_positive_int(j["samples"], "samples", 1024);
+    const int k = static_cast<int>(std::lround(std::sqrt(scene.samples)));
+    if (k * k != scene.samples) throw FieldError("samples", "must be a perfect square (1, 4, 9, ...)");
+  }
+  return scene;
+}
+
+// The 1-based line of a byte offset, for JSON syntax errors.
+long line_of(const std::string& text, size_t byte) {
+  long line = 1;
+  for (size_t i = 0; i < byte && i < text.size(); ++i) line += text[i] == '\n';
+  return line;
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& text, const std::string& file_name) {
+  json j;
+  try {
+    j = parse_json_text(text);
+  } catch (const json::parse_error& e) {
+    throw std::runtime_error(file_name + ":" + std::to_string(line_of(text, e.byte)) +
+                             ": malformed JSON: " + e.what());
+  }
+  try {
+    return read_scene(j);
+  } catch (const FieldError& e) {
+    // Name the line too when the field's key occurs exactly once in the file (JSON values
+    // carry no positions, and a guess between several occurrences would mislead).
+    std::string key = e.field.substr(e.field.find_last_of('.') + 1);
+    key = "\"" + key.substr(0, key.find('[')) + "\"";
+    const size_t at = text.find(key);
+    const bool unique = at != std::string::npos && text.find(key, at + 1) == std::string::npos;
+    const std::string where = unique ? ":" + std::to_string(line_of(text, at)) : "";
+    throw std::runtime_error(file_name + where + ": field '" + e.field + "': " + e.what());
+  }
+}
+
+Scene load_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open file");
+  std::stringstream buf;
+  buf << in.rdbuf();
+  if (buf.str().find_first_not_of(" \t\r\n") == std::string::npos)
+    throw std::runtime_error(path + ": empty file");
+  return parse_scene(buf.str(), path);
+}
+
+}  // namespace rayproof

@@ -1,0 +1,131 @@
+#include "rayproof/shapes.h"
+
+#include <gmpxx.h>
+
+#include <limits>
+
+#include <cmath>
+
+#include "rayproof/hit.h"
+
+namespace rayproof {
+
+std::string_view to_string(ShapeKind k) {
+  switch (k) {
+    case ShapeKind::sphere: return "sphere";
+    case ShapeKind::plane: return "plane";
+    case ShapeKind::triangle: return "triangle";
+    case ShapeKind::box: return "box";
+  }
+  return "?";
+}
+
+std::optional<ShapeKind> shape_kind_from_string(std::string_view s) {
+  for (ShapeKind k : kAllShapeKinds)
+    if (to_string(k) == s) return k;
+  return std::nullopt;
+}
+
+std::string_view to_string(HitClass c) {
+  switch (c) {
+    case HitClass::miss: return "miss";
+    case HitClass::enter: return "enter";
+    case HitClass::exit: return "exit";
+    case HitClass::tangent: return "tangent";
+    case HitClass::boundary: return "boundary";
+  }
+  return "?";
+}
+
+std::optional<HitClass> hit_class_from_string(std::string_view s) {
+  for (HitClass c : {HitClass::miss, HitClass::enter, HitClass::exit, HitClass::tangent,
+                     HitClass::boundary})
+    if (to_string(c) == s) return c;
+  return std::nullopt;
+}
+
+std::string_view to_string(HitRule r) {
+  return r == HitRule::enter_only ? "enter-only" : "nearest";
+}
+
+std::optional<HitRule> hit_rule_from_string(std::string_view s) {
+  if (s == "nearest") return HitRule::nearest_contact;
+  if (s == "enter-only") return HitRule::enter_only;
+  return std::nullopt;
+}
+
+namespace {
+// Exactly whether (b−a)×(c−a) = 0, in GMP rationals (a double converts to mpq exactly).
+// A double test would call nearly-collinear triangles collinear or the reverse.
+bool exactly_collinear(const Vec3& a, const Vec3& b, const Vec3& c) {
+  mpq_class e1[3], e2[3];
+  for (int i = 0; i < 3; ++i) {
+    e1[i] = mpq_class(b[i]) - mpq_class(a[i]);
+    e2[i] = mpq_class(c[i]) - mpq_class(a[i]);
+  }
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3, k = (i + 2) % 3;
+    if (e1[j] * e2[k] != e1[k] * e2[j]) return false;
+  }
+  return true;
+}
+
+bool finite(double x) { return std::isfinite(x); }
+}  // namespace
+
+std::optional<std::string> degenerate_reason(const Shape& shape) {
+  struct Check {
+    std::optional<std::string> operator()(const Sphere& s) const {
+      if (!all_finite(s.center) || !finite(s.radius)) return "non-finite sphere";
+      if (!(s.radius > 0)) return "radius must be > 0";
+      return std::nullopt;
+    }
+    std::optional<std::string> operator()(const Plane& p) const {
+      if (!all_finite(p.normal) || !finite(p.offset)) return "non-finite plane";
+      if (p.normal.x() == 0 && p.normal.y() == 0 && p.normal.z() == 0) return "zero plane normal";
+      return std::nullopt;
+    }
+    std::optional<std::string> operator()(const Triangle& t) const {
+      for (const Vec3& v : t.v)
+        if (!all_finite(v)) return "non-finite triangle vertex";
+      if (exactly_collinear(t.v[0], t.v[1], t.v[2])) return "triangle vertices are collinear";
+      return std::nullopt;
+    }
+    std::optional<std::string> operator()(const Box& b) const {
+      if (!all_finite(b.min) || !all_finite(b.max)) return "non-finite box";
+      for (int i = 0; i < 3; ++i)
+        if (!(b.min[i] < b.max[i])) return "box min must be < max on every axis";
+      return std::nullopt;
+    }
+  };
+  return std::visit(Check{}, shape);
+}
+
+Vec3 outward_normal(const Shape& shape, const Vec3& p) {
+  struct Normal {
+    const Vec3& p;
+    Vec3 operator()(const Sphere& s) const { return normalized(p - s.center); }
+    Vec3 operator()(const Plane& pl) const { return normalized(pl.normal); }
+    Vec3 operator()(const Triangle& t) const {
+      return normalized(cross(t.v[1] - t.v[0], t.v[2] - t.v[0]));
+    }
+    Vec3 operator()(const Box& b) const {
+      // The face whose plane is nearest to p, relative to the box's extent on that axis.
+      int best_axis = 0;
+      double best = std::numeric_limits<double>::infinity(), sign = -1;
+      for (int i = 0; i < 3; ++i) {
+        const double extent = b.max[i] - b.min[i];
+        const double to_min = std::abs(p[i] - b.min[i]) / extent;
+        const double to_max = std::abs(b.max[i] - p[i]) / extent;
+        if (to_min < best) best = to_min, best_axis = i, sign = -1;
+        if (to_max < best) best = to_max, best_axis = i, sign = 1;
+      }
+      Vec3 n = Vec3::Zero();
+      n[best_axis] = sign;
+      return n;
+    }
+  };
+  return std::visit(Normal{p}, shape);
+}
+
+}  // namespace rayproof

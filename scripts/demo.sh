@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# make demo: render the bundled scenes and audit the bundled cases; say where results are.
+set -euo pipefail
+build=${1:-build}
+out=out
+mkdir -p "$out"
+rp="$build/verify/rayproof"
+for scene in seed1-sphere seed2-diffuse depth all-shapes; do
+  "$rp" render "scenes/$scene.json" -o "$out/$scene.png"
+done
+if "$rp" check --help > /dev/null 2>&1 && [ -d scenes/cases ]; then
+  "$rp" check scenes/cases/*.jsonl -o "$out/check.jsonl" --summary "$out/check-summary.json"
+fi
+echo
+echo "rayproof demo: results are in $(cd "$out" && pwd)/"
+ls -1 "$out" | sed 's/^/  /'

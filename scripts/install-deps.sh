@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Installs the Debian packages rayproof builds with, only those missing.
+# Works as root or through sudo; does nothing when everything is present.
+set -euo pipefail
+packages=(build-essential cmake pkg-config libcgal-dev libgmp-dev libmpfr-dev libeigen3-dev
+          googletest libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libpng-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+echo "rayproof: installing missing Debian packages: ${missing[*]}" >&2
+if [ "$(id -u)" -eq 0 ]; then sudo=(); else sudo=(sudo); fi
+"${sudo[@]}" apt-get update -qq
+DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"

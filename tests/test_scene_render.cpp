@@ -1,0 +1,222 @@
+// The renderer checked by properties of the seed scenes, scale invariance of shadows, and the
+// command line's answers to bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <sys/wait.h>
+
+#include "rayproof/json_fields.h"
+#include "rayproof/render.h"
+
+namespace rayproof {
+namespace {
+
+const std::string kScenes = RAYPROOF_SCENES_DIR;
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+bool is_background(const Image& img, int x, int y) {
+  const auto p = img.at(x, y);
+  return p[0] == 0 && p[1] == 0 && p[2] == 0;
+}
+
+TEST(Seed1, DiskHasTheAnalyticSilhouetteArea) {
+  const Scene scene = load_scene(kScenes + "/seed1-sphere.json");
+  const Image img = render(scene);
+  long count = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) count += !is_background(img, x, y);
+  // The silhouette is a cone of half-angle asin(r / distance) around the view axis, a disk of
+  // radius tan(α) on the image plane at distance 1, i.e. tan(α)·H / (2·tan(fov/2)) pixels.
+  const Sphere& s = std::get<Sphere>(scene.objects[0].shape);
+  const double distance = length(s.center - scene.camera.eye);
+  const double alpha = std::asin(s.radius / distance);
+  const double pixels_per_unit = img.height / (scene.camera.window_top - scene.camera.window_bottom);
+  const double radius_px = std::tan(alpha) * pixels_per_unit;
+  const double analytic = std::numbers::pi * radius_px * radius_px;
+  EXPECT_NEAR(count, analytic, 0.01 * analytic);
+  // Flat shading: every sphere pixel has exactly the sphere's colour (1, 0, 0) → (255, 0, 0).
+  const auto centre = img.at(img.width / 2, img.height / 2);
+  EXPECT_EQ(centre[0], 255);
+  EXPECT_EQ(centre[1], 0);
+}
+
+TEST(Seed2, OnlyTheUpperHalfIsLitAndTheBrightestPixelIsNearTheTop) {
+  const Scene scene = load_scene(kScenes + "/seed2-diffuse.json");
+  const Image img = render(scene);
+  const double centre_row = img.height / 2.0;  // the sphere's centre lies on the view axis
+  long lit = 0, unlit_sphere_pixels = 0;
+  int best = -1, best_row = -1;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      const int red = img.at(x, y)[0];
+      if (red > 0) {
+        ++lit;
+        EXPECT_LT(y + 0.5, centre_row) << "lit pixel below the centre row at " << x << "," << y;
+        if (red > best) best = red, best_row = y;
+      }
+      // A pixel whose ray hits the sphere but is dark: the lower half.
+      const SceneHit h = trace(scene, Intersectors::defaults(), scene.camera.ray_through(x + 0.5, y + 0.5));
+      if (h.object >= 0 && red == 0) ++unlit_sphere_pixels;
+    }
+  EXPECT_GT(lit, 1000);
+  EXPECT_GT(unlit_sphere_pixels, 1000);
+  const double radius_px = std::tan(std::asin(0.5)) * img.height / 2.0;
+  EXPECT_LT(best_row, centre_row - radius_px / 2);
+}
+
+// Scales every length of a scene by 2^k (exact in binary floating point).
+Scene scaled(Scene scene, int k) {
+  const double f = std::ldexp(1.0, k);
+  scene.camera.eye *= f;
+  for (auto& l : scene.lights) l.position *= f;
+  for (auto& o : scene.objects) {
+    std::visit([&](auto& s) {
+      using S = std::decay_t<decltype(s)>;
+      if constexpr (std::is_same_v<S, Sphere>) s.center *= f, s.radius *= f;
+      if constexpr (std::is_same_v<S, Plane>) s.offset *= f;
+      if constexpr (std::is_same_v<S, Triangle>) for (auto& v : s.v) v *= f;
+      if constexpr (std::is_same_v<S, Box>) s.min *= f, s.max *= f;
+    }, o.shape);
+  }
+  return scene;
+}
+
+TEST(Shadows, NoShadowAcneAtAnyScale) {
+  // Exact power-of-two scaling maps every ray to the scaled ray, so a renderer free of
+  // scale-dependent epsilons draws the same image at every scale.
+  const Scene base = load_scene(kScenes + "/all-shapes.json");
+  const Image reference = render(base);
+  long lit = 0;
+  for (auto v : reference.rgb) lit += v > 0;
+  EXPECT_GT(lit, 10000);
+  for (int k : {-40, -20, 20, 40}) {
+    const Image img = render(scaled(base, k));
+    long differing = 0;
+    for (size_t i = 0; i < img.rgb.size(); ++i) differing += img.rgb[i] != reference.rgb[i];
+    EXPECT_EQ(differing, 0) << "scale 2^" << k;
+  }
+}
+
+TEST(Shadows, LitSideOfEverySphereIsFreeOfAcne) {
+  // A sphere alone under a light: every pixel of it whose normal faces the light must be lit.
+  for (int k : {-30, 0, 30}) {
+    const Scene scene = scaled(load_scene(kScenes + "/seed2-diffuse.json"), k);
+    const Intersectors isect = Intersectors::defaults();
+    long acne = 0;
+    for (int y = 0; y < scene.camera.height; y += 2)
+      for (int x = 0; x < scene.camera.width; x += 2) {
+        const Ray r = scene.camera.ray_through(x + 0.5, y + 0.5);
+        const SceneHit h = trace(scene, isect, r);
+        if (h.object < 0) continue;
+        const Vec3 p = r.at(h.hit.t);
+        const Vec3 n = outward_normal(scene.objects[0].shape, p);
+        const double facing = -dot(n, normalized(p - scene.lights[0].position));
+        if (facing > 1e-6 && shade(scene, isect, r).x() == 0) ++acne;
+      }
+    EXPECT_EQ(acne, 0) << "scale 2^" << k;
+  }
+}
+
+TEST(Render, ImagesRoundTripThroughPngAndThreadsAgree) {
+  const Scene scene = load_scene(kScenes + "/depth.json");
+  RenderOptions one, many;
+  one.threads = 1;
+  many.threads = 4;
+  const Image a = render(scene, one), b = render(scene, many);
+  EXPECT_EQ(a.rgb, b.rgb);
+  const std::string path = testing::TempDir() + "/depth.png";
+  write_image(a, path);
+  const Image back = read_png(path);
+  EXPECT_EQ(back.width, a.width);
+  EXPECT_EQ(back.rgb, a.rgb);
+  // Depth: the nearer sphere (centre z = 0) is brighter than the far plane region at the top.
+  long grey_levels = 0;
+  std::vector<bool> seen(256);
+  for (size_t i = 0; i < a.rgb.size(); i += 3) seen[a.rgb[i]] = true;
+  for (bool s : seen) grey_levels += s;
+  EXPECT_GT(grey_levels, 50);
+}
+
+TEST(Render, WindowCameraFollowsTheSpecFormula) {
+  // Window camera at the origin looking down +z: pixel (i, j) leaves along
+  // f + sx·r + sy·u with sx = left + (i+½)/W·(right−left), sy = top + (j+½)/H·(bottom−top).
+  const Scene scene = parse_scene(R"({"camera": {"eye": [0,0,0], "left": -2, "right": 2, "top": 1,
+      "bottom": -1, "width": 4, "height": 2}, "objects": []})", "inline");
+  const Ray r = scene.camera.ray_through(0.5, 0.5);
+  // f = (0,0,1), up default (0,1,0): r = normalize(f × up) = (−1,0,0), u = r × f = (0,1,0).
+  EXPECT_DOUBLE_EQ(r.direction.z(), 1.0);
+  EXPECT_DOUBLE_EQ(r.direction.x(), 1.5);   // sx = −1.5 along r = (−1,0,0)
+  EXPECT_DOUBLE_EQ(r.direction.y(), 0.5);   // sy = 0.5 along u = (0,1,0)
+}
+
+struct CliResult {
+  int status;
+  std::string output;
+};
+
+CliResult run_cli(const std::string& args) {
+  const std::string cmd = std::string(RAYPROOF_CLI) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+std::string write_temp(const std::string& name, const std::string& text) {
+  const std::string path = testing::TempDir() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(Cli, BadScenesGiveAClearErrorAndNonZeroExit) {
+  const std::string camera = R"("camera": {"eye": [-1,0,1], "look_at": [0,0,1], "up": [0,0,1], "fov_deg": 60, "width": 8, "height": 6})";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0,"nan"], "radius": 1}]})", "objects[0].center[2]"},
+      {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0,1], "radius": -1}]})", "objects[0].radius"},
+      {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0,1e999], "radius": 1}]})", "objects[0].center[2]"},
+      {"{" + camera + R"(, "objects": [{"type": "triangle", "vertices": [[0,0,0],[1,1,1],[2,2,2]]}]})", "objects[0].vertices"},
+      {"{" + camera + R"(, "objects": [{"type": "box", "min": [0,0,0], "max": [0,1,1]}]})", "objects[0].max"},
+      {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0], "radius": 1}]})", "objects[0].center"},
+      {"{" + camera + R"(, "objects": [], "shiny": true})", "shiny"},
+      {"{" + camera + R"(, "objects": [], "shading": "depth"})", "depth"},
+      {R"({"camera": {"eye": [0,0,0], "look_at": [0,0,0], "up": [0,0,1], "fov_deg": 60, "width": 8, "height": 6}, "objects": []})", "camera.look_at"},
+      {"{" + camera + R"(, "objects": [)", "malformed JSON"},
+      {"", "empty file"},
+  };
+  int i = 0;
+  for (const auto& [text, needle] : bad) {
+    const std::string path = write_temp("bad-scene-" + std::to_string(i++) + ".json", text);
+    const CliResult r = run_cli("render " + path + " -o " + testing::TempDir() + "/never.png");
+    EXPECT_NE(r.status, 0) << text;
+    EXPECT_NE(r.output.find(path), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(needle), std::string::npos) << needle << " not in: " << r.output;
+  }
+}
+
+TEST(Cli, IntersectReportsBadLinesAndKeepsTheGoodOnes) {
+  const std::string path = write_temp("mixed-cases.jsonl",
+      R"({"id": "ok", "ray": {"origin": [-3,0,0], "direction": [1,0,0]}, "shape": {"type": "sphere", "center": [0,0,0], "radius": 1}})" "\n"
+      R"({"id": "bad", "ray": {"origin": [-3,0,0], "direction": [1,0,0]}, "shape": {"type": "sphere", "center": [0,0,0], "radius": "0x1p+1024"}})" "\n");
+  const CliResult r = run_cli("intersect " + path + " --variants stable,textbook");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find(R"("stable":{"class":"enter","t":"0x1p+1"})"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("mixed-cases.jsonl:2: field 'shape.radius'"), std::string::npos) << r.output;
+  EXPECT_NE(run_cli("intersect " + path + " --variants no-such").status, 0);
+  EXPECT_NE(run_cli("intersect " + write_temp("empty.jsonl", "")).status, 0);
+  EXPECT_NE(run_cli("intersect /no/such/file.jsonl").status, 0);
+}
+
+}  // namespace
+}  // namespace rayproof

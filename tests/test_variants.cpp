@@ -1,0 +1,239 @@
+// Every variant on hand-worked cases whose answers follow from the formulas by hand.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "rayproof/variants.h"
+
+namespace rayproof {
+namespace {
+
+const Sphere kUnitSphere{Vec3(0, 0, 0), 1};
+const Plane kFloor{Vec3(0, 0, 1), 1};  // z = 1, front faces +z
+const Triangle kTri{{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)}};  // front faces +z
+const Box kCube{Vec3(0, 0, 0), Vec3(1, 1, 1)};
+
+Ray ray(Vec3 o, Vec3 d) { return Ray{o, d}; }
+
+std::vector<std::string> names_for(ShapeKind k) {
+  std::vector<std::string> out;
+  for (const Variant* v : variants_for(k)) out.emplace_back(v->name);
+  return out;
+}
+
+Hit run(const std::string& name, const Ray& r, const Shape& s, HitRule rule = HitRule::nearest_contact) {
+  const Variant* v = find_variant(name);
+  EXPECT_NE(v, nullptr) << name;
+  return v->intersect(r, s, rule);
+}
+
+TEST(Registry, NamesAreUniqueAndEveryShapeHasVariants) {
+  std::set<std::string_view> names;
+  for (const Variant& v : all_variants()) {
+    EXPECT_TRUE(names.insert(v.name).second) << v.name;
+    EXPECT_FALSE(v.source.empty()) << v.name;
+    EXPECT_EQ(find_variant(v.name), &v);
+  }
+  for (ShapeKind k : kAllShapeKinds) {
+    EXPECT_FALSE(variants_for(k).empty()) << to_string(k);
+    EXPECT_EQ(default_variant(k).shape, k);
+  }
+  for (auto n : {"textbook", "stable", "hearn-baker", "direct", "moller-trumbore", "watertight", "slab",
+                 "robust-slab"})
+    EXPECT_NE(find_variant(n), nullptr) << n;
+  EXPECT_EQ(find_variant("no-such-variant"), nullptr);
+}
+
+class SphereVariant : public testing::TestWithParam<std::string> {};
+
+TEST_P(SphereVariant, ThroughTheCentreEntersAtTwo) {
+  const Hit h = run(GetParam(), ray({-3, 0, 0}, {1, 0, 0}), kUnitSphere);
+  EXPECT_EQ(h.cls, HitClass::enter);
+  EXPECT_EQ(h.t, 2.0);
+}
+
+TEST_P(SphereVariant, DirectionIsNotRenormalised) {
+  const Hit h = run(GetParam(), ray({-3, 0, 0}, {4, 0, 0}), kUnitSphere);
+  EXPECT_EQ(h.cls, HitClass::enter);
+  EXPECT_EQ(h.t, 0.5);  // units of the given direction
+}
+
+TEST_P(SphereVariant, ExactTangentIsTangentAtTwo) {
+  // b = -4, a = 1, c = 4: b² − 4ac = 0 exactly in double too.
+  const Hit h = run(GetParam(), ray({-2, 1, 0}, {1, 0, 0}), kUnitSphere);
+  EXPECT_EQ(h.cls, HitClass::tangent);
+  EXPECT_EQ(h.t, 2.0);
+}
+
+TEST_P(SphereVariant, OriginInsideExits) {
+  const Hit h = run(GetParam(), ray({0, 0, 0}, {1, 0, 0}), kUnitSphere);
+  EXPECT_EQ(h.cls, HitClass::exit);
+  EXPECT_EQ(h.t, 1.0);
+}
+
+TEST_P(SphereVariant, OriginOnSurfaceMovingInwardExitsAtFarSide) {
+  const Hit h = run(GetParam(), ray({-1, 0, 0}, {1, 0, 0}), kUnitSphere);
+  EXPECT_EQ(h.cls, HitClass::exit);
+  EXPECT_EQ(h.t, 2.0);
+}
+
+TEST_P(SphereVariant, OriginOnSurfaceMovingOutwardMisses) {
+  EXPECT_EQ(run(GetParam(), ray({1, 0, 0}, {1, 0, 0}), kUnitSphere).cls, HitClass::miss);
+}
+
+TEST_P(SphereVariant, SphereBehindTheRayMisses) {
+  EXPECT_EQ(run(GetParam(), ray({3, 0, 0}, {1, 0, 0}), kUnitSphere).cls, HitClass::miss);
+}
+
+TEST_P(SphereVariant, EnterOnlyRejectsAnExit) {
+  EXPECT_EQ(run(GetParam(), ray({0, 0, 0}, {1, 0, 0}), kUnitSphere, HitRule::enter_only).cls, HitClass::miss);
+  const Hit h = run(GetParam(), ray({-3, 0, 0}, {1, 0, 0}), kUnitSphere, HitRule::enter_only);
+  EXPECT_EQ(h.cls, HitClass::enter);
+  EXPECT_EQ(h.t, 2.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(All, SphereVariant, testing::ValuesIn(names_for(ShapeKind::sphere)),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });
+
+TEST(SphereDiscriminant, CancellationInBSquaredMinus4acHidesASmallFarSphere) {
+  // Radius 1 at distance 1e9, offset 0.5 from the ray: c = 1e18 − 0.75 rounds to 1e18, so
+  // b² − 4ac cancels to 0 and textbook and stable see a tangent; Hearn–Baker's Δ from the
+  // centre's distance to the line keeps 0.75 and finds the entry at 1e9 − √0.75.
+  const Sphere far{Vec3(1e9, 0.5, 0), 1};
+  const Ray toward = ray({0, 0, 0}, {1, 0, 0});
+  EXPECT_NE(run("textbook", toward, far).cls, HitClass::enter);
+  EXPECT_NE(run("stable", toward, far).cls, HitClass::enter);
+  const Hit hb = run("hearn-baker", toward, far);
+  ASSERT_EQ(hb.cls, HitClass::enter);
+  EXPECT_NEAR(hb.t, 1e9 - std::sqrt(0.75), 1e-6);
+}
+
+TEST(Plane, FrontBackParallelAndInPlane) {
+  Hit h = run("direct", ray({0, 0, 3}, {0, 0, -1}), kFloor);
+  EXPECT_EQ(h.cls, HitClass::enter);
+  EXPECT_EQ(h.t, 2.0);
+  h = run("direct", ray({0, 0, -1}, {0, 0, 1}), kFloor);
+  EXPECT_EQ(h.cls, HitClass::exit);
+  EXPECT_EQ(h.t, 2.0);
+  EXPECT_EQ(run("direct", ray({0, 0, -1}, {0, 0, 1}), kFloor, HitRule::enter_only).cls, HitClass::miss);
+  EXPECT_EQ(run("direct", ray({0, 0, 3}, {1, 0, 0}), kFloor).cls, HitClass::miss);  // parallel
+  h = run("direct", ray({0, 0, 1}, {1, 0, 0}), kFloor);  // lies in the plane
+  EXPECT_EQ(h.cls, HitClass::tangent);
+  EXPECT_FALSE(h.has_t());
+  EXPECT_EQ(run("direct", ray({0, 0, 3}, {0, 0, 1}), kFloor).cls, HitClass::miss);  // behind
+}
+
+class TriangleVariant : public testing::TestWithParam<std::string> {};
+
+TEST_P(TriangleVariant, FrontAndBackFaceHits) {
+  Hit h = run(GetParam(), ray({0.25, 0.25, 1}, {0, 0, -1}), kTri);
+  EXPECT_EQ(h.cls, HitClass::enter);
+  EXPECT_EQ(h.t, 1.0);
+  h = run(GetParam(), ray({0.25, 0.25, -1}, {0, 0, 1}), kTri);
+  EXPECT_EQ(h.cls, HitClass::exit);
+  EXPECT_EQ(h.t, 1.0);
+  EXPECT_EQ(run(GetParam(), ray({0.25, 0.25, -1}, {0, 0, 1}), kTri, HitRule::enter_only).cls, HitClass::miss);
+}
+
+TEST_P(TriangleVariant, HitAndMissNearAnEdge) {
+  EXPECT_EQ(run(GetParam(), ray({0.5, 1e-9, 1}, {0, 0, -1}), kTri).cls, HitClass::enter);
+  EXPECT_EQ(run(GetParam(), ray({0.5, -1e-9, 1}, {0, 0, -1}), kTri).cls, HitClass::miss);
+  EXPECT_EQ(run(GetParam(), ray({0.5, 0.5 + 1e-9, 1}, {0, 0, -1}), kTri).cls, HitClass::miss);
+}
+
+TEST_P(TriangleVariant, ExactEdgeAndVertexAreBoundary) {
+  Hit h = run(GetParam(), ray({0.5, 0, 1}, {0, 0, -1}), kTri);
+  EXPECT_EQ(h.cls, HitClass::boundary);
+  EXPECT_EQ(h.t, 1.0);
+  EXPECT_EQ(run(GetParam(), ray({0, 0, 2}, {0, 0, -1}), kTri).cls, HitClass::boundary);
+}
+
+TEST_P(TriangleVariant, BehindAndParallelMiss) {
+  EXPECT_EQ(run(GetParam(), ray({0.25, 0.25, 1}, {0, 0, 1}), kTri).cls, HitClass::miss);
+  EXPECT_EQ(run(GetParam(), ray({0.25, 0.25, 1}, {1, 0, 0}), kTri).cls, HitClass::miss);
+}
+
+INSTANTIATE_TEST_SUITE_P(All, TriangleVariant, testing::ValuesIn(names_for(ShapeKind::triangle)),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });
+
+TEST(TriangleWatertight, SharedEdgeIsHitByAtLeastOneOfTwoTriangles) {
+  // Two triangles sharing the diagonal of the unit square; rays through points on the
+  // diagonal must hit at least one (watertightness), for many positions along it.
+  const Triangle lower{{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0)}};
+  const Triangle upper{{Vec3(0, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)}};
+  for (int i = 1; i < 1000; ++i) {
+    const double s = i / 1000.0;
+    const Vec3 d(0.1 * s, -0.3, -1);
+    const Ray through{Vec3(s, s, 0) - d, d};  // aims at (s, s, 0) on the diagonal, up to rounding
+    const bool hit_lower = triangle_watertight(through, lower, HitRule::nearest_contact).cls != HitClass::miss;
+    const bool hit_upper = triangle_watertight(through, upper, HitRule::nearest_contact).cls != HitClass::miss;
+    EXPECT_TRUE(hit_lower || hit_upper) << i;
+  }
+}
+
+class BoxVariant : public testing::TestWithParam<std::string> {};
+
+TEST_P(BoxVariant, ThroughAFace) {
+  const Hit h = run(GetParam(), ray({-1, 0.5, 0.5}, {1, 0, 0}), kCube);
+  EXPECT_EQ(h.cls, HitClass::enter);
+  EXPECT_EQ(h.t, 1.0);
+}
+
+TEST_P(BoxVariant, OriginInsideExits) {
+  const Hit h = run(GetParam(), ray({0.5, 0.5, 0.5}, {0, 0, 2}), kCube);
+  EXPECT_EQ(h.cls, HitClass::exit);
+  // robust-slab widens the far distance by 1 + 2γ(3) on purpose: a few ulps above 0.25.
+  EXPECT_GE(h.t, 0.25);
+  EXPECT_LE(h.t, 0.25 * (1 + 8 * std::numeric_limits<double>::epsilon()));
+  EXPECT_EQ(run(GetParam(), ray({0.5, 0.5, 0.5}, {0, 0, 2}), kCube, HitRule::enter_only).cls, HitClass::miss);
+}
+
+TEST_P(BoxVariant, MissesBesideAndBehind) {
+  EXPECT_EQ(run(GetParam(), ray({-1, 2, 0.5}, {1, 0, 0}), kCube).cls, HitClass::miss);
+  EXPECT_EQ(run(GetParam(), ray({2, 0.5, 0.5}, {1, 0, 0}), kCube).cls, HitClass::miss);
+  EXPECT_EQ(run(GetParam(), ray({-1, 0.5, 0.5}, {1, 2, 0}), kCube).cls, HitClass::miss);
+}
+
+TEST_P(BoxVariant, DiagonalThroughACornerRegionEnters) {
+  const Hit h = run(GetParam(), ray({-1, -1, -1}, {1, 1, 1}), kCube);
+  EXPECT_EQ(h.cls, HitClass::enter);
+  EXPECT_EQ(h.t, 1.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(All, BoxVariant, testing::ValuesIn(names_for(ShapeKind::box)),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });
+
+TEST(BoxRobustSlab, AlongAnEdgeStillReportsTheContact) {
+  // The ray runs along the cube's edge y = z = 0: 0·inf is NaN on two axes; the NaN-safe
+  // ordering ignores it and the contact at t = 1 is found.
+  const Hit h = box_robust_slab(ray({-1, 0, 0}, {1, 0, 0}), kCube, HitRule::nearest_contact);
+  EXPECT_NE(h.cls, HitClass::miss);
+  EXPECT_EQ(h.t, 1.0);
+  const Hit neg = box_robust_slab(ray({-1, 0, 1}, {1, -0.0, 0}), kCube, HitRule::nearest_contact);
+  EXPECT_NE(neg.cls, HitClass::miss);
+  EXPECT_EQ(neg.t, 1.0);
+}
+
+TEST(BoxSlab, NaiveSlabLosesARayAlongAFacePlane) {
+  // Origin on the x = 0 slab plane with d.x = 0: (0 − 0)/0 is NaN and the naive test misses,
+  // while the ray runs along the face (the exact class is tangent).
+  EXPECT_EQ(box_slab(ray({0, -1, 0.5}, {0, 1, 0}), kCube, HitRule::nearest_contact).cls, HitClass::miss);
+  EXPECT_NE(box_robust_slab(ray({0, -1, 0.5}, {0, 1, 0}), kCube, HitRule::nearest_contact).cls, HitClass::miss);
+}
+
+}  // namespace
+}  // namespace rayproof
