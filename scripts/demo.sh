@@ -9,6 +9,7 @@ for scene in seed1-sphere seed2-diffuse depth all-shapes; do
   "$rp" render "scenes/$scene.json" -o "$out/$scene.png"
 done
 if "$rp" check --help > /dev/null 2>&1 && [ -d scenes/cases ]; then
+  echo "rayproof check on the bundled audit suite (scenes/cases):"
   "$rp" check scenes/cases/*.jsonl -o "$out/check.jsonl" --summary "$out/check-summary.json"
 fi
 echo

@@ -91,14 +91,14 @@ void CheckSummary::add(const Verdict& exact, const std::vector<VariantOutcome>& 
 void CheckSummary::print_table(std::ostream& out) const {
   out << std::left << std::setw(17) << "variant" << std::setw(10) << "shape" << std::right << std::setw(9)
       << "cases" << std::setw(9) << "agree" << std::setw(9) << "wrong" << std::setw(13) << "cannot-tell"
-      << std::setw(12) << "ulp-median" << std::setw(10) << "ulp-p99" << std::setw(22) << "ulp-max"
+      << std::setw(12) << "ulp-median" << std::setw(21) << "ulp-p99" << std::setw(21) << "ulp-max"
       << "  disagreements (exact->variant)\n";
   for (const auto& [name, pv] : variants_) {
     std::string kinds;
     for (const auto& [k, n] : pv.confusion) kinds += (kinds.empty() ? "" : ", ") + k + " " + std::to_string(n);
     out << std::left << std::setw(17) << name << std::setw(10) << pv.shape << std::right << std::setw(9)
         << pv.cases << std::setw(9) << pv.agree << std::setw(9) << pv.wrong << std::setw(13) << pv.cannot_tell
-        << std::setw(12) << quantile(pv.ulps, 0.5) << std::setw(10) << quantile(pv.ulps, 0.99) << std::setw(22)
+        << std::setw(12) << quantile(pv.ulps, 0.5) << std::setw(21) << quantile(pv.ulps, 0.99) << std::setw(21)
         << quantile(pv.ulps, 1.0) << "  " << (kinds.empty() ? "-" : kinds) << "\n";
   }
 }

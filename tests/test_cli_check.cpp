@@ -1,0 +1,106 @@
+// `rayproof check` end to end: the result lines field for field, the summary, and the exit code.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "rayproof/json_fields.h"
+
+namespace rayproof {
+namespace {
+
+struct CliRun {
+  int status;
+  std::string out, err;
+};
+
+CliRun run(const std::string& args) {
+  // Per test: ctest runs the tests of this file in parallel processes.
+  const std::string err_path = testing::TempDir() + "/" +
+                               testing::UnitTest::GetInstance()->current_test_info()->name() + "-stderr.txt";
+  const std::string cmd = std::string(RAYPROOF_CLI) + " " + args + " 2>" + err_path;
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  const int status = pclose(p);
+  std::ifstream e(err_path);
+  std::stringstream ss;
+  ss << e.rdbuf();
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, ss.str()};
+}
+
+std::string write(const std::string& name, const std::string& text) {
+  const std::string path = testing::TempDir() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+const char* kTangent =
+    R"({"id": "tangent-unit", "ray": {"origin": [-2, 1, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, "expect": {"class": "tangent", "t": 2}})";
+
+TEST(CheckCli, ResultLineFollowsTheSpecFieldForField) {
+  const std::string path = write("tangent.jsonl", std::string(kTangent) + "\n");
+  const CliRun r = run("check " + path + " --variants textbook,stable --summary " + testing::TempDir() + "/sum.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json line = json::parse(r.out);
+  EXPECT_EQ(line["id"], "tangent-unit");
+  EXPECT_EQ(line["exact"], (json{{"class", "tangent"}, {"t", "0x1p+1"}}));
+  ASSERT_EQ(line["variants"].size(), 2u);
+  for (const char* v : {"textbook", "stable"}) {
+    const json& o = line["variants"][v];
+    EXPECT_EQ(o.size(), 4u);
+    EXPECT_TRUE(o.contains("class") && o.contains("t") && o.contains("ulp") && o.contains("agrees"));
+    EXPECT_EQ(o["agrees"], o["class"] == "tangent");
+  }
+  std::ifstream s(testing::TempDir() + "/sum.json");
+  const json summary = json::parse(s);
+  EXPECT_EQ(summary["cases"], 1);
+  EXPECT_EQ(summary["variants"]["stable"]["cases"], 1);
+  EXPECT_NE(r.err.find("ulp-p99"), std::string::npos);  // the table on stderr
+}
+
+TEST(CheckCli, NonTangentVariantIsCountedAsCannotTell) {
+  // One ulp of the origin's y moves the ray off the exact tangent: the exact class is miss,
+  // and a case exactly tangent with a non-representable t is caught as "cannot tell" when a
+  // variant reports enter.
+  const std::string path = write("far.jsonl",
+      R"({"id": "far", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [1000000000, 0.5, 0], "radius": 1}})" "\n");
+  const CliRun r = run("check " + path + " --variants textbook,hearn-baker");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json line = json::parse(r.out);
+  EXPECT_EQ(line["exact"]["class"], "enter");
+  EXPECT_EQ(line["variants"]["textbook"]["agrees"], false);
+  EXPECT_EQ(line["variants"]["hearn-baker"]["agrees"], true);
+  EXPECT_EQ(line["variants"]["hearn-baker"]["ulp"], 0);
+}
+
+TEST(CheckCli, WrongExpectationFailsWithFileAndLine) {
+  const std::string path = write("wrong.jsonl", std::string(kTangent) + "\n" +
+      R"({"id": "liar", "ray": {"origin": [-2, 1, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, "expect": {"class": "enter", "t": 2}})" "\n");
+  const CliRun r = run("check " + path);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("wrong.jsonl:2: case 'liar'"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 2);  // both lines still reported
+  const std::string t_path = write("wrong-t.jsonl",
+      R"({"id": "t-off", "ray": {"origin": [-2, 1, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, "expect": {"class": "tangent", "t": "0x1.0000000000001p+1"}})" "\n");
+  EXPECT_EQ(run("check " + t_path).status, 1);
+}
+
+TEST(CheckCli, BadLinesAreReportedAndTheRestChecked) {
+  const std::string path = write("bad.jsonl", std::string(kTangent) + "\n{\"id\": \"x\"\n");
+  const CliRun r = run("check " + path + " -o " + testing::TempDir() + "/check-out.jsonl");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("bad.jsonl:2:"), std::string::npos) << r.err;
+  std::ifstream out(testing::TempDir() + "/check-out.jsonl");
+  std::string first;
+  std::getline(out, first);
+  EXPECT_EQ(json::parse(first)["id"], "tangent-unit");
+  EXPECT_NE(run("check " + write("empty2.jsonl", "")).status, 0);
+}
+
+}  // namespace
+}  // namespace rayproof
