@@ -26,8 +26,10 @@ void BM_Oracle(benchmark::State& state, ShapeKind kind, Family family, bool filt
   }
   const OracleStats& s = oracle.stats(kind);
   state.SetItemsProcessed(state.iterations());
-  state.counters["class_exact_pct"] = 100.0 * s.class_exact / std::max<std::uint64_t>(1, s.queries);
-  state.counters["t_fallback_pct"] = 100.0 * s.rounding.exact_fallbacks / std::max<std::uint64_t>(1, s.rounding.rounded);
+  const double queries = std::max<std::uint64_t>(1, s.queries);
+  state.counters["class_expansion_pct"] = 100.0 * s.class_expansion / queries;
+  state.counters["class_rational_pct"] = 100.0 * s.class_exact / queries;
+  state.counters["t_rational_pct"] = 100.0 * s.rounding.rational / std::max<std::uint64_t>(1, s.rounding.rounded);
 }
 
 void BM_Variant(benchmark::State& state, const Variant* v, Family family) {

@@ -180,8 +180,11 @@ std::vector<std::pair<Ray, Sphere>> adversarial_spheres(int n, std::uint64_t see
   return out;
 }
 
+// An oracle that also returns the exact parameter, so the test can audit the rounding.
+Oracle auditing_oracle() { return Oracle(Oracle::Options{.keep_exact_parameter = true}); }
+
 TEST(OracleRounding, SphereRootsAreCorrectlyRounded) {
-  Oracle oracle;
+  Oracle oracle = auditing_oracle();
   int with_t = 0;
   for (const auto& [ray, sphere] : adversarial_spheres(4000, 11)) {
     const Verdict v = oracle.judge(ray, sphere);
@@ -203,7 +206,7 @@ TEST(OracleRounding, SphereRootsAreCorrectlyRounded) {
 }
 
 TEST(OracleRounding, RationalTiesRoundToEven) {
-  Oracle oracle;
+  Oracle oracle = auditing_oracle();
   // Plane x = 2^-53 seen from x = −1: t = 1 + 2^-53 exactly, halfway between 1 and 1 + 2^-52,
   // whose even neighbour is 1.
   const Plane tie1{Vec3(1, 0, 0), std::ldexp(1.0, -53)};
@@ -267,7 +270,7 @@ TEST(OracleExtremes, PowerOfTwoScalingLeavesClassAndTUnchanged) {
 }
 
 TEST(OracleExtremes, SubnormalsAndOverflowingProducts) {
-  Oracle oracle;
+  Oracle oracle = auditing_oracle();
   // Sphere of radius 2^-1070 at the origin, ray from −2^-1060: enters at 2^-1060 − 2^-1070.
   const double tiny = std::ldexp(1.0, -1070);
   Verdict v = oracle.judge(R({-std::ldexp(1.0, -1060), 0, 0}, {1, 0, 0}), Sphere{Vec3(0, 0, 0), tiny});
@@ -328,22 +331,34 @@ std::vector<std::pair<Ray, Shape>> random_cases(int n, std::uint64_t seed) {
 }
 
 TEST(OracleFilter, FilteredAndExactAnswersAreIdentical) {
-  Oracle filtered, exact(Oracle::Options{false});
-  const auto cases = random_cases(40000, 99);
+  // Three configurations: intervals → expansions → rationals (default); intervals → rationals;
+  // rationals only. Their answers must be identical.
+  Oracle filtered, no_expansions(Oracle::Options{.expansions = false}), exact(Oracle::Options{.filter = false});
+  auto cases = random_cases(40000, 99);
+  for (const auto& [ray, sphere] : adversarial_spheres(4000, 21)) cases.push_back({ray, sphere});
   for (const auto& [ray, shape] : cases) {
-    const Verdict a = filtered.judge(ray, shape), b = exact.judge(ray, shape);
+    const Verdict a = filtered.judge(ray, shape), b = exact.judge(ray, shape), c = no_expansions.judge(ray, shape);
     ASSERT_EQ(a.cls, b.cls);
     ASSERT_EQ(a.t, b.t);
+    ASSERT_EQ(c.cls, b.cls);
+    ASSERT_EQ(c.t, b.t);
   }
   // The filter decides most classes; the exact path still runs on the degenerate ones.
   std::uint64_t decided_exactly = 0, queries = 0;
   for (ShapeKind k : kAllShapeKinds) {
-    decided_exactly += filtered.stats(k).class_exact;
+    decided_exactly += filtered.stats(k).class_exact + filtered.stats(k).class_expansion;
     queries += filtered.stats(k).queries;
     EXPECT_EQ(exact.stats(k).class_exact, exact.stats(k).queries);
   }
   EXPECT_LT(decided_exactly, queries / 2);
-  EXPECT_GT(decided_exactly, 0u);
+  std::uint64_t by_expansions = 0, t_fast = 0, t_total = 0;
+  for (ShapeKind k : kAllShapeKinds) {
+    by_expansions += filtered.stats(k).class_expansion;
+    t_total += filtered.stats(k).rounding.rounded;
+    t_fast += filtered.stats(k).rounding.rounded - filtered.stats(k).rounding.rational;
+  }
+  EXPECT_GT(by_expansions, 0u);  // the degenerate cases reached the expansion stage
+  EXPECT_GT(t_fast, t_total / 2);
 }
 
 // An independent judge of hit-or-miss: CGAL's exact do_intersect on rational objects, for rays

@@ -2,6 +2,8 @@
 // includes CGAL's number types.
 #include "rayproof/oracle.h"
 
+#include "rayproof/expansion.h"
+
 #include <CGAL/Exact_rational.h>
 #include <CGAL/Interval_nt.h>
 #include <mpfr.h>
@@ -49,6 +51,10 @@ std::optional<int> sign_of(const Interval& x) {
   return static_cast<int>(CGAL::get_certain(s));
 }
 std::optional<int> sign_of(const Exact& x) { return sgn(x); }
+std::optional<int> sign_of(const Expansion& x) {
+  if (!x.valid()) return std::nullopt;  // a product left the range where expansions are exact
+  return x.sign();
+}
 
 // What a classification decided, before the rule and before t is rounded. `t_source` names
 // which exact expression is the contact parameter; it is built from exact terms only.
@@ -97,13 +103,21 @@ std::optional<Decision> decide_sphere(const SphereTerms<NT>& t) {
   return Decision{HitClass::exit, false, kFarRoot};
 }
 
-ExactParameter sphere_parameter(const SphereTerms<Exact>& t, int source) {
+template <class NT>
+ParameterOf<NT> sphere_parameter(const SphereTerms<NT>& t, int source) {
   switch (source) {
-    case kTangentRoot: return {t.b, 0, t.a, 0};
+    case kTangentRoot: return {t.b, NT(0), t.a, 0};
     case kNearRoot: return {t.b, t.disc, t.a, -1};
     case kFarRoot: return {t.b, t.disc, t.a, +1};
-    default: return {Exact(2 * t.b), 0, t.a, 0};  // roots 0 and 2b′/a
+    default: return {NT(t.b + t.b), NT(0), t.a, 0};  // roots 0 and 2b′/a
   }
+}
+
+// num/den as a parameter with a positive denominator.
+template <class NT>
+ParameterOf<NT> ratio_parameter(const NT& num, const NT& den) {
+  if (sgn(den) < 0) return {NT(-num), NT(0), NT(-den), 0};
+  return {num, NT(0), den, 0};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -267,37 +281,147 @@ ExactParameter box_parameter(const BoxTerms<Exact>& t, int source) {
   return {source < 3 ? t.near[source] : t.far[source - 3], 0, 1, 0};
 }
 
+// The same parameter as (plane − o_i)/d_i in expansions, without division.
+ParameterOf<Expansion> box_parameter_fast(const Ray& ray, const Box& b, int source) {
+  const int slab = source % 3;
+  int axis = -1;
+  for (int i = 0, k = 0; i < 3; ++i)
+    if (ray.direction[i] != 0 && k++ == slab) axis = i;
+  const double d = ray.direction[axis];
+  const bool near = source < 3;
+  const double plane = (d > 0) == near ? b.min[axis] : b.max[axis];
+  return ratio_parameter(Expansion(Expansion(plane) - Expansion(ray.origin[axis])), Expansion(d));
+}
+
 // ---------------------------------------------------------------------------------------------
-// Filtered, then exact: decide with the interval terms when every sign is certain, otherwise
-// with exact terms; exact terms are computed at most once, and only when needed.
-template <template <class> class Terms, class MakeTerms, class DecideI, class DecideE>
-std::pair<Decision, std::optional<Terms<Exact>>> filtered(bool filter, OracleStats& stats, MakeTerms make,
-                                                          DecideI decide_interval, DecideE decide_exact) {
-  if (filter) {
+// Filtered, then exact: decide with interval terms when every sign is certain; else with exact
+// floating-point expansions when no product under- or overflowed; else with GMP rationals.
+// Each stage evaluates the same templated terms and the same decision function.
+template <template <class> class Terms>
+struct Decided {
+  Decision decision;
+  std::optional<Terms<Expansion>> expansion;  // set when expansions decided
+  std::optional<Terms<Exact>> exact;          // set when rationals decided
+};
+
+template <template <class> class Terms, bool kExpansionsApply, class MakeTerms, class Decide>
+Decided<Terms> decide_filtered(const Oracle::Options& options, OracleStats& stats, MakeTerms make, Decide decide) {
+  if (options.filter) {
     std::optional<Decision> d;
     {
       CGAL::Protect_FPU_rounding<true> upward;
-      d = decide_interval(make(Interval{}));
+      d = decide(make(Interval{}));
     }
-    if (d) return {*d, std::nullopt};
+    if (d) return {*d, std::nullopt, std::nullopt};
+    if constexpr (kExpansionsApply) {
+      if (options.expansions) {
+        Terms<Expansion> terms = make(Expansion{});
+        if (const auto e = decide(terms)) {
+          ++stats.class_expansion;
+          return {*e, std::move(terms), std::nullopt};
+        }
+      }
+    }
   }
   ++stats.class_exact;
   Terms<Exact> exact = make(Exact{});
-  return {*decide_exact(exact), std::move(exact)};
+  return {*decide(exact), std::nullopt, std::move(exact)};
 }
 
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
+namespace {
+
+// sign(R + s·√D) for exact R, D ≥ 0: opposite signs are settled by comparing R² with D.
+template <class NT>
+std::optional<int> sign_plus_root(const NT& r, int s, const NT& radicand) {
+  const auto sr = sign_of(r), sd = sign_of(radicand);
+  if (!sr || !sd) return std::nullopt;
+  if (s == 0 || *sd == 0) return *sr;
+  if (*sr == 0 || *sr == s) return s;
+  const auto c = sign_of(NT(r * r - radicand));
+  if (!c) return std::nullopt;
+  return *c == 0 ? 0 : (*c > 0 ? *sr : s);
+}
+
+mpq_class two_to_1024() {
+  mpz_class z = 1;
+  z <<= 1024;
+  return mpq_class(z);
+}
+
+// sign(2t − (a + b)) = sign(t − midpoint(a, b)), for adjacent doubles a < b; b = +inf stands for
+// 2^1024, the first value beyond DBL_MAX. With t = (p + s√D)/q and q > 0 this is
+// sign((2p − (a + b)·q) + s·√(4D)).
+std::optional<int> twice_t_minus(const ExactParameter& t, double a, double b) {
+  const mpq_class sum = mpq_class(a) + (std::isinf(b) ? two_to_1024() : mpq_class(b));
+  return sign_plus_root(mpq_class(2 * t.p - sum * t.q), t.s, mpq_class(4 * t.radicand));
+}
+std::optional<int> twice_t_minus(const ParameterOf<Expansion>& t, double a, double b) {
+  if (std::isinf(b)) return std::nullopt;
+  const Expansion r = (t.p + t.p) - t.q * Expansion(a) - t.q * Expansion(b);
+  const Expansion four_d = t.radicand * Expansion(4.0);
+  return sign_plus_root(r, t.s, four_d);
+}
+
+double even_of(double a, double b) {
+  std::uint64_t bits;
+  std::memcpy(&bits, &a, sizeof bits);
+  return (bits & 1) == 0 ? a : b;
+}
+
+// From a candidate double, step to the one whose rounding interval holds t, deciding each
+// midpoint exactly (ties to even). nullopt when a comparison cannot be made exactly or the
+// candidate was too far off.
+template <class Parameter>
+std::optional<double> walk_to_nearest(const Parameter& t, double x, int max_steps) {
+  for (int step = 0; step < max_steps; ++step) {
+    if (std::isinf(x)) {
+      const auto c = twice_t_minus(t, DBL_MAX, INFINITY);
+      if (!c) return std::nullopt;
+      if (*c >= 0) return x;
+      x = DBL_MAX;
+      continue;
+    }
+    const double below = std::nextafter(x, -INFINITY), above = std::nextafter(x, INFINITY);
+    const auto low = twice_t_minus(t, below, x);
+    if (!low) return std::nullopt;
+    if (*low < 0) { x = below; continue; }
+    if (*low == 0) return even_of(below, x);
+    const auto high = twice_t_minus(t, x, above);
+    if (!high) return std::nullopt;
+    if (*high > 0) { x = above; continue; }
+    if (*high == 0) return even_of(x, above);
+    return x;
+  }
+  return std::nullopt;
+}
+
+// The fast exact path: a double estimate of t from the expansions (cancellation-free form),
+// then exact midpoint tests in expansions. Leaves extreme magnitudes to the rational path.
+std::optional<double> round_with_expansions(const ParameterOf<Expansion>& t) {
+  if (!t.p.valid() || !t.q.valid() || !t.radicand.valid()) return std::nullopt;
+  const double p = t.p.estimate(), q = t.q.estimate(), root = std::sqrt(t.radicand.estimate());
+  double estimate;
+  if (t.s == 0 || t.radicand.sign() == 0) {
+    estimate = p / q;
+  } else if (t.p.sign() == 0 || t.p.sign() == t.s) {
+    estimate = (p + t.s * root) / q;
+  } else {  // (p + s√D)/q = (p² − D) / (q·(p − s√D)), no cancellation
+    const Expansion num = t.p * t.p - t.radicand;
+    if (!num.valid()) return std::nullopt;
+    estimate = num.estimate() / (q * (p - t.s * root));
+  }
+  if (!(estimate > 0x1p-900 && estimate < 0x1p+900)) return std::nullopt;
+  return walk_to_nearest(t, estimate, 8);
+}
+
+}  // namespace
+
 int compare(const ExactParameter& t, const mpq_class& m) {
-  // sign((p + s√D)/q − m) = sign(R + s√D) with R = p − m·q, as q > 0.
-  const mpq_class r = t.p - m * t.q;
-  const int sr = sgn(r);
-  if (t.s == 0 || sgn(t.radicand) == 0) return sr;
-  if (sr == 0 || sr == t.s) return t.s;  // R and s√D do not oppose each other
-  // Opposite signs: |R| against √D, i.e. R² against D.
-  const int c = cmp(r * r, t.radicand);
-  return c == 0 ? 0 : (c > 0 ? sr : t.s);
+  // sign((p + s√D)/q − m) = sign((p − m·q) + s√D), as q > 0.
+  return *sign_plus_root(mpq_class(t.p - m * t.q), t.s, t.radicand);
 }
 
 namespace {
@@ -316,39 +440,17 @@ struct Enclosure {
   }
 };
 
-mpq_class rational_of(double x) { return mpq_class(x); }
-
-// (a + b)/2 as a rational, where b = +inf stands for 2^1024, the next "double" after DBL_MAX.
-mpq_class midpoint(double a, double b) {
-  mpq_class sum = rational_of(a);
-  if (std::isinf(b)) {
-    mpz_class two_1024 = 1;
-    two_1024 <<= 1024;
-    sum += mpq_class(two_1024);
-  } else {
-    sum += rational_of(b);
-  }
-  return sum / 2;
-}
-
-double even_of(double a, double b) {
-  std::uint64_t bits;
-  std::memcpy(&bits, &a, sizeof bits);
-  return (bits & 1) == 0 ? a : b;
-}
-
 }  // namespace
 
 double round_to_nearest(const ExactParameter& t, RoundingStats& stats) {
   ++stats.rounded;
-  // 1. A rigorous 128-bit enclosure of |t|, written so that no subtraction cancels:
+  ++stats.rational;
+  // 1. A rigorous 128-bit enclosure of t > 0, written so that no subtraction cancels:
   //    (|p| + √D)/q when p and s√D have the same sign, else |p² − D| / (q·(|p| + √D)).
   Enclosure mag, root, q;
-  int sign;
   q.set(t.q);
-  if (t.s == 0) {
+  if (t.s == 0 || sgn(t.radicand) == 0) {
     mag.set(abs(t.p));
-    sign = sgn(t.p);
     mpfr_div(mag.lo, mag.lo, q.hi, MPFR_RNDD);
     mpfr_div(mag.hi, mag.hi, q.lo, MPFR_RNDU);
   } else {
@@ -360,47 +462,23 @@ double round_to_nearest(const ExactParameter& t, RoundingStats& stats) {
     mpfr_add(root.lo, root.lo, abs_p.lo, MPFR_RNDD);  // |p| + √D
     mpfr_add(root.hi, root.hi, abs_p.hi, MPFR_RNDU);
     if (sgn(t.p) == 0 || sgn(t.p) == t.s) {
-      sign = t.s;
       mpfr_div(mag.lo, root.lo, q.hi, MPFR_RNDD);
       mpfr_div(mag.hi, root.hi, q.lo, MPFR_RNDU);
     } else {
-      const mpq_class num = t.p * t.p - t.radicand;
-      sign = sgn(num) * sgn(t.p);
-      mag.set(abs(num));
+      mag.set(abs(mpq_class(t.p * t.p - t.radicand)));
       mpfr_mul(root.lo, root.lo, q.lo, MPFR_RNDD);
       mpfr_mul(root.hi, root.hi, q.hi, MPFR_RNDU);
       mpfr_div(mag.lo, mag.lo, root.hi, MPFR_RNDD);
       mpfr_div(mag.hi, mag.hi, root.lo, MPFR_RNDU);
     }
   }
-  // mpfr_get_d rounds correctly over the whole double range (subnormals, overflow to inf).
-  double lo = mpfr_get_d(mag.lo, MPFR_RNDN), hi = mpfr_get_d(mag.hi, MPFR_RNDN);
-  if (sign < 0) std::swap(lo, hi), lo = -lo, hi = -hi;
-  if (lo == hi && sign != 0) return lo;  // every value in the enclosure rounds to it
-  if (sign == 0) return 0.0;
-
-  // 2. The enclosure straddles a rounding boundary: walk to the double whose rounding interval
-  //    holds t, deciding each midpoint exactly (ties to even).
+  // mpfr_get_d rounds correctly over the whole double range (subnormals, overflow to inf), and
+  // rounding is monotone: if both ends round alike, so does every value between them.
+  const double lo = mpfr_get_d(mag.lo, MPFR_RNDN), hi = mpfr_get_d(mag.hi, MPFR_RNDN);
+  if (lo == hi) return lo;
+  // 2. The enclosure straddles a midpoint: decide it exactly.
   ++stats.exact_fallbacks;
-  double x = lo;
-  for (int guard = 0; guard < 64; ++guard) {
-    if (std::isinf(x)) {
-      const double edge = std::copysign(DBL_MAX, x);
-      const int c = compare(t, x > 0 ? midpoint(DBL_MAX, x) : -midpoint(DBL_MAX, -x));
-      if ((x > 0 && c >= 0) || (x < 0 && c <= 0)) return x;
-      x = edge;
-      continue;
-    }
-    const double below = std::nextafter(x, -INFINITY), above = std::nextafter(x, INFINITY);
-    const int c_low = compare(t, std::isinf(below) ? -midpoint(DBL_MAX, INFINITY) : midpoint(below, x));
-    if (c_low < 0) { x = below; continue; }
-    if (c_low == 0) return even_of(below, x);
-    const int c_high = compare(t, midpoint(x, above));
-    if (c_high > 0) { x = above; continue; }
-    if (c_high == 0) return even_of(x, above);
-    return x;
-  }
-  return x;  // unreachable: the enclosure is within a few ulps
+  return *walk_to_nearest(t, lo, 64);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -418,45 +496,51 @@ Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
   OracleStats& st = stats_[shape.index()];
   ++st.queries;
   Verdict v;
-  auto finish = [&](const Decision& d, auto&& exact_parameter) {
+  // t from the fastest exact representation at hand: expansions, else rationals.
+  auto settle = [&](const Decision& d, auto&& fast_parameter, auto&& exact_parameter) {
     v.cls = d.cls;
     v.front = d.front;
-    if (d.t_source >= 0) {
+    if (d.t_source < 0) return;
+    std::optional<double> t;
+    if (options_.filter && options_.expansions) t = round_with_expansions(fast_parameter());
+    if (t) {
+      ++st.rounding.rounded;
+    } else {
       v.exact_t = exact_parameter();
-      v.t = round_to_nearest(*v.exact_t, st.rounding);
+      t = round_to_nearest(*v.exact_t, st.rounding);
     }
+    v.t = t;
+    if (options_.keep_exact_parameter && !v.exact_t) v.exact_t = exact_parameter();
   };
   if (const auto* s = std::get_if<Sphere>(&shape)) {
-    auto [d, exact] = filtered<SphereTerms>(
-        options_.filter, st, [&](auto nt) { return sphere_terms<decltype(nt)>(ray, *s); },
-        [](const auto& t) { return decide_sphere(t); }, [](const auto& t) { return decide_sphere(t); });
-    finish(d, [&] { return sphere_parameter(exact ? *exact : sphere_terms<Exact>(ray, *s), d.t_source); });
+    auto make = [&](auto nt) { return sphere_terms<decltype(nt)>(ray, *s); };
+    auto r = decide_filtered<SphereTerms, true>(options_, st, make, [](const auto& t) { return decide_sphere(t); });
+    settle(r.decision,
+           [&] { return sphere_parameter(r.expansion ? *r.expansion : make(Expansion{}), r.decision.t_source); },
+           [&] { return sphere_parameter(r.exact ? *r.exact : make(Exact{}), r.decision.t_source); });
   } else if (const auto* p = std::get_if<Plane>(&shape)) {
-    auto [d, exact] = filtered<PlaneTerms>(
-        options_.filter, st, [&](auto nt) { return plane_terms<decltype(nt)>(ray, *p); },
-        [](const auto& t) { return decide_plane(t); }, [](const auto& t) { return decide_plane(t); });
-    finish(d, [&] {
-      const PlaneTerms<Exact> t = exact ? *exact : plane_terms<Exact>(ray, *p);
-      return ExactParameter{Exact(t.num / t.den), 0, 1, 0};
-    });
+    auto make = [&](auto nt) { return plane_terms<decltype(nt)>(ray, *p); };
+    auto r = decide_filtered<PlaneTerms, true>(options_, st, make, [](const auto& t) { return decide_plane(t); });
+    auto param = [&](const auto& t) { return ratio_parameter(t.num, t.den); };
+    settle(r.decision, [&] { return param(r.expansion ? *r.expansion : make(Expansion{})); },
+           [&] { return param(r.exact ? *r.exact : make(Exact{})); });
   } else if (const auto* tri = std::get_if<Triangle>(&shape)) {
-    auto [d, exact] = filtered<TriangleTerms>(
-        options_.filter, st, [&](auto nt) { return triangle_terms<decltype(nt)>(ray, *tri); },
-        [](const auto& t) { return decide_triangle(t); }, [](const auto& t) { return decide_triangle(t); });
-    if (d.cls == HitClass::tangent) {
+    auto make = [&](auto nt) { return triangle_terms<decltype(nt)>(ray, *tri); };
+    auto r = decide_filtered<TriangleTerms, true>(options_, st, make, [](const auto& t) { return decide_triangle(t); });
+    if (r.decision.cls == HitClass::tangent) {
       v = coplanar_triangle(ray, *tri, st.rounding);
     } else {
-      finish(d, [&] {
-        const TriangleTerms<Exact> t = exact ? *exact : triangle_terms<Exact>(ray, *tri);
-        return ExactParameter{Exact(t.num / t.den), 0, 1, 0};
-      });
+      auto param = [&](const auto& t) { return ratio_parameter(t.num, t.den); };
+      settle(r.decision, [&] { return param(r.expansion ? *r.expansion : make(Expansion{})); },
+             [&] { return param(r.exact ? *r.exact : make(Exact{})); });
     }
   } else {
     const Box& b = std::get<Box>(shape);
-    auto [d, exact] = filtered<BoxTerms>(
-        options_.filter, st, [&](auto nt) { return box_terms<decltype(nt)>(ray, b); },
-        [](const auto& t) { return decide_box(t); }, [](const auto& t) { return decide_box(t); });
-    finish(d, [&] { return box_parameter(exact ? *exact : box_terms<Exact>(ray, b), d.t_source); });
+    auto make = [&](auto nt) { return box_terms<decltype(nt)>(ray, b); };
+    // Box terms divide, which expansions cannot: the class goes from intervals to rationals.
+    auto r = decide_filtered<BoxTerms, false>(options_, st, make, [](const auto& t) { return decide_box(t); });
+    settle(r.decision, [&] { return box_parameter_fast(ray, b, r.decision.t_source); },
+           [&] { return box_parameter(r.exact ? *r.exact : make(Exact{}), r.decision.t_source); });
   }
   return apply_rule(std::move(v), rule);
 }
@@ -464,7 +548,9 @@ Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
 void Oracle::merge_stats(const Oracle& other) {
   for (size_t i = 0; i < stats_.size(); ++i) {
     stats_[i].queries += other.stats_[i].queries;
+    stats_[i].class_expansion += other.stats_[i].class_expansion;
     stats_[i].class_exact += other.stats_[i].class_exact;
+    stats_[i].rounding.rational += other.stats_[i].rounding.rational;
     stats_[i].rounding.rounded += other.stats_[i].rounding.rounded;
     stats_[i].rounding.exact_fallbacks += other.stats_[i].rounding.exact_fallbacks;
   }

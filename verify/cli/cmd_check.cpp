@@ -15,9 +15,9 @@ void print_oracle_stats(std::ostream& out, const Oracle& oracle) {
   for (ShapeKind k : kAllShapeKinds) {
     const OracleStats& s = oracle.stats(k);
     if (s.queries == 0) continue;
-    out << (first ? "" : "; ") << to_string(k) << " " << s.queries << " queries, " << s.class_exact
-        << " class decided in exact rationals, " << s.rounding.exact_fallbacks << " of " << s.rounding.rounded
-        << " t rounded by the exact midpoint test";
+    out << (first ? "" : "\n        ") << to_string(k) << ": " << s.queries << " queries; class beyond the interval filter "
+        << s.class_expansion + s.class_exact << " (rationals " << s.class_exact << "); t rounded " << s.rounding.rounded
+        << " (rationals " << s.rounding.rational << ", exact midpoint test " << s.rounding.exact_fallbacks << ")";
     first = false;
   }
   out << "\n";
@@ -28,8 +28,10 @@ json oracle_stats_json(const Oracle& oracle) {
   for (ShapeKind k : kAllShapeKinds) {
     const OracleStats& s = oracle.stats(k);
     j[std::string(to_string(k))] = {{"queries", s.queries},
+                                    {"class_expansion", s.class_expansion},
                                     {"class_exact", s.class_exact},
                                     {"t_rounded", s.rounding.rounded},
+                                    {"t_rational", s.rounding.rational},
                                     {"t_exact_fallbacks", s.rounding.exact_fallbacks}};
   }
   return j;

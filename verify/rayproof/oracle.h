@@ -21,24 +21,27 @@
 namespace rayproof {
 
 // An exact contact parameter t = (p + s·√radicand) / q with q > 0 and s ∈ {−1, 0, +1}:
-// rational for planes, triangles and boxes (s = 0), a quadratic root for spheres.
-struct ExactParameter {
-  mpq_class p, radicand, q = 1;
+// rational for planes, triangles and boxes (s = 0), a quadratic root for spheres. NT is an
+// exact number type: GMP rationals here, exact floating-point expansions inside the oracle.
+template <class NT>
+struct ParameterOf {
+  NT p, radicand, q = NT(1);
   int s = 0;
 };
+using ExactParameter = ParameterOf<mpq_class>;
 
 // sign(t − m), decided exactly by signs of rational expressions (never a floating √).
 int compare(const ExactParameter& t, const mpq_class& m);
 
 struct RoundingStats {
   std::uint64_t rounded = 0;          // correctly rounded t values produced
-  std::uint64_t exact_fallbacks = 0;  // ... that needed the exact midpoint test
+  std::uint64_t rational = 0;         // ... that needed GMP rationals (expansions could not)
+  std::uint64_t exact_fallbacks = 0;  // ... of those, where the MPFR enclosure straddled a midpoint
 };
 
-// The double nearest to t (ties to even), over the whole double range: a positive t below
-// half the smallest subnormal gives +0, one beyond the largest double gives +inf. Proved:
-// either a rigorous MPFR enclosure rounds the same at both ends, or the exact midpoint test
-// decides.
+// The double nearest to t > 0 (ties to even), over the whole double range: a t below half
+// the smallest subnormal gives +0, one beyond the largest double gives +inf. Proved: either a
+// rigorous MPFR enclosure rounds the same at both ends, or exact midpoint tests decide.
 double round_to_nearest(const ExactParameter& t, RoundingStats& stats);
 
 struct Verdict {
@@ -50,14 +53,17 @@ struct Verdict {
 
 struct OracleStats {
   std::uint64_t queries = 0;
-  std::uint64_t class_exact = 0;  // interval filter could not decide the class
+  std::uint64_t class_expansion = 0;  // the interval filter failed; exact expansions decided
+  std::uint64_t class_exact = 0;      // ... and GMP rationals had to (expansions under/overflowed)
   RoundingStats rounding;
 };
 
 class Oracle {
  public:
   struct Options {
-    bool filter = true;  // false: every class decided in exact rationals (for tests, benchmarks)
+    bool filter = true;       // false: every class and t decided in GMP rationals (tests, benchmarks)
+    bool expansions = true;   // the exact floating-point expansion stage between interval and GMP
+    bool keep_exact_parameter = false;  // fill Verdict::exact_t (in rationals) for audits and tests
   };
   Oracle() = default;
   explicit Oracle(Options options) : options_(options) {}
