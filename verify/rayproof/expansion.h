@@ -45,6 +45,13 @@ class Expansion {
     return r;
   }
   friend Expansion operator*(const Expansion& a, const Expansion& b) {
+    if (b.n_ > a.n_) return b * a;  // fewer partial products
+    if (b.n_ <= 1) {
+      Expansion r = b.n_ == 0 ? Expansion() : a.scaled(b.c_[0]);
+      r.valid_ = r.valid_ && a.valid_ && b.valid_;
+      r.compress();
+      return r;
+    }
     Expansion r;
     r.valid_ = a.valid_ && b.valid_;
     for (int i = 0; i < b.n_ && r.valid_; ++i) r = sum(r, a.scaled(b.c_[i]), false);
