@@ -14,6 +14,7 @@ void add_intersect_command(CLI::App& app, int& exit_code);
 void add_render_command(CLI::App& app, int& exit_code);
 void add_variants_command(CLI::App& app, int& exit_code);
 void add_check_command(CLI::App& app, int& exit_code);
+void add_fuzz_command(CLI::App& app, int& exit_code);
 
 // Resolves --variants names (comma lists allowed); an empty list means every variant.
 // Throws CLI::ValidationError naming an unknown variant.

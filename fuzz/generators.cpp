@@ -1,0 +1,437 @@
+#include "rayproof/generators.h"
+
+#include <cmath>
+
+#include "rayproof/variants.h"
+
+namespace rayproof::fuzz {
+
+std::string_view to_string(Family f) {
+  switch (f) {
+    case Family::random: return "random";
+    case Family::tangent: return "tangent";
+    case Family::grazing: return "grazing";
+    case Family::near_origin: return "near-origin";
+    case Family::exit_entry: return "exit-entry";
+    case Family::extremes: return "extremes";
+  }
+  return "?";
+}
+
+std::optional<Family> family_from_string(std::string_view s) {
+  for (Family f : kAllFamilies)
+    if (to_string(f) == s) return f;
+  return std::nullopt;
+}
+
+double nudge(double x, int ulps) {
+  for (; ulps > 0; --ulps) x = std::nextafter(x, INFINITY);
+  for (; ulps < 0; ++ulps) x = std::nextafter(x, -INFINITY);
+  return x;
+}
+
+namespace {
+
+// SplitMix64 (Steele, Lea & Flood 2014): tiny, fast, and good enough to spread seeds.
+struct Rng {
+  std::uint64_t state;
+  std::uint64_t next() {
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double unit() { return (next() >> 11) * 0x1p-53; }                    // [0, 1)
+  double uniform(double lo, double hi) { return lo + (hi - lo) * unit(); }
+  long integer(long lo, long hi) { return lo + static_cast<long>(next() % std::uint64_t(hi - lo + 1)); }
+  Vec3 ivec(long r) { return Vec3(integer(-r, r), integer(-r, r), integer(-r, r)); }
+  Vec3 uvec(double r) { return Vec3(uniform(-r, r), uniform(-r, r), uniform(-r, r)); }
+  Vec3 direction() {  // a random unit-ish vector (not exactly unit; any non-zero vector will do)
+    Vec3 v;
+    do v = uvec(1); while (dot(v, v) > 1 || dot(v, v) < 1e-4);
+    return v;
+  }
+};
+
+Vec3 scaled(const Vec3& v, int k) { return Vec3(std::ldexp(v.x(), k), std::ldexp(v.y(), k), std::ldexp(v.z(), k)); }
+
+Shape scaled(const Shape& s, int k) {
+  return std::visit([k](const auto& x) -> Shape {
+    using S = std::decay_t<decltype(x)>;
+    if constexpr (std::is_same_v<S, Sphere>) return Sphere{scaled(x.center, k), std::ldexp(x.radius, k)};
+    if constexpr (std::is_same_v<S, Plane>) return Plane{x.normal, std::ldexp(x.offset, k)};
+    if constexpr (std::is_same_v<S, Triangle>) return Triangle{{scaled(x.v[0], k), scaled(x.v[1], k), scaled(x.v[2], k)}};
+    if constexpr (std::is_same_v<S, Box>) return Box{scaled(x.min, k), scaled(x.max, k)};
+  }, s);
+}
+
+// One case under construction: exact geometry first, then `nudges` applied to the origin.
+struct Builder {
+  Rng rng;
+  bool nudging = true;
+
+  // ±j ulps on one random origin component, j ∈ [−3, 3] (0 keeps the exact construction).
+  std::string nudge_origin(Ray& ray) {
+    const int j = static_cast<int>(rng.integer(-3, 3));
+    const int axis = static_cast<int>(rng.integer(0, 2));
+    if (!nudging || j == 0) return "exact";
+    ray.origin[axis] = nudge(ray.origin[axis], j);
+    return (j > 0 ? "+" : "") + std::to_string(j) + "ulp";
+  }
+
+  // A Pythagorean quadruple x² + y² + z² = r² with r > 0 (Lebesgue's parametrisation).
+  void quadruple(Vec3& n, double& r) {
+    long a, b, c, d;
+    do {
+      a = rng.integer(0, 12), b = rng.integer(0, 12), c = rng.integer(0, 12), d = rng.integer(0, 12);
+    } while (a * a + b * b + c * c + d * d == 0);
+    n = Vec3(a * a + b * b - c * c - d * d, 2 * (a * d + b * c), 2 * (b * d - a * c));
+    r = static_cast<double>(a * a + b * b + c * c + d * d);
+  }
+
+  // A non-zero integer vector perpendicular to n.
+  Vec3 perpendicular(const Vec3& n) {
+    Vec3 t;
+    do t = cross(n, rng.ivec(5)); while (t == Vec3::Zero());
+    return t;
+  }
+
+  Triangle integer_triangle(long r) {
+    Triangle t;
+    do t = Triangle{{rng.ivec(r), rng.ivec(r), rng.ivec(r)}}; while (degenerate_reason(t));
+    return t;
+  }
+
+  Box integer_box(long r) {
+    const Vec3 lo = rng.ivec(r);
+    return Box{lo, lo + Vec3(rng.integer(1, r), rng.integer(1, r), rng.integer(1, r))};
+  }
+
+  // ------------------------------------------------------------------------------- families
+  GeneratedCase random(ShapeKind kind) {
+    const int k = static_cast<int>(rng.integer(-3, 3));
+    const double s = std::ldexp(1.0, k);
+    Shape shape;
+    switch (kind) {
+      case ShapeKind::sphere: shape = Sphere{rng.uvec(s), s * rng.uniform(0.1, 1)}; break;
+      case ShapeKind::plane: shape = Plane{rng.direction(), rng.uniform(-s, s)}; break;
+      case ShapeKind::triangle: {
+        Triangle t;
+        do t = Triangle{{rng.uvec(s), rng.uvec(s), rng.uvec(s)}}; while (degenerate_reason(t));
+        shape = t;
+        break;
+      }
+      case ShapeKind::box: {
+        const Vec3 c = rng.uvec(s), h(rng.uniform(0.1, 1) * s, rng.uniform(0.1, 1) * s, rng.uniform(0.1, 1) * s);
+        shape = Box{c - h, c + h};
+        break;
+      }
+    }
+    const Vec3 o = 5 * s * rng.direction();
+    return {Ray{o, rng.uvec(1.5 * s) - o}, shape, "random"};
+  }
+
+  GeneratedCase tangent(ShapeKind kind) {
+    const int k = static_cast<int>(rng.integer(-40, 40));
+    Ray ray;
+    Shape shape;
+    std::string what;
+    switch (kind) {
+      case ShapeKind::sphere: {  // touches the Pythagorean point P = m + n of |n| = r
+        Vec3 n;
+        double r;
+        quadruple(n, r);
+        const Vec3 m = rng.ivec(1 << 20), t = perpendicular(n);
+        ray = Ray{m + n - double(rng.integer(1, 8)) * t, t};
+        shape = Sphere{m, r};
+        what = "sphere-tangent";
+        break;
+      }
+      case ShapeKind::plane: {  // lies in the plane n·x = n·p
+        const Vec3 n = rng.ivec(9), p = rng.ivec(1 << 20);
+        const Vec3 nn = n == Vec3::Zero() ? Vec3(0, 0, 1) : n;
+        const Vec3 t = perpendicular(nn);
+        ray = Ray{p - double(rng.integer(1, 8)) * t, t};
+        shape = Plane{nn, dot(nn, p)};
+        what = "in-plane";
+        break;
+      }
+      case ShapeKind::triangle: {  // in the triangle's plane, through a dyadic point of it
+        const Triangle tri = integer_triangle(1 << 10);
+        const Vec3 e1 = tri.v[1] - tri.v[0], e2 = tri.v[2] - tri.v[0];
+        const double a = rng.integer(-4, 8) / 4.0, b = rng.integer(-4, 8) / 4.0;
+        const Vec3 through = tri.v[0] + a * e1 + b * e2;
+        const Vec3 d = double(rng.integer(-3, 3)) * e1 + double(rng.integer(1, 3)) * e2;
+        ray = Ray{through - double(rng.integer(1, 4)) * d, d};
+        shape = tri;
+        what = "coplanar";
+        break;
+      }
+      case ShapeKind::box: {  // along a face, along an edge, or touching an edge or a corner
+        const Box b = integer_box(1 << 10);
+        const Vec3 mid = 0.5 * (b.min + b.max);
+        const long mode = rng.integer(0, 3);
+        Vec3 at = mid, d;
+        if (mode == 0) {  // along the face x = min
+          at.x() = b.min.x();
+          d = Vec3(0, rng.integer(1, 3), rng.integer(-3, 3));
+          what = "along-face";
+        } else if (mode == 1) {  // along the edge x = min, y = min
+          at.x() = b.min.x(), at.y() = b.min.y();
+          d = Vec3(0, 0, 1);
+          what = "along-edge";
+        } else if (mode == 2) {  // touches the edge x = min, y = min at one point
+          at.x() = b.min.x(), at.y() = b.min.y();
+          d = Vec3(rng.integer(1, 3), -rng.integer(1, 3), rng.integer(-3, 3));
+          what = "touch-edge";
+        } else {  // touches the corner min
+          at = b.min;
+          d = Vec3(rng.integer(1, 3), -rng.integer(1, 3), -rng.integer(1, 3));
+          what = "touch-corner";
+        }
+        ray = Ray{at - double(rng.integer(1, 4)) * d, d};
+        shape = b;
+        break;
+      }
+    }
+    ray = Ray{scaled(ray.origin, k), scaled(ray.direction, k)};
+    shape = scaled(shape, k);
+    const std::string n = nudge_origin(ray);
+    return {ray, shape, what + "/2^" + std::to_string(k) + "/" + n};
+  }
+
+  // Rays through triangle edges and vertices (in pairs sharing an edge), box edges and
+  // corners, and near-tangent chords of spheres and planes.
+  GeneratedCase grazing(ShapeKind kind, std::uint64_t index, std::uint64_t seed) {
+    const int k = static_cast<int>(rng.integer(-40, 40));
+    Ray ray;
+    Shape shape;
+    std::string what;
+    switch (kind) {
+      case ShapeKind::triangle: {
+        // Pair p = index/2 shares ray and edge; its two cases are the triangles on either side.
+        Rng pair_rng{seed ^ (0xA5A5A5A5ull + (index / 2) * 0x9E3779B97F4A7C15ull)};
+        Builder pair{pair_rng, nudging};
+        const Vec3 v0 = pair.rng.ivec(1 << 10), v1 = pair.rng.ivec(1 << 10);
+        Vec3 v2, v3;
+        do {
+          v2 = pair.rng.ivec(1 << 10);
+          v3 = v0 + v1 - v2 + pair.rng.ivec(64);  // roughly opposite v2 across the edge
+        } while (degenerate_reason(Triangle{{v0, v1, v2}}) || degenerate_reason(Triangle{{v1, v0, v3}}));
+        const double w = pair.rng.integer(0, 16) / 16.0;  // 0 or 1: a vertex
+        const Vec3 target = 16 * v0 + w * 16 * (v1 - v0);
+        const Vec3 d = pair.rng.ivec(7) + Vec3(0, 0, 8);
+        ray = Ray{target - double(pair.rng.integer(1, 4)) * d, d};
+        const Triangle t = index % 2 == 0 ? Triangle{{16 * v0, 16 * v1, 16 * v2}} : Triangle{{16 * v1, 16 * v0, 16 * v3}};
+        shape = t;
+        what = std::string(w == 0 || w == 1 ? "vertex" : "shared-edge") + (index % 2 ? "/B" : "/A");
+        const int pair_k = static_cast<int>(pair.rng.integer(-40, 40));  // shared by both triangles
+        ray = Ray{scaled(ray.origin, pair_k), scaled(ray.direction, pair_k)};
+        shape = scaled(shape, pair_k);
+        const std::string n = pair.nudge_origin(ray);
+        return {ray, shape, what + "/2^" + std::to_string(pair_k) + "/" + n};
+      }
+      case ShapeKind::box: {
+        const Box b = integer_box(1 << 10);
+        const bool corner = rng.integer(0, 1) == 1;
+        Vec3 at = 0.5 * (b.min + b.max);
+        at.x() = b.min.x(), at.y() = b.min.y();
+        if (corner) at.z() = b.min.z();
+        const Vec3 d(rng.integer(1, 5), rng.integer(1, 5), corner ? rng.integer(1, 5) : rng.integer(-5, 5));
+        ray = Ray{at - double(rng.integer(1, 4)) * d, d};
+        shape = b;
+        what = corner ? "through-corner" : "through-edge";
+        break;
+      }
+      case ShapeKind::sphere: {  // a chord at angle 2^-j to the tangent plane at P
+        Vec3 n;
+        double r;
+        quadruple(n, r);
+        const Vec3 m = rng.ivec(1 << 20), t = perpendicular(n);
+        const int j = static_cast<int>(rng.integer(10, 40));
+        const Vec3 d = t - std::ldexp(1.0, -j) * n;
+        ray = Ray{m + n - d, d};
+        shape = Sphere{m, r};
+        what = "chord-2^-" + std::to_string(j);
+        break;
+      }
+      case ShapeKind::plane: {
+        const Vec3 n = rng.ivec(9), p = rng.ivec(1 << 20);
+        const Vec3 nn = n == Vec3::Zero() ? Vec3(0, 0, 1) : n;
+        const int j = static_cast<int>(rng.integer(10, 40));
+        const Vec3 d = perpendicular(nn) - std::ldexp(1.0, -j) * nn;
+        ray = Ray{p - d, d};
+        shape = Plane{nn, dot(nn, p)};
+        what = "glancing-2^-" + std::to_string(j);
+        break;
+      }
+    }
+    ray = Ray{scaled(ray.origin, k), scaled(ray.direction, k)};
+    shape = scaled(shape, k);
+    const std::string n = nudge_origin(ray);
+    return {ray, shape, what + "/2^" + std::to_string(k) + "/" + n};
+  }
+
+  // Secondary rays from a variant's own computed hit point (the variants take turns by index),
+  // leaving the surface outward, and rays from points exactly on the surface.
+  GeneratedCase near_origin(ShapeKind kind, std::uint64_t index) {
+    const auto variants = variants_for(kind);
+    const Variant& v = *variants[index % variants.size()];
+    for (int attempt = 0; attempt < 64; ++attempt) {
+      const int k = static_cast<int>(rng.integer(-40, 40));
+      GeneratedCase primary = random(kind);
+      primary.ray = Ray{scaled(primary.ray.origin, k), scaled(primary.ray.direction, k)};
+      primary.shape = scaled(primary.shape, k);
+      const Hit h = v.intersect(primary.ray, primary.shape, HitRule::nearest_contact);
+      if (h.cls == HitClass::miss || !h.has_t()) continue;
+      const Vec3 p = primary.ray.at(h.t);
+      Vec3 n = outward_normal(primary.shape, p);
+      if (dot(n, primary.ray.direction) > 0) n = -n;  // the side the ray came from
+      Vec3 d = rng.direction();
+      if (dot(d, n) < 0) d = -d;
+      if (!all_finite(p) || !all_finite(d)) continue;
+      return {Ray{p, d}, primary.shape, "spawned-from-" + std::string(v.name) + "/2^" + std::to_string(k)};
+    }
+    return random(kind);
+  }
+
+  // Origins inside, exactly on, and one ulp outside spheres and boxes; back faces of
+  // triangles and planes.
+  GeneratedCase exit_entry(ShapeKind kind) {
+    const int k = static_cast<int>(rng.integer(-40, 40));
+    Ray ray;
+    Shape shape;
+    std::string what;
+    switch (kind) {
+      case ShapeKind::sphere: {
+        Vec3 n;
+        double r;
+        quadruple(n, r);
+        const Vec3 m = rng.ivec(1 << 20);
+        const long mode = rng.integer(0, 2);
+        Vec3 o = mode == 0 ? Vec3(m + 0.5 * n) : Vec3(m + n);
+        what = mode == 0 ? "inside" : mode == 1 ? "on-surface" : "ulp-outside";
+        ray = Ray{scaled(o, k), scaled(Vec3(rng.ivec(9) + Vec3(0.5, 0, 0)), k)};
+        shape = scaled(Shape(Sphere{m, r}), k);
+        if (mode == 2) {  // one ulp outward on the dominant normal axis
+          int a = 0;
+          for (int i = 1; i < 3; ++i)
+            if (std::abs(n[i]) > std::abs(n[a])) a = i;
+          ray.origin[a] = nudge(ray.origin[a], n[a] > 0 ? 1 : -1);
+        }
+        return {ray, shape, what + "/2^" + std::to_string(k)};
+      }
+      case ShapeKind::box: {
+        const Box b = integer_box(1 << 10);
+        const long mode = rng.integer(0, 3);
+        Vec3 o = 0.5 * (b.min + b.max);
+        if (mode >= 1) o.x() = b.min.x();                 // on a face
+        if (mode >= 2) o.y() = b.min.y();                 // on an edge
+        if (mode == 3) o.z() = b.min.z();                 // on a corner
+        what = mode == 0 ? "inside" : mode == 1 ? "on-face" : mode == 2 ? "on-edge" : "on-corner";
+        ray = Ray{scaled(o, k), scaled(Vec3(rng.ivec(5) + Vec3(0.5, 0, 0)), k)};
+        shape = scaled(Shape(b), k);
+        if (rng.integer(0, 1) == 1) {
+          ray.origin.x() = nudge(ray.origin.x(), -1);
+          what += "-ulp-outside";
+        }
+        return {ray, shape, what + "/2^" + std::to_string(k)};
+      }
+      case ShapeKind::triangle: {
+        const Triangle t = integer_triangle(1 << 10);
+        const Vec3 n = cross(t.v[1] - t.v[0], t.v[2] - t.v[0]);
+        const Vec3 inner = 0.25 * (2 * t.v[0] + t.v[1] + t.v[2]);
+        const Vec3 d = rng.direction();
+        const Vec3 dd = dot(d, n) > 0 ? d : Vec3(-d);  // travels along n: meets the back face
+        ray = Ray{inner - dd, dd};
+        shape = t;
+        what = "back-face";
+        break;
+      }
+      case ShapeKind::plane: {
+        const Vec3 n = rng.direction();
+        const double off = rng.uniform(-4, 4);
+        Vec3 d = rng.direction();
+        if (dot(d, n) < 0) d = -d;
+        ray = Ray{Vec3(rng.uvec(4) - 8 * n), d};
+        shape = Plane{n, off};
+        what = "back-side";
+        break;
+      }
+    }
+    return {Ray{scaled(ray.origin, k), scaled(ray.direction, k)}, scaled(shape, k), what + "/2^" + std::to_string(k)};
+  }
+
+  GeneratedCase extremes(ShapeKind kind) {
+    const long mode = rng.integer(0, 4);
+    if (mode == 0) {  // the tangent family at 2^±500
+      GeneratedCase c = tangent(kind);
+      const int k = static_cast<int>(rng.integer(-460, 460));
+      return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k), c.detail + "/x2^" + std::to_string(k)};
+    }
+    if (mode == 1) {  // the random family at 2^±500
+      GeneratedCase c = random(kind);
+      const int k = static_cast<int>(rng.integer(-500, 500));
+      return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k), "random/2^" + std::to_string(k)};
+    }
+    if (mode == 2) {  // subnormal and −0.0 direction components
+      GeneratedCase c = random(kind);
+      for (int i = 0; i < 3; ++i) {
+        const long pick = rng.integer(0, 3);
+        if (pick == 0) c.ray.direction[i] = -0.0;
+        if (pick == 1) c.ray.direction[i] = std::ldexp(rng.uniform(-1, 1), -1060);
+      }
+      if (c.ray.direction == Vec3::Zero()) c.ray.direction.x() = 1;
+      return {c.ray, c.shape, "subnormal-or-negative-zero"};
+    }
+    if (mode == 3 && kind == ShapeKind::sphere) {
+      if (rng.integer(0, 1) == 0) {  // a tiny sphere far away (Ray Tracing Gems ch. 7)
+        const double dist = std::ldexp(1.0, static_cast<int>(rng.integer(20, 60)));
+        const double r = std::ldexp(1.0, static_cast<int>(rng.integer(-4, 4)));
+        const Vec3 m(dist, rng.uniform(-1.5, 1.5) * r, rng.uniform(-1.5, 1.5) * r);
+        return {Ray{Vec3::Zero(), Vec3(1, 0, 0)}, Sphere{m, r}, "tiny-far-sphere"};
+      }
+      // a huge sphere used as a ground plane
+      const double big = std::pow(10.0, rng.uniform(6, 12));
+      const Vec3 o(rng.uniform(-10, 10), rng.uniform(0.5, 10), rng.uniform(-10, 10));
+      return {Ray{o, Vec3(rng.uniform(-1, 1), -rng.uniform(0.01, 1), rng.uniform(-1, 1))}, Sphere{Vec3(0, -big, 0), big},
+              "huge-ground-sphere"};
+    }
+    // b² and |o − m|² beyond the double range
+    GeneratedCase c = random(kind);
+    const int k = static_cast<int>(rng.integer(560, 1000));
+    return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k - 200)}, scaled(c.shape, k), "overflow/2^" + std::to_string(k)};
+  }
+};
+
+std::uint64_t case_seed(Family f, ShapeKind s, std::uint64_t seed, std::uint64_t index) {
+  Rng r{seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(f) * 0x100000001B3ull +
+        static_cast<std::uint64_t>(s) * 0xC2B2AE3D27D4EB4Full};
+  r.state ^= index * 0xD6E8FEB86659FD93ull;
+  return r.next();
+}
+
+GeneratedCase build(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index, bool nudging) {
+  Builder b{Rng{case_seed(family, shape, seed, index)}, nudging};
+  switch (family) {
+    case Family::random: return b.random(shape);
+    case Family::tangent: return b.tangent(shape);
+    case Family::grazing: return b.grazing(shape, index, seed);
+    case Family::near_origin: return b.near_origin(shape, index);
+    case Family::exit_entry: return b.exit_entry(shape);
+    case Family::extremes: return b.extremes(shape);
+  }
+  return b.random(shape);
+}
+
+}  // namespace
+
+GeneratedCase generate(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index) {
+  return build(family, shape, seed, index, true);
+}
+
+GeneratedCase generate_unnudged(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index) {
+  return build(family, shape, seed, index, false);
+}
+
+}  // namespace rayproof::fuzz

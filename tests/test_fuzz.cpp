@@ -1,0 +1,235 @@
+// The fuzzers: generators build the geometry they claim (checked exactly), campaigns are
+// deterministic across thread counts, shrinking keeps the disagreement, and a campaign killed
+// mid-way resumes without losing or duplicating a finding.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <fstream>
+#include <gmpxx.h>
+#include <sstream>
+
+#include "rayproof/campaign.h"
+#include "rayproof/generators.h"
+#include "rayproof/oracle.h"
+#include "rayproof/shrink.h"
+
+namespace rayproof::fuzz {
+namespace {
+
+mpq_class Q(double x) { return mpq_class(x); }
+mpq_class qdot(const Vec3& a, const Vec3& b) { return Q(a.x()) * Q(b.x()) + Q(a.y()) * Q(b.y()) + Q(a.z()) * Q(b.z()); }
+
+TEST(Generators, TangentFamilyIsExactlyTangentBeforeNudging) {
+  Oracle oracle;
+  for (ShapeKind shape : {ShapeKind::sphere, ShapeKind::box}) {
+    for (std::uint64_t i = 0; i < 400; ++i) {
+      const GeneratedCase c = generate_unnudged(Family::tangent, shape, 7, i);
+      const Verdict v = oracle.judge(c.ray, c.shape);
+      EXPECT_EQ(v.cls, HitClass::tangent) << to_string(shape) << " " << i << " " << c.detail;
+    }
+  }
+  for (std::uint64_t i = 0; i < 400; ++i) {  // plane: the ray lies in the plane, exactly
+    const GeneratedCase c = generate_unnudged(Family::tangent, ShapeKind::plane, 7, i);
+    const Plane& p = std::get<Plane>(c.shape);
+    EXPECT_EQ(qdot(p.normal, c.ray.direction), 0);
+    EXPECT_EQ(qdot(p.normal, c.ray.origin), Q(p.offset));
+    EXPECT_EQ(oracle.judge(c.ray, c.shape).cls, HitClass::tangent);
+  }
+  for (std::uint64_t i = 0; i < 400; ++i) {  // triangle: the ray lies in the triangle's plane
+    const GeneratedCase c = generate_unnudged(Family::tangent, ShapeKind::triangle, 7, i);
+    const Triangle& t = std::get<Triangle>(c.shape);
+    const Vec3 e1 = t.v[1] - t.v[0], e2 = t.v[2] - t.v[0];  // integers: exact in double
+    const Vec3 n = cross(e1, e2);
+    EXPECT_EQ(qdot(n, c.ray.direction), 0) << i;
+    EXPECT_EQ(qdot(n, c.ray.origin), qdot(n, t.v[0])) << i;
+    const HitClass cls = oracle.judge(c.ray, c.shape).cls;
+    EXPECT_TRUE(cls == HitClass::tangent || cls == HitClass::miss);
+  }
+}
+
+TEST(Generators, NudgedTangentsLandOnBothSides) {
+  Oracle oracle;
+  int classes[5] = {};
+  for (std::uint64_t i = 0; i < 2000; ++i) {
+    const GeneratedCase c = generate(Family::tangent, ShapeKind::sphere, 3, i);
+    ++classes[static_cast<int>(oracle.judge(c.ray, c.shape).cls)];
+  }
+  EXPECT_GT(classes[static_cast<int>(HitClass::miss)], 100);
+  EXPECT_GT(classes[static_cast<int>(HitClass::enter)], 100);
+  EXPECT_GT(classes[static_cast<int>(HitClass::tangent)], 100);
+}
+
+TEST(Generators, GrazingRaysPassExactlyThroughEdgesAndVertices) {
+  Oracle oracle;
+  for (std::uint64_t i = 0; i < 600; ++i) {
+    const GeneratedCase c = generate_unnudged(Family::grazing, ShapeKind::triangle, 5, i);
+    const HitClass cls = oracle.judge(c.ray, c.shape).cls;
+    EXPECT_TRUE(cls == HitClass::boundary || cls == HitClass::tangent) << i << " " << c.detail << " " << to_string(cls);
+    if (i % 2 == 1) {  // the pair shares the ray and the edge
+      const GeneratedCase a = generate_unnudged(Family::grazing, ShapeKind::triangle, 5, i - 1);
+      EXPECT_EQ(a.ray.origin, c.ray.origin);
+      EXPECT_EQ(std::get<Triangle>(a.shape).v[0], std::get<Triangle>(c.shape).v[1]);
+    }
+  }
+  for (std::uint64_t i = 0; i < 400; ++i) {
+    const GeneratedCase c = generate_unnudged(Family::grazing, ShapeKind::box, 5, i);
+    const Verdict v = oracle.judge(c.ray, c.shape);
+    EXPECT_EQ(v.cls, HitClass::enter) << c.detail;  // enters the interior through the edge or corner
+  }
+}
+
+TEST(Generators, ExitEntryOriginsLieExactlyOnTheSphere) {
+  int on_surface = 0;
+  for (std::uint64_t i = 0; i < 600; ++i) {
+    const GeneratedCase c = generate(Family::exit_entry, ShapeKind::sphere, 9, i);
+    if (c.detail.rfind("on-surface", 0) != 0) continue;
+    ++on_surface;
+    const Sphere& s = std::get<Sphere>(c.shape);
+    const Vec3 f = c.ray.origin - s.center;  // exact: integers times a power of two
+    EXPECT_EQ(qdot(f, f), Q(s.radius) * Q(s.radius)) << c.detail;
+  }
+  EXPECT_GT(on_surface, 100);
+}
+
+TEST(Generators, CasesArePureFunctionsOfSeedAndIndex) {
+  for (Family f : kAllFamilies)
+    for (ShapeKind s : kAllShapeKinds) {
+      const GeneratedCase a = generate(f, s, 42, 1234), b = generate(f, s, 42, 1234), c = generate(f, s, 43, 1234);
+      EXPECT_EQ(a.ray.origin, b.ray.origin);
+      EXPECT_EQ(a.ray.direction, b.ray.direction);
+      EXPECT_EQ(a.detail, b.detail);
+      EXPECT_FALSE(a.ray.origin == c.ray.origin && a.ray.direction == c.ray.direction) << to_string(f);
+      EXPECT_FALSE(degenerate_reason(a.shape));
+      EXPECT_NE(a.ray.direction, Vec3::Zero());
+    }
+}
+
+std::string read(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+CampaignOptions small_campaign(const std::string& out, int threads) {
+  CampaignOptions o;
+  o.families = {Family::tangent, Family::grazing, Family::extremes};
+  o.shapes = {ShapeKind::sphere, ShapeKind::triangle, ShapeKind::box};
+  o.count = 1200;
+  o.seed = 17;
+  o.threads = threads;
+  o.batch = 256;
+  o.max_findings = 40;
+  o.output = out;
+  return o;
+}
+
+TEST(Campaign, SameFindingsAndTalliesForAnyThreadCount) {
+  const std::string a = testing::TempDir() + "/campaign-1.jsonl", b = testing::TempDir() + "/campaign-3.jsonl";
+  const CampaignReport ra = run_campaign(small_campaign(a, 1));
+  const CampaignReport rb = run_campaign(small_campaign(b, 3));
+  EXPECT_EQ(read(a), read(b));
+  EXPECT_GT(ra.findings_written, 50u);
+  ASSERT_EQ(ra.tallies.size(), rb.tallies.size());
+  for (const auto& [k, t] : ra.tallies) {
+    EXPECT_EQ(t.to_json(), rb.tallies.at(k).to_json()) << k;
+  }
+  // The textbook sphere is caught on tangent and extremes; Möller–Trumbore on grazing edges.
+  EXPECT_GT(ra.tallies.at("tangent\ttextbook").wrong + ra.tallies.at("tangent\ttextbook").cannot_tell, 0u);
+  EXPECT_GT(ra.tallies.at("extremes\ttextbook").wrong + ra.tallies.at("extremes\ttextbook").cannot_tell, 0u);
+  EXPECT_GT(ra.tallies.at("grazing\tmoller-trumbore").wrong + ra.tallies.at("grazing\tmoller-trumbore").cannot_tell, 0u);
+}
+
+TEST(Campaign, ShardsPartitionTheCases) {
+  CampaignOptions whole = small_campaign(testing::TempDir() + "/shard-all.jsonl", 2);
+  whole.shrink = false;
+  const CampaignReport all = run_campaign(whole);
+  std::uint64_t cases = 0, wrong = 0;
+  for (unsigned s = 0; s < 3; ++s) {
+    CampaignOptions part = whole;
+    part.shard = s, part.shards = 3;
+    part.output = testing::TempDir() + "/shard-" + std::to_string(s) + ".jsonl";
+    const CampaignReport r = run_campaign(part);
+    for (const auto& [k, t] : r.tallies) cases += t.cases, wrong += t.wrong;
+  }
+  std::uint64_t all_cases = 0, all_wrong = 0;
+  for (const auto& [k, t] : all.tallies) all_cases += t.cases, all_wrong += t.wrong;
+  EXPECT_EQ(cases, all_cases);
+  EXPECT_EQ(wrong, all_wrong);
+}
+
+TEST(Shrink, KeepsTheDisagreementAndSimplifiesTheNumbers) {
+  // A small sphere far away: textbook sees a tangent where the truth is a hit.
+  Case c;
+  c.id = "far";
+  c.ray = Ray{Vec3(0.0000123456789, -0.000123456789, 0.0000333333333333), Vec3(1, 1e-17, 0.0000000001234)};
+  c.shape = Sphere{Vec3(1000000000.123456, 0.5123456789, 0.000298765), 1.0000000001};
+  Oracle oracle;
+  const Variant& textbook = *find_variant("textbook");
+  ASSERT_TRUE(disagrees(textbook, oracle, c.ray, c.shape, HitRule::nearest_contact));
+  const Case s = shrink(c, textbook, oracle, HitRule::nearest_contact);
+  EXPECT_TRUE(disagrees(textbook, oracle, s.ray, s.shape, HitRule::nearest_contact));
+  auto total_cost = [](const Case& x) {
+    int cost = 0;
+    for (int i = 0; i < 3; ++i) cost += number_cost(x.ray.origin[i]) + number_cost(x.ray.direction[i]);
+    const Sphere& sp = std::get<Sphere>(x.shape);
+    for (int i = 0; i < 3; ++i) cost += number_cost(sp.center[i]);
+    return cost + number_cost(sp.radius);
+  };
+  EXPECT_LT(total_cost(s), total_cost(c) / 3);
+  EXPECT_EQ(s.ray.origin, Vec3(0, 0, 0));  // the origin needs no digits at all
+}
+
+TEST(Shrink, WrittenFindingsStillDisagree) {
+  const std::string out = testing::TempDir() + "/shrunk.jsonl";
+  CampaignOptions o = small_campaign(out, 2);
+  o.families = {Family::random, Family::extremes};
+  run_campaign(o);
+  Oracle oracle;
+  int checked = 0;
+  read_case_file(out, [&](const Case& c, long) {
+    const std::string first = c.found["disagreeing"].begin().key();
+    EXPECT_TRUE(disagrees(*find_variant(first), oracle, c.ray, c.shape, HitRule::nearest_contact)) << c.id;
+    const Verdict v = oracle.judge(c.ray, c.shape);
+    EXPECT_EQ(c.expect->cls, v.cls);
+    ++checked;
+  }, [](const CaseError& e) { ADD_FAILURE() << e.to_string(); });
+  EXPECT_GT(checked, 10);
+}
+
+int run(const std::string& args) {
+  const int status = std::system((std::string(RAYPROOF_CLI) + " " + args + " 2>/dev/null").c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(Campaign, ResumeAfterAKillLosesNoFindingAndDuplicatesNone) {
+  const std::string dir = testing::TempDir();
+  const std::string args = " --family tangent,grazing --shape sphere,triangle --count 3000 --seed 5 --batch 500 --threads 2";
+  ASSERT_EQ(run("fuzz" + args + " -o " + dir + "/whole.jsonl"), 0);
+  // Killed after writing the 3rd batch's findings but before its checkpoint: the worst moment.
+  EXPECT_NE(run("fuzz" + args + " -o " + dir + "/killed.jsonl --crash-after-batches 2"), 0);
+  EXPECT_NE(read(dir + "/killed.jsonl"), read(dir + "/whole.jsonl"));
+  ASSERT_EQ(run("fuzz" + args + " -o " + dir + "/killed.jsonl --resume"), 0);
+  EXPECT_EQ(read(dir + "/killed.jsonl"), read(dir + "/whole.jsonl"));
+  // A checkpoint from other options is refused.
+  EXPECT_NE(run("fuzz" + args + " --seed 6 -o " + dir + "/killed.jsonl --resume"), 0);
+  // Bad arguments are errors, not crashes.
+  EXPECT_NE(run("fuzz --family nonsense -o " + dir + "/x.jsonl"), 0);
+  EXPECT_NE(run("fuzz --shard 3/2 -o " + dir + "/x.jsonl"), 0);
+}
+
+TEST(UlpHistogram, QuantilesAreExactBelow128AndWithinAnEighthAbove) {
+  UlpHistogram h;
+  for (std::uint64_t u = 0; u < 100; ++u) h.add(u);
+  EXPECT_EQ(h.quantile(0.5), 49u);
+  EXPECT_EQ(h.max(), 99u);
+  UlpHistogram big;
+  for (int i = 0; i < 1000; ++i) big.add(1000000 + i);
+  const auto q = big.quantile(0.99);
+  EXPECT_LE(q, 1000999u);
+  EXPECT_GE(q, 1000000u * 7 / 8);
+  EXPECT_EQ(UlpHistogram::from_json(big.to_json()).to_json(), big.to_json());
+}
+
+}  // namespace
+}  // namespace rayproof::fuzz
