@@ -1,4 +1,5 @@
 // rayproof fuzz: every variant against the oracle on generated families; findings replayable.
+#include <algorithm>
 #include <iostream>
 #include <mutex>
 #include <sstream>
@@ -90,6 +91,16 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
     progress.finish();
     fuzz::print_report(report, o.threads, std::cerr);
     std::cerr << "rayproof fuzz: " << report.findings_written << " findings in " << o.output << "\n";
+    if (std::find(o.families.begin(), o.families.end(), fuzz::Family::near_origin) != o.families.end()) {
+      // Near-origin hits raise the question users ask most: which t_min / offset? Answer it.
+      std::vector<const Variant*> variants;
+      for (ShapeKind s : o.shapes)
+        for (const Variant* v : variants_for(s)) variants.push_back(v);
+      std::vector<int> scales;
+      for (int k = -40; k <= 40; k += 10) scales.push_back(k);
+      run_spawn_report(variants, scales, std::min<std::uint64_t>(o.count, 20000), o.seed, o.threads,
+                       o.output + ".spawn.csv");
+    }
     if (!opts->summary.empty()) {
       AtomicFile s(opts->summary);
       s.stream() << report.to_json().dump(2) << "\n";
