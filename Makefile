@@ -2,7 +2,7 @@
 BUILD ?= build
 JOBS  ?= 2
 
-.PHONY: deps build demo test bench clean
+.PHONY: deps build demo test bench fuzz-smoke clean
 deps:
 	@bash scripts/install-deps.sh
 
@@ -20,5 +20,20 @@ bench: build
 	@$(BUILD)/bench/rayproof_bench --benchmark_min_time=0.2 --benchmark_out=$(BUILD)/bench.json --benchmark_out_format=json
 	@echo "benchmark results: $(BUILD)/bench.json"
 
+# libFuzzer harnesses under ASan + UBSan, each run for FUZZ_SECONDS (not part of `make test`).
+FUZZ_SECONDS ?= 30
+FUZZERS = sphere_fuzzer plane_fuzzer triangle_fuzzer box_fuzzer parsers_fuzzer
+fuzz-smoke:
+	@bash scripts/install-deps.sh fuzz
+	@cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+	  -DRAYPROOF_LIBFUZZER=ON -DRAYPROOF_BUILD_TESTS=OFF -DRAYPROOF_BUILD_BENCH=OFF > /dev/null
+	@cmake --build build-fuzz -j$(JOBS) --target $(FUZZERS)
+	@for f in $(FUZZERS); do \
+	  mkdir -p build-fuzz/corpus/$$f; \
+	  echo "fuzz-smoke: $$f for $(FUZZ_SECONDS) s"; \
+	  build-fuzz/fuzz/libfuzzer/$$f -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
+	    build-fuzz/corpus/$$f fuzz/corpus/$$f 2>&1 | grep -E "Done|ERROR|SUMMARY|stat::number_of_executed_units" || exit 1; \
+	done
+
 clean:
-	rm -rf $(BUILD)
+	rm -rf $(BUILD) build-fuzz

@@ -1,0 +1,10 @@
+// libFuzzer harness: a ray and a sphere from raw bytes (see shape_fuzzer.h).
+#include "shape_fuzzer.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, size_t size) {
+  using namespace rayproof;
+  fuzzing::Bytes in(data, size);
+  const Ray ray{in.vec(), in.vec()};
+  fuzzing::exercise(ray, Sphere{in.vec(), in.next()});
+  return 0;
+}
