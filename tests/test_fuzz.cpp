@@ -140,6 +140,21 @@ TEST(Campaign, SameFindingsAndTalliesForAnyThreadCount) {
   EXPECT_GT(ra.tallies.at("grazing\tmoller-trumbore").wrong + ra.tallies.at("grazing\tmoller-trumbore").cannot_tell, 0u);
 }
 
+TEST(Campaign, WatertightHasNoHoleOnSharedEdgesWhereMollerTrumboreDoes) {
+  CampaignOptions o;
+  o.families = {Family::grazing};
+  o.shapes = {ShapeKind::triangle};
+  o.count = 40000;
+  o.seed = 2026;
+  o.threads = 2;
+  o.shrink = false;
+  o.max_findings = 0;
+  o.output = testing::TempDir() + "/holes.jsonl";
+  const CampaignReport r = run_campaign(o);
+  EXPECT_EQ(r.tallies.at("grazing\twatertight").shared_edge_holes, 0u);
+  EXPECT_GT(r.tallies.at("grazing\tmoller-trumbore").shared_edge_holes, 0u);
+}
+
 TEST(Campaign, ShardsPartitionTheCases) {
   CampaignOptions whole = small_campaign(testing::TempDir() + "/shard-all.jsonl", 2);
   whole.shrink = false;
