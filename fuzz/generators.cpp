@@ -392,7 +392,8 @@ struct Builder {
         return {Ray{Vec3::Zero(), Vec3(1, 0, 0)}, Sphere{m, r}, "tiny-far-sphere"};
       }
       // a huge sphere used as a ground plane
-      const double big = std::pow(10.0, rng.uniform(6, 12));
+      // radius 2^20…2^40 (1e6…1e12); no libm call, so every machine builds the same case
+      const double big = std::ldexp(rng.uniform(1, 2), static_cast<int>(rng.integer(20, 39)));
       const Vec3 o(rng.uniform(-10, 10), rng.uniform(0.5, 10), rng.uniform(-10, 10));
       return {Ray{o, Vec3(rng.uniform(-1, 1), -rng.uniform(0.01, 1), rng.uniform(-1, 1))}, Sphere{Vec3(0, -big, 0), big},
               "huge-ground-sphere"};

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "rayproof/hit.h"
+#include "rayproof/trade.h"
 #include "rayproof/variants.h"
 
 namespace rayproof::cli {
@@ -16,6 +17,7 @@ void add_variants_command(CLI::App& app, int& exit_code);
 void add_check_command(CLI::App& app, int& exit_code);
 void add_fuzz_command(CLI::App& app, int& exit_code);
 void add_spawn_command(CLI::App& app, int& exit_code);
+void add_trade_command(CLI::App& app, int& exit_code);
 // The spawn study's table on stderr and its CSV (shared by `spawn` and `fuzz --family near-origin`).
 void run_spawn_report(const std::vector<const Variant*>& variants, const std::vector<int>& scales, std::uint64_t count,
                       std::uint64_t seed, int threads, const std::string& csv_path);
@@ -23,6 +25,10 @@ void run_spawn_report(const std::vector<const Variant*>& variants, const std::ve
 // Resolves --variants names (comma lists allowed); an empty list means every variant.
 // Throws CLI::ValidationError naming an unknown variant.
 std::vector<const Variant*> resolve_variants(const std::vector<std::string>& names);
+
+// Everything `trade` and the benchmarks measure: the registered variants, their batched forms
+// and, when built, peer libraries.
+std::vector<fuzz::Contender> trade_contenders();
 
 // A progress line on stderr, only when stderr is a terminal.
 class Progress {

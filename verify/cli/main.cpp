@@ -44,6 +44,8 @@ void Progress::finish() {
   if (enabled_ && last_percent_ >= 0) std::fprintf(stderr, "\n");
 }
 
+std::vector<fuzz::Contender> trade_contenders() { return fuzz::variant_contenders(); }
+
 void add_variants_command(CLI::App& app, int& exit_code) {
   auto* cmd = app.add_subcommand("variants", "List every intersection variant, its shape and its source");
   cmd->callback([&exit_code] {
@@ -65,6 +67,7 @@ int main(int argc, char** argv) {
   rayproof::cli::add_check_command(app, exit_code);
   rayproof::cli::add_fuzz_command(app, exit_code);
   rayproof::cli::add_spawn_command(app, exit_code);
+  rayproof::cli::add_trade_command(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

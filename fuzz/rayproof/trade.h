@@ -1,0 +1,56 @@
+// The speed–accuracy trade: every contender (a variant, a batched variant, a peer library) timed
+// on the same generated cases in one run, and judged against the exact oracle on them.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "rayproof/generators.h"
+#include "rayproof/hit.h"
+
+namespace rayproof::fuzz {
+
+struct Query {
+  Ray ray;
+  Shape shape;
+};
+
+// Something to measure: answers a whole batch of queries of one shape (so batched and peer
+// implementations are timed the way they are meant to be used).
+struct Contender {
+  std::string name;
+  ShapeKind shape;
+  std::function<void(const std::vector<Query>&, std::vector<Hit>&)> run;
+  // Inputs as the contender really sees them (a float library rounds them); the oracle judges
+  // these. Empty: the queries as generated.
+  std::function<Query(const Query&)> effective_input;
+};
+
+std::vector<Contender> variant_contenders();  // every registered variant, called per query
+
+struct TradeRow {
+  std::string variant;
+  ShapeKind shape;
+  Family family;
+  std::uint64_t cases = 0;
+  double ns_per_test = 0;
+  std::uint64_t disagreements = 0;
+  double disagreement_rate = 0;
+  std::uint64_t ulp_p99 = 0, ulp_max = 0;
+  bool pareto = false;  // no other contender on this shape and family is both as fast and as accurate
+};
+
+std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, const std::vector<ShapeKind>& shapes,
+                                    const std::vector<Family>& families, std::uint64_t count, std::uint64_t seed,
+                                    int threads);
+
+// CSV with exactly: variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max
+void write_trade_csv(const std::vector<TradeRow>& rows, std::ostream& out);
+void print_trade_markdown(const std::vector<TradeRow>& rows, std::ostream& out);
+// Scatter plot: x ns per test (log), y disagreement rate (log), one mark per row.
+void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out);
+
+}  // namespace rayproof::fuzz
