@@ -68,6 +68,7 @@ int main(int argc, char** argv) {
   rayproof::cli::add_fuzz_command(app, exit_code);
   rayproof::cli::add_spawn_command(app, exit_code);
   rayproof::cli::add_trade_command(app, exit_code);
+  rayproof::cli::add_stability_command(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
