@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <memory>
 #include <set>
 #include <thread>
 
+#include "rayproof/batch.h"
 #include "rayproof/compare.h"
 #include "rayproof/oracle.h"
 #include "rayproof/variants.h"
@@ -19,10 +21,41 @@ std::vector<Contender> variant_contenders() {
   for (const Variant& v : all_variants()) {
     const Variant* p = &v;
     out.push_back({std::string(v.name), v.shape,
-                   [p](const std::vector<Query>& qs, std::vector<Hit>& hits) {
-                     for (size_t i = 0; i < qs.size(); ++i) hits[i] = p->intersect(qs[i].ray, qs[i].shape, HitRule::nearest_contact);
+                   [p](const std::vector<Query>& qs) {
+                     auto hits = std::make_shared<std::vector<Hit>>(qs.size());
+                     return Prepared{[p, &qs, hits] {
+                                       for (size_t i = 0; i < qs.size(); ++i)
+                                         (*hits)[i] = p->intersect(qs[i].ray, qs[i].shape, HitRule::nearest_contact);
+                                     },
+                                     [hits](size_t i) { return (*hits)[i]; }};
                    },
                    {}});
+  }
+  return out;
+}
+
+std::vector<Contender> batched_contenders() {
+  std::vector<Contender> out;
+  for (const BatchedVariant& b : batched_variants()) {
+    if (b.shape == ShapeKind::sphere) {
+      out.push_back({std::string(b.name), b.shape, [](const std::vector<Query>& qs) {
+                       auto rays = std::make_shared<RaysSoA>();
+                       auto spheres = std::make_shared<SpheresSoA>();
+                       for (const Query& q : qs) rays->push(q.ray), spheres->push(std::get<Sphere>(q.shape));
+                       auto hits = std::make_shared<HitsSoA>();
+                       return Prepared{[rays, spheres, hits] { sphere_stable_batch(*rays, *spheres, *hits); },
+                                       [hits](size_t i) { return hits->at(i); }};
+                     }, {}});
+    } else if (b.shape == ShapeKind::triangle) {
+      out.push_back({std::string(b.name), b.shape, [](const std::vector<Query>& qs) {
+                       auto rays = std::make_shared<RaysSoA>();
+                       auto tris = std::make_shared<TrianglesSoA>();
+                       for (const Query& q : qs) rays->push(q.ray), tris->push(std::get<Triangle>(q.shape));
+                       auto hits = std::make_shared<HitsSoA>();
+                       return Prepared{[rays, tris, hits] { triangle_moller_trumbore_batch(*rays, *tris, *hits); },
+                                       [hits](size_t i) { return hits->at(i); }};
+                     }, {}});
+    }
   }
   return out;
 }
@@ -47,18 +80,18 @@ std::vector<Verdict> judge_all(const std::vector<Query>& qs, int threads) {
 // queries (cache-resident, like a benchmark's prepared inputs; the whole set is still judged).
 double time_per_query(const Contender& c, const std::vector<Query>& all) {
   const std::vector<Query> qs(all.begin(), all.begin() + std::min<size_t>(all.size(), 4096));
-  std::vector<Hit> hits(qs.size());
+  const Prepared p = c.prepare(qs);
   const int repeats = static_cast<int>(std::max<size_t>(1, 200000 / qs.size()));
   double best = INFINITY;
   for (int pass = 0; pass < 5; ++pass) {
     const auto t0 = std::chrono::steady_clock::now();
-    for (int r = 0; r < repeats; ++r) c.run(qs, hits);
+    for (int r = 0; r < repeats; ++r) p.run();
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / repeats;
     best = std::min(best, s);
   }
   // Keep the answers observable so the passes cannot be optimised away.
   volatile double sink = 0;
-  for (const Hit& h : hits) sink = sink + (h.has_t() ? h.t : 0);
+  for (size_t i = 0; i < qs.size(); ++i) sink = sink + (p.answer(i).has_t() ? p.answer(i).t : 0);
   return best * 1e9 / std::max<size_t>(1, qs.size());
 }
 
@@ -97,8 +130,10 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
           truth = judge_all(inputs, threads);
         }
         const std::vector<Verdict>& judge = c.effective_input ? truth : exact;
+        const Prepared prepared = c.prepare(inputs);
+        prepared.run();
         std::vector<Hit> hits(inputs.size());
-        c.run(inputs, hits);
+        for (size_t i = 0; i < inputs.size(); ++i) hits[i] = prepared.answer(i);
         TradeRow row{c.name, shape, family, count};
         row.ns_per_test = time_per_query(c, inputs);
         std::vector<std::uint64_t> ulps;

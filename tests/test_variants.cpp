@@ -237,3 +237,76 @@ TEST(BoxSlab, NaiveSlabLosesARayAlongAFacePlane) {
 
 }  // namespace
 }  // namespace rayproof
+
+#include "rayproof/batch.h"
+#include <cstring>
+#include <random>
+
+namespace rayproof {
+namespace {
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+TEST(Batched, SphereStableBatchIsBitIdenticalToTheScalarVariant) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-2, 2);
+  std::uniform_int_distribution<int> small(-3, 3), e(-60, 60);
+  RaysSoA rays;
+  SpheresSoA spheres;
+  std::vector<std::pair<Ray, Sphere>> cases;
+  for (int i = 0; i < 20000; ++i) {
+    Ray r{Vec3(u(rng), u(rng), u(rng)) * 4, Vec3(u(rng), u(rng), u(rng))};
+    Sphere s{Vec3(u(rng), u(rng), u(rng)), std::abs(u(rng)) + 0.1};
+    if (i % 3 == 0) {  // small integers: exact tangents, zero discriminants, origins on the surface
+      r = Ray{Vec3(small(rng), small(rng), small(rng)), Vec3(small(rng), small(rng), 1)};
+      s = Sphere{Vec3(small(rng), small(rng), small(rng)), double(1 + std::abs(small(rng)))};
+    }
+    if (i % 5 == 0) s.center *= std::ldexp(1.0, e(rng)), r.origin *= std::ldexp(1.0, e(rng));
+    cases.push_back({r, s});
+    rays.push(r);
+    spheres.push(s);
+  }
+  HitsSoA out;
+  sphere_stable_batch(rays, spheres, out);
+  int hits = 0;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const Hit h = sphere_stable(cases[i].first, cases[i].second, HitRule::nearest_contact);
+    ASSERT_EQ(out.at(i).cls, h.cls) << i;
+    ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t))) << i;
+    hits += h.cls != HitClass::miss;
+  }
+  EXPECT_GT(hits, 2000);
+}
+
+TEST(Batched, MollerTrumboreBatchIsBitIdenticalToTheScalarVariant) {
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> u(-2, 2);
+  std::uniform_int_distribution<int> small(-3, 3);
+  RaysSoA rays;
+  TrianglesSoA tris;
+  std::vector<std::pair<Ray, Triangle>> cases;
+  for (int i = 0; i < 20000; ++i) {
+    Ray r{Vec3(u(rng), u(rng), 3), Vec3(u(rng) * 0.3, u(rng) * 0.3, -1)};
+    Triangle t{{Vec3(-1, -1, u(rng)), Vec3(1, -1, u(rng)), Vec3(u(rng), 1, u(rng))}};
+    if (i % 3 == 0) {  // through edges and vertices exactly
+      t = Triangle{{Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0)}};
+      r = Ray{Vec3(small(rng) * 0.5, small(rng) * 0.5, 1), Vec3(0, 0, -1)};
+    }
+    cases.push_back({r, t});
+    rays.push(r);
+    tris.push(t);
+  }
+  HitsSoA out;
+  triangle_moller_trumbore_batch(rays, tris, out);
+  int boundary = 0;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const Hit h = triangle_moller_trumbore(cases[i].first, cases[i].second, HitRule::nearest_contact);
+    ASSERT_EQ(out.at(i).cls, h.cls) << i;
+    ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t))) << i;
+    boundary += h.cls == HitClass::boundary;
+  }
+  EXPECT_GT(boundary, 100);
+}
+
+}  // namespace
+}  // namespace rayproof

@@ -18,18 +18,26 @@ struct Query {
   Shape shape;
 };
 
-// Something to measure: answers a whole batch of queries of one shape (so batched and peer
-// implementations are timed the way they are meant to be used).
+// A contender readied for one batch of queries: `run` answers them all (this is what is
+// timed); `answer(i)` then reads the i-th answer.
+struct Prepared {
+  std::function<void()> run;
+  std::function<Hit(size_t)> answer;
+};
+
+// Something to measure: readies a whole batch of queries of one shape in its own layout (so
+// batched and peer implementations are timed the way they are meant to be used).
 struct Contender {
   std::string name;
   ShapeKind shape;
-  std::function<void(const std::vector<Query>&, std::vector<Hit>&)> run;
+  std::function<Prepared(const std::vector<Query>&)> prepare;
   // Inputs as the contender really sees them (a float library rounds them); the oracle judges
   // these. Empty: the queries as generated.
   std::function<Query(const Query&)> effective_input;
 };
 
 std::vector<Contender> variant_contenders();  // every registered variant, called per query
+std::vector<Contender> batched_contenders();  // the structure-of-arrays batched variants
 
 struct TradeRow {
   std::string variant;

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "cli/commands.h"
+#include "rayproof/batch.h"
 
 namespace rayproof::cli {
 
@@ -44,13 +45,20 @@ void Progress::finish() {
   if (enabled_ && last_percent_ >= 0) std::fprintf(stderr, "\n");
 }
 
-std::vector<fuzz::Contender> trade_contenders() { return fuzz::variant_contenders(); }
+std::vector<fuzz::Contender> trade_contenders() {
+  std::vector<fuzz::Contender> all = fuzz::variant_contenders();
+  for (fuzz::Contender& c : fuzz::batched_contenders()) all.push_back(std::move(c));
+  return all;
+}
 
 void add_variants_command(CLI::App& app, int& exit_code) {
   auto* cmd = app.add_subcommand("variants", "List every intersection variant, its shape and its source");
   cmd->callback([&exit_code] {
     for (const Variant& v : all_variants())
       std::cout << v.name << "\t" << to_string(v.shape) << "\t" << v.source << "\n";
+    for (const BatchedVariant& b : batched_variants())
+      std::cout << b.name << "\t" << to_string(b.shape) << "\tstructure-of-arrays form of " << b.scalar
+                << ", bit-identical (nearest rule; used by trade and the benchmarks)\n";
     exit_code = 0;
   });
 }
