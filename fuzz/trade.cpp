@@ -126,22 +126,25 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
         std::vector<Query> inputs = generated;
         std::vector<Verdict> truth;
         if (c.effective_input) {
-          for (Query& q : inputs) q = c.effective_input(q);
+          inputs.clear();
+          for (const Query& q : generated)
+            if (auto e = c.effective_input(q)) inputs.push_back(*e);
           truth = judge_all(inputs, threads);
+          if (inputs.empty()) continue;
         }
         const std::vector<Verdict>& judge = c.effective_input ? truth : exact;
         const Prepared prepared = c.prepare(inputs);
         prepared.run();
         std::vector<Hit> hits(inputs.size());
         for (size_t i = 0; i < inputs.size(); ++i) hits[i] = prepared.answer(i);
-        TradeRow row{c.name, shape, family, count};
+        TradeRow row{c.name, shape, family, inputs.size()};
         row.ns_per_test = time_per_query(c, inputs);
         std::vector<std::uint64_t> ulps;
         for (size_t i = 0; i < inputs.size(); ++i) {
           if (hits[i].cls != judge[i].cls) ++row.disagreements;
           if (judge[i].t && hits[i].has_t()) ulps.push_back(*ulp_distance(hits[i].t, *judge[i].t));
         }
-        row.disagreement_rate = count ? static_cast<double>(row.disagreements) / count : 0;
+        row.disagreement_rate = static_cast<double>(row.disagreements) / inputs.size();
         row.ulp_p99 = quantile(ulps, 0.99);
         row.ulp_max = quantile(ulps, 1.0);
         rows.push_back(row);

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -32,8 +33,9 @@ struct Contender {
   ShapeKind shape;
   std::function<Prepared(const std::vector<Query>&)> prepare;
   // Inputs as the contender really sees them (a float library rounds them); the oracle judges
-  // these. Empty: the queries as generated.
-  std::function<Query(const Query&)> effective_input;
+  // these, and a query the contender cannot take (nullopt) is left out of its row. Empty: the
+  // queries as generated.
+  std::function<std::optional<Query>(const Query&)> effective_input;
 };
 
 std::vector<Contender> variant_contenders();  // every registered variant, called per query

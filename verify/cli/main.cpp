@@ -7,6 +7,9 @@
 
 #include "cli/commands.h"
 #include "rayproof/batch.h"
+#ifdef RAYPROOF_HAVE_EMBREE
+#include "peers/embree.h"
+#endif
 
 namespace rayproof::cli {
 
@@ -48,6 +51,9 @@ void Progress::finish() {
 std::vector<fuzz::Contender> trade_contenders() {
   std::vector<fuzz::Contender> all = fuzz::variant_contenders();
   for (fuzz::Contender& c : fuzz::batched_contenders()) all.push_back(std::move(c));
+#ifdef RAYPROOF_HAVE_EMBREE
+  for (fuzz::Contender& c : peers::embree_contenders()) all.push_back(std::move(c));
+#endif
   return all;
 }
 
