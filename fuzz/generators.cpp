@@ -216,7 +216,7 @@ struct Builder {
         Vec3 v2, v3;
         do {
           v2 = pair.rng.ivec(1 << 10);
-          v3 = v0 + v1 - v2 + pair.rng.ivec(64);  // roughly opposite v2 across the edge
+          v3 = v0 + v1 - v2 + (pair.rng.integer(0, 1) ? Vec3(pair.rng.ivec(64)) : Vec3::Zero());  // opposite v2: a flat quad or a fold
         } while (degenerate_reason(Triangle{{v0, v1, v2}}) || degenerate_reason(Triangle{{v1, v0, v3}}));
         const double w = pair.rng.integer(0, 16) / 16.0;  // 0 or 1: a vertex
         const Vec3 target = 16 * v0 + w * 16 * (v1 - v0);

@@ -6,6 +6,10 @@
 #include "cli/commands.h"
 #include "rayproof/atomic_file.h"
 #include "rayproof/trade.h"
+#ifdef RAYPROOF_HAVE_EMBREE
+#include "peers/embree.h"
+#endif
+#include <algorithm>
 
 namespace rayproof::cli {
 
@@ -60,6 +64,18 @@ void add_trade_command(CLI::App& app, int& exit_code) {
       fuzz::write_trade_svg(rows, svg.stream());
       svg.commit();
     }
+#ifdef RAYPROOF_HAVE_EMBREE
+    if (std::find(shapes.begin(), shapes.end(), ShapeKind::triangle) != shapes.end()) {
+      // Embree's watertightness, judged by the oracle on the grazing family's shared-edge pairs.
+      for (bool robust : {false, true}) {
+        const auto holes = peers::embree_shared_edge_holes(opts->count / 2, opts->seed, robust);
+        std::cout << "\n" << (robust ? "embree-robust" : "embree") << " shared-edge holes: "
+                  << holes.holes - holes.holes_large << " of " << holes.crossing - holes.crossing_large
+                  << " pairs whose exact ray crosses the shared edge, coordinates below 2^40; "
+                  << holes.holes_large << " of " << holes.crossing_large << " at 2^40 and beyond\n";
+      }
+    }
+#endif
     std::cerr << "rayproof trade: " << opts->output << (opts->plot.empty() ? "" : ", " + opts->plot) << "\n";
     exit_code = 0;
   });

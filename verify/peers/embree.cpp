@@ -7,6 +7,8 @@
 #include <memory>
 #include <stdexcept>
 
+#include "rayproof/oracle.h"
+
 namespace rayproof::peers {
 
 namespace {
@@ -66,9 +68,9 @@ struct Scene {
   ~Scene() { if (scene) rtcReleaseScene(scene); }
   Scene(const Scene&) = delete;
 
-  // Embree's answer in the case format's classes: it reports a hit, its t and the geometric
-  // normal Ng; the side follows from Ng·d (for a sphere Ng is outward, for a triangle it is
-  // (v1−v0)×(v2−v0)... up to Embree's winding, checked by the tests through the oracle).
+  // Embree's answer in the case format's classes: a hit, its t, and the side from the
+  // geometric normal Ng — outward for a sphere, along the case format's front normal
+  // (v1−v0)×(v2−v0) for a triangle (checked by tests/test_embree.cpp).
   Hit intersect(const Ray& r) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
@@ -129,6 +131,55 @@ std::optional<fuzz::Query> as_float_query(const fuzz::Query& q) {
   }
   if (degenerate_reason(s)) return std::nullopt;
   return fuzz::Query{Ray{*o, *d}, s};
+}
+
+HoleCount embree_shared_edge_holes(std::uint64_t pairs, std::uint64_t seed, bool robust) {
+  HoleCount count;
+  Oracle oracle;
+  RTCDevice dev = device().device;
+  for (std::uint64_t p = 0; p < pairs; ++p) {
+    const fuzz::GeneratedCase a = fuzz::generate(fuzz::Family::grazing, ShapeKind::triangle, seed, 2 * p);
+    const fuzz::GeneratedCase b = fuzz::generate(fuzz::Family::grazing, ShapeKind::triangle, seed, 2 * p + 1);
+    if (a.detail.rfind("shared-edge", 0) != 0) continue;
+    const auto fa = as_float_query({a.ray, a.shape}), fb = as_float_query({b.ray, b.shape});
+    if (!fa || !fb) continue;
+    ++count.pairs;
+    const Verdict ea = oracle.judge(fa->ray, fa->shape), eb = oracle.judge(fb->ray, fb->shape);
+    const bool hit_a = ea.cls != HitClass::miss, hit_b = eb.cls != HitClass::miss;
+    if (!(hit_a || hit_b) || (hit_a && hit_b && ea.front != eb.front)) continue;
+    ++count.crossing;
+    double largest = max_abs(fa->ray.origin);
+    for (const fuzz::Query* q : {&*fa, &*fb})
+      for (const Vec3& v : std::get<Triangle>(q->shape).v) largest = std::max(largest, max_abs(v));
+    const bool large = largest >= 0x1p40;
+    count.crossing_large += large;
+    RTCScene scene = rtcNewScene(dev);
+    rtcSetSceneFlags(scene, robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+    for (const fuzz::Query* q : {&*fa, &*fb}) {
+      const Triangle& t = std::get<Triangle>(q->shape);
+      RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3));
+      for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) v[3 * i + k] = static_cast<float>(t.v[i][k]);
+      auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), 1));
+      idx[0] = 0, idx[1] = 1, idx[2] = 2;
+      rtcCommitGeometry(g);
+      rtcAttachGeometry(scene, g);
+      rtcReleaseGeometry(g);
+    }
+    rtcCommitScene(scene);
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh{};
+    rh.ray.org_x = float(fa->ray.origin.x()), rh.ray.org_y = float(fa->ray.origin.y()), rh.ray.org_z = float(fa->ray.origin.z());
+    rh.ray.dir_x = float(fa->ray.direction.x()), rh.ray.dir_y = float(fa->ray.direction.y()), rh.ray.dir_z = float(fa->ray.direction.z());
+    rh.ray.tnear = 0, rh.ray.tfar = INFINITY, rh.ray.mask = ~0u;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) ++count.holes, count.holes_large += large;
+    rtcReleaseScene(scene);
+  }
+  return count;
 }
 
 std::vector<fuzz::Contender> embree_contenders() {
