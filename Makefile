@@ -16,8 +16,12 @@ demo: build
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
 
+# A short run of every benchmark (one binary, so ratios come from one run), then the goals.
+BENCH_MIN_TIME ?= 0.05
 bench: build
-	@$(BUILD)/bench/rayproof_bench --benchmark_min_time=0.2 --benchmark_out=$(BUILD)/bench.json --benchmark_out_format=json
+	@$(BUILD)/bench/rayproof_bench --benchmark_min_time=$(BENCH_MIN_TIME) \
+	  --benchmark_out=$(BUILD)/bench.json --benchmark_out_format=json
+	@python3 scripts/bench-goals.py $(BUILD)/bench.json
 	@echo "benchmark results: $(BUILD)/bench.json"
 
 # libFuzzer harnesses under ASan + UBSan, each run for FUZZ_SECONDS (not part of `make test`).

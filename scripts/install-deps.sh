@@ -3,7 +3,8 @@
 # Works as root or through sudo; does nothing when everything is present.
 set -euo pipefail
 packages=(build-essential cmake pkg-config libcgal-dev libgmp-dev libmpfr-dev libeigen3-dev
-          googletest libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libpng-dev)
+          googletest libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libpng-dev
+          libembree-dev python3)
 # `install-deps.sh fuzz`: also clang with libFuzzer and the sanitizer runtimes.
 if [ "${1:-}" = fuzz ]; then packages+=(clang libclang-rt-dev); fi
 missing=()

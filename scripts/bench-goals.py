@@ -1,0 +1,44 @@
+#!/usr/bin/env python3
+"""Prints the speed goals of the benchmarks as ratios of times measured in one run.
+
+Usage: scripts/bench-goals.py build/bench.json
+"""
+import json
+import sys
+
+
+def main(path):
+    runs = json.load(open(path))["benchmarks"]
+    per_test = {}
+    for r in runs:
+        # per_test is seconds per intersection test (batched and packet runs do many per iteration)
+        per_test[r["name"]] = r.get("per_test", r["real_time"] * 1e-9)
+
+    def ns(name):
+        return per_test[name] * 1e9 if name in per_test else None
+
+    def ratio(label, num, den, goal=None):
+        a, b = ns(num), ns(den)
+        if a is None or b is None:
+            print(f"{label}: not measured ({num} or {den} missing)")
+            return
+        verdict = "" if goal is None else ("  goal met" if goal(a / b) else "  goal NOT met")
+        print(f"{label}: {a:.2f} ns / {b:.2f} ns = {a / b:.2f}x{verdict}")
+
+    for fam in ["random-hit", "random-miss", "tangent", "grazing"]:
+        ratio(f"stable / textbook ({fam}, goal <= 1.3)", f"variant/stable/{fam}", f"variant/textbook/{fam}", lambda x: x <= 1.3)
+        ratio(f"hearn-baker / textbook ({fam}, goal <= 1.3)", f"variant/hearn-baker/{fam}", f"variant/textbook/{fam}", lambda x: x <= 1.3)
+        ratio(f"stable scalar / stable-batch ({fam}, goal >= 3)", f"variant/stable/{fam}", f"batched/stable-batch/{fam}", lambda x: x >= 3)
+        ratio(f"moller-trumbore scalar / batch ({fam})", f"variant/moller-trumbore/{fam}", f"batched/moller-trumbore-batch/{fam}")
+    ratio("embree single / moller-trumbore, one triangle", "peer/embree/one-triangle/single", "variant/moller-trumbore/one-triangle")
+    ratio("embree single / watertight, one triangle", "peer/embree/one-triangle/single", "variant/watertight/one-triangle")
+    ratio("embree-robust single / watertight, one triangle", "peer/embree-robust/one-triangle/single", "variant/watertight/one-triangle")
+    ratio("embree packet8 (per ray) / moller-trumbore", "peer/embree/one-triangle/packet8", "variant/moller-trumbore/one-triangle")
+    ratio("embree single / stable, one sphere", "peer/embree/one-sphere/single", "variant/stable/one-sphere")
+    for shape, base in [("sphere", "stable"), ("triangle", "moller-trumbore"), ("box", "robust-slab"), ("plane", "direct")]:
+        ratio(f"oracle filtered / {base} ({shape}, random-hit)", f"oracle/{shape}/random-hit/filtered", f"variant/{base}/random-hit")
+        ratio(f"oracle exact / filtered ({shape}, random-hit)", f"oracle/{shape}/random-hit/exact", f"oracle/{shape}/random-hit/filtered")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else "build/bench.json")
