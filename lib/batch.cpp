@@ -82,7 +82,8 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) static void moller_
     const double v = (dx * qx + dy * qy + dz * qz) * inv_det;
     const double t = (e2x * qx + e2y * qy + e2z * qz) * inv_det;
     const double uv = u + v;
-    const bool inside = (det != 0) & (u >= 0) & (u <= 1) & (v >= 0) & (uv <= 1) & (t > 0);
+    // Written as the scalar variant's rejections, negated, so NaNs pass or fail the same way.
+    const bool inside = (det != 0) & !(u < 0) & !(u > 1) & !(v < 0) & !(uv > 1) & (t > 0);
     const bool edge = (u == 0) | (v == 0) | (uv == 1);
     const double k_face = det > 0 ? kEnter : kExit;
     const double k_hit = edge ? kBoundary : k_face;

@@ -13,8 +13,12 @@ namespace rayproof::peers {
 
 namespace {
 
+// Embree asserts that ray components stay within ±FLT_LARGE = 1.844e18 (rtcore_ray.h's valid());
+// queries beyond it are not Embree's to answer.
+constexpr double kEmbreeLargest = 1.844e18;
+
 std::optional<double> to_float(double x) {
-  if (!(std::abs(x) <= FLT_MAX)) return std::nullopt;
+  if (!(std::abs(x) <= kEmbreeLargest)) return std::nullopt;
   const float f = static_cast<float>(x);
   if (std::isinf(f)) return std::nullopt;
   return static_cast<double>(f);

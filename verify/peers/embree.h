@@ -14,8 +14,8 @@ namespace rayproof::peers {
 // (RTC_GEOMETRY_TYPE_SPHERE_POINT), one single-primitive scene per query, rtcIntersect1.
 std::vector<fuzz::Contender> embree_contenders();
 
-// The query as Embree sees it (every number rounded to float), or nullopt when a number leaves
-// the float range or the rounded shape degenerates.
+// The query as Embree sees it (every number rounded to float), or nullopt when a number lies
+// beyond Embree's ±1.844e18 or the rounded shape degenerates.
 std::optional<fuzz::Query> as_float_query(const fuzz::Query& q);
 
 // Watertightness on shared edges: pairs of triangles from the grazing family (rounded to float,
