@@ -156,7 +156,7 @@ void write_stability_svg(const std::string& title, const std::vector<StabilityCe
   }
   std::snprintf(buf, sizeof buf,
                 "<text x='%.1f' y='%.1f' text-anchor='middle'>log2 of the distance from the ray origin</text>"
-                "<text transform='translate(24 %.1f) rotate(-90)' text-anchor='middle'>log2 of the size (radius)</text>\n",
+                "<text transform='translate(24 %.1f) rotate(-90)' text-anchor='middle'>log2 of the size (sphere radius, triangle or box extent)</text>\n",
                 left + plot / 2, top + plot + 40, top + plot / 2);
   out << buf;
   const double lx = left + plot + 30;  // legend
