@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 
 #include <fstream>
+#include <set>
 #include <gmpxx.h>
 #include <sstream>
 
@@ -244,6 +245,81 @@ TEST(UlpHistogram, QuantilesAreExactBelow128AndWithinAnEighthAbove) {
   EXPECT_LE(q, 1000999u);
   EXPECT_GE(q, 1000000u * 7 / 8);
   EXPECT_EQ(UlpHistogram::from_json(big.to_json()).to_json(), big.to_json());
+}
+
+}  // namespace
+}  // namespace rayproof::fuzz
+
+namespace rayproof::fuzz {
+namespace {
+
+std::vector<std::string> lines_of(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> out;
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
+TEST(TradeCli, CsvHasExactlyTheSpecifiedColumnsAndEveryCellHasAParetoContender) {
+  const std::string dir = testing::TempDir();
+  ASSERT_EQ(run("trade --count 600 --shapes sphere,box --families random,tangent -o " + dir + "/trade.csv --plot " +
+                dir + "/trade.svg > " + dir + "/trade.md"),
+            0);
+  const auto csv = lines_of(dir + "/trade.csv");
+  ASSERT_FALSE(csv.empty());
+  EXPECT_EQ(csv[0], "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max");
+  // Every sphere and box variant (scalar and batched; Embree when built) on both families.
+  std::set<std::string> cells, variants;
+  for (size_t i = 1; i < csv.size(); ++i) {
+    std::stringstream ss(csv[i]);
+    std::string v, shape, family;
+    std::getline(ss, v, ','), std::getline(ss, shape, ','), std::getline(ss, family, ',');
+    cells.insert(shape + "/" + family);
+    variants.insert(v);
+  }
+  EXPECT_EQ(cells.size(), 4u);
+  for (const char* v : {"textbook", "stable", "stable-fma", "hearn-baker", "stable-batch", "slab", "robust-slab"})
+    EXPECT_TRUE(variants.count(v)) << v;
+  const std::string md = read(dir + "/trade.md");
+  for (const char* cell : {"| sphere | random |", "| sphere | tangent |", "| box | random |", "| box | tangent |"}) {
+    bool starred = false;
+    std::stringstream ss(md);
+    for (std::string l; std::getline(ss, l);) starred = starred || (l.find(cell) == 0 && l.find("★") != std::string::npos);
+    EXPECT_TRUE(starred) << cell;
+  }
+  const std::string svg = read(dir + "/trade.svg");
+  EXPECT_NE(svg.find("<svg"), std::string::npos);
+  EXPECT_NE(svg.find("ns per test"), std::string::npos);
+  EXPECT_NE(run("trade --shapes cube -o " + dir + "/x.csv"), 0);
+}
+
+TEST(StabilityCli, CsvAndOneHeatmapPerVariant) {
+  const std::string dir = testing::TempDir() + "/stability";
+  ASSERT_EQ(run("stability --shape sphere --from -60 --to 60 --step 30 --cases 40 -o " + dir), 0);
+  const auto csv = lines_of(dir + "/stability.csv");
+  ASSERT_FALSE(csv.empty());
+  EXPECT_EQ(csv[0], "variant,log2_scale,log2_size,cases,disagreement_rate,ulp_p99");
+  EXPECT_EQ(csv.size(), 1 + 4 * 25u);  // four sphere variants × 5 × 5 cells
+  for (const char* v : {"textbook", "stable", "stable-fma", "hearn-baker"}) {
+    const std::string svg = read(dir + "/" + v + ".svg");
+    EXPECT_NE(svg.find("log2 of the distance"), std::string::npos) << v;
+    EXPECT_NE(svg.find("disagreement rate"), std::string::npos) << v;
+  }
+  // The textbook discriminant loses a sphere 2^60 smaller than its distance; Hearn–Baker does not.
+  auto rate = [&](const std::string& variant, int scale, int size) {
+    for (const std::string& l : csv) {
+      std::stringstream ss(l);
+      std::string v, a, b, n, r;
+      std::getline(ss, v, ','), std::getline(ss, a, ','), std::getline(ss, b, ','), std::getline(ss, n, ','), std::getline(ss, r, ',');
+      if (v == variant && a == std::to_string(scale) && b == std::to_string(size)) return std::stod(r);
+    }
+    return -1.0;
+  };
+  EXPECT_GT(rate("textbook", 60, 0), 0.5);
+  EXPECT_EQ(rate("hearn-baker", 60, 0), 0.0);
+  EXPECT_EQ(rate("textbook", 0, 0), 0.0);
+  EXPECT_NE(run("stability --shape sphere --variant watertight -o " + dir), 0);
+  EXPECT_NE(run("stability --from 10 --to -10 -o " + dir), 0);
 }
 
 }  // namespace
