@@ -32,16 +32,7 @@ double nudge(double x, int ulps) {
 
 namespace {
 
-// SplitMix64 (Steele, Lea & Flood 2014): tiny, fast, and good enough to spread seeds.
-struct Rng {
-  std::uint64_t state;
-  std::uint64_t next() {
-    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double unit() { return (next() >> 11) * 0x1p-53; }                    // [0, 1)
+struct Rng : SplitMix64 {
   double uniform(double lo, double hi) { return lo + (hi - lo) * unit(); }
   long integer(long lo, long hi) { return lo + static_cast<long>(next() % std::uint64_t(hi - lo + 1)); }
   Vec3 ivec(long r) { return Vec3(integer(-r, r), integer(-r, r), integer(-r, r)); }
@@ -53,17 +44,8 @@ struct Rng {
   }
 };
 
-Vec3 scaled(const Vec3& v, int k) { return Vec3(std::ldexp(v.x(), k), std::ldexp(v.y(), k), std::ldexp(v.z(), k)); }
-
-Shape scaled(const Shape& s, int k) {
-  return std::visit([k](const auto& x) -> Shape {
-    using S = std::decay_t<decltype(x)>;
-    if constexpr (std::is_same_v<S, Sphere>) return Sphere{scaled(x.center, k), std::ldexp(x.radius, k)};
-    if constexpr (std::is_same_v<S, Plane>) return Plane{x.normal, std::ldexp(x.offset, k)};
-    if constexpr (std::is_same_v<S, Triangle>) return Triangle{{scaled(x.v[0], k), scaled(x.v[1], k), scaled(x.v[2], k)}};
-    if constexpr (std::is_same_v<S, Box>) return Box{scaled(x.min, k), scaled(x.max, k)};
-  }, s);
-}
+Vec3 scaled(const Vec3& v, int k) { return v * std::ldexp(1.0, k); }
+Shape scaled(const Shape& s, int k) { return rayproof::scaled(s, std::ldexp(1.0, k)); }
 
 // One case under construction: exact geometry first, then `nudges` applied to the origin.
 struct Builder {

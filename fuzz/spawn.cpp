@@ -105,14 +105,7 @@ std::vector<SpawnCell> spawn_study(const std::vector<const Variant*>& variants,
         GeneratedCase g = generate(Family::random, v->shape, seed, i);
         const double f = std::ldexp(1.0, k);
         Ray primary{g.ray.origin * f, g.ray.direction * f};
-        Shape shape = g.shape;
-        std::visit([&](auto& x) {
-          using S = std::decay_t<decltype(x)>;
-          if constexpr (std::is_same_v<S, Sphere>) x.center *= f, x.radius *= f;
-          if constexpr (std::is_same_v<S, Plane>) x.offset *= f;
-          if constexpr (std::is_same_v<S, Triangle>) for (auto& p : x.v) p *= f;
-          if constexpr (std::is_same_v<S, Box>) x.min *= f, x.max *= f;
-        }, shape);
+        const Shape shape = scaled(g.shape, f);
         const Hit h = v->intersect(primary, shape, HitRule::nearest_contact);
         if (h.cls == HitClass::miss || !h.has_t()) continue;
         // From inside a sphere or box the far side is a genuine hit, not acne: only entries.

@@ -6,21 +6,14 @@
 #include <thread>
 
 #include "rayproof/compare.h"
+#include "rayproof/generators.h"
 #include "rayproof/oracle.h"
 
 namespace rayproof::fuzz {
 
 namespace {
 
-struct CellRng {  // SplitMix64, seeded per (seed, cell, case): independent of threads
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double unit() { return (next() >> 11) * 0x1p-53; }
+struct CellRng : SplitMix64 {  // seeded per (seed, cell, case): independent of threads
   double sym() { return 2 * unit() - 1; }
   Vec3 direction() {
     Vec3 v;

@@ -101,6 +101,16 @@ std::optional<std::string> degenerate_reason(const Shape& shape) {
   return std::visit(Check{}, shape);
 }
 
+Shape scaled(const Shape& shape, double f) {
+  return std::visit([f](const auto& x) -> Shape {
+    using S = std::decay_t<decltype(x)>;
+    if constexpr (std::is_same_v<S, Sphere>) return Sphere{x.center * f, x.radius * f};
+    if constexpr (std::is_same_v<S, Plane>) return Plane{x.normal, x.offset * f};
+    if constexpr (std::is_same_v<S, Triangle>) return Triangle{{x.v[0] * f, x.v[1] * f, x.v[2] * f}};
+    if constexpr (std::is_same_v<S, Box>) return Box{x.min * f, x.max * f};
+  }, shape);
+}
+
 Vec3 outward_normal(const Shape& shape, const Vec3& p) {
   struct Normal {
     const Vec3& p;

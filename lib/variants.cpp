@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace rayproof {
 namespace {
@@ -36,15 +37,31 @@ Hit sphere_hit_from_roots(const Ray& ray, const Sphere& s, double t0, double t1,
   return Hit::miss();
 }
 
+// The sphere's quadratic a t² + b t + c = 0 with a = d·d, b = 2 d·(o−m), c = |o−m|² − r²
+// (Rietmann 2020, Aufgabe 1), shared by the variants that start from it.
+struct Quadratic {
+  double a, b, c;
+};
+Quadratic sphere_quadratic(const Ray& ray, const Sphere& s) {
+  const Vec3 oc = ray.origin - s.center;
+  return {dot(ray.direction, ray.direction), 2 * dot(ray.direction, oc), dot(oc, oc) - s.radius * s.radius};
+}
+
+// The stable roots q = −½(b + sgn(b)√D), q/a and c/q with sgn(0) = +1, sorted.
+std::pair<double, double> stable_roots(const Quadratic& k, double disc) {
+  const double root = std::sqrt(disc);
+  const double q = -0.5 * (k.b + (k.b >= 0 ? root : -root));
+  const double x1 = q / k.a;
+  const double x2 = q == 0 ? 0.0 : k.c / q;  // q = 0 only when b = D = 0, hence c = 0: both roots 0
+  return {std::min(x1, x2), std::max(x1, x2)};
+}
+
 }  // namespace
 
 // Textbook quadratic formula, t = (−b ± √(b² − 4ac)) / 2a (Rietmann, "Raytracing und
 // Vektorgeometrie", 2020, Aufgabe 1). Cancels catastrophically in −b + √D when b² ≫ 4ac.
 Hit sphere_textbook(const Ray& ray, const Sphere& s, HitRule rule) {
-  const Vec3 oc = ray.origin - s.center;
-  const double a = dot(ray.direction, ray.direction);
-  const double b = 2 * dot(ray.direction, oc);
-  const double c = dot(oc, oc) - s.radius * s.radius;
+  const auto [a, b, c] = sphere_quadratic(ray, s);
   const double disc = b * b - 4 * a * c;
   if (disc < 0) return Hit::miss();
   const double root = std::sqrt(disc);
@@ -56,37 +73,25 @@ Hit sphere_textbook(const Ray& ray, const Sphere& s, HitRule rule) {
 // Stable quadratic roots q = −½(b + sgn(b)√D), t1 = q/a, t2 = c/q with sgn(0) = +1
 // (DGL Wiki, "Tutorial Raytracing – Grundlagen I", 2012; Numerical Recipes §5.6).
 Hit sphere_stable(const Ray& ray, const Sphere& s, HitRule rule) {
-  const Vec3 oc = ray.origin - s.center;
-  const double a = dot(ray.direction, ray.direction);
-  const double b = 2 * dot(ray.direction, oc);
-  const double c = dot(oc, oc) - s.radius * s.radius;
-  const double disc = b * b - 4 * a * c;
+  const Quadratic k = sphere_quadratic(ray, s);
+  const double disc = k.b * k.b - 4 * k.a * k.c;
   if (disc < 0) return Hit::miss();
-  const double root = std::sqrt(disc);
-  const double q = -0.5 * (b + (b >= 0 ? root : -root));
-  const double x1 = q / a;
-  const double x2 = q == 0 ? 0.0 : c / q;  // q = 0 only when b = D = 0, hence c = 0: both roots 0
-  return sphere_hit_from_roots(ray, s, std::min(x1, x2), std::max(x1, x2), disc == 0, rule);
+  const auto [t0, t1] = stable_roots(k, disc);
+  return sphere_hit_from_roots(ray, s, t0, t1, disc == 0, rule);
 }
 
 // As `stable`, but the discriminant b² − 4ac is computed with Kahan's FMA-compensated
 // difference of products (Kahan, "On the Cost of Floating-Point Computation Without
 // Extra-Precise Arithmetic", 2004): D is accurate to a few ulps even when b² ≈ 4ac.
 Hit sphere_stable_fma(const Ray& ray, const Sphere& s, HitRule rule) {
-  const Vec3 oc = ray.origin - s.center;
-  const double a = dot(ray.direction, ray.direction);
-  const double b = 2 * dot(ray.direction, oc);
-  const double c = dot(oc, oc) - s.radius * s.radius;
-  const double four_a = 4 * a;
-  const double w = four_a * c;
-  const double e = std::fma(-four_a, c, w);          // exact error of the product 4a·c
-  const double disc = std::fma(b, b, -w) + e;        // b² − 4ac with one rounding in b²−w
+  const Quadratic k = sphere_quadratic(ray, s);
+  const double four_a = 4 * k.a;
+  const double w = four_a * k.c;
+  const double e = std::fma(-four_a, k.c, w);        // exact error of the product 4a·c
+  const double disc = std::fma(k.b, k.b, -w) + e;    // b² − 4ac with one rounding in b²−w
   if (disc < 0) return Hit::miss();
-  const double root = std::sqrt(disc);
-  const double q = -0.5 * (b + (b >= 0 ? root : -root));
-  const double x1 = q / a;
-  const double x2 = q == 0 ? 0.0 : c / q;
-  return sphere_hit_from_roots(ray, s, std::min(x1, x2), std::max(x1, x2), disc == 0, rule);
+  const auto [t0, t1] = stable_roots(k, disc);
+  return sphere_hit_from_roots(ray, s, t0, t1, disc == 0, rule);
 }
 
 // Discriminant from the distance of the centre to the ray's line, Δ = r² − |f − (f·d/d·d) d|²

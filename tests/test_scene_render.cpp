@@ -79,15 +79,7 @@ Scene scaled(Scene scene, int k) {
   const double f = std::ldexp(1.0, k);
   scene.camera.eye *= f;
   for (auto& l : scene.lights) l.position *= f;
-  for (auto& o : scene.objects) {
-    std::visit([&](auto& s) {
-      using S = std::decay_t<decltype(s)>;
-      if constexpr (std::is_same_v<S, Sphere>) s.center *= f, s.radius *= f;
-      if constexpr (std::is_same_v<S, Plane>) s.offset *= f;
-      if constexpr (std::is_same_v<S, Triangle>) for (auto& v : s.v) v *= f;
-      if constexpr (std::is_same_v<S, Box>) s.min *= f, s.max *= f;
-    }, o.shape);
-  }
+  for (auto& o : scene.objects) o.shape = rayproof::scaled(o.shape, f);
   return scene;
 }
 

@@ -35,6 +35,19 @@ GeneratedCase generate(Family family, ShapeKind shape, std::uint64_t seed, std::
 // edge or vertex).
 GeneratedCase generate_unnudged(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index);
 
+// SplitMix64 (Steele, Lea & Flood 2014): tiny, fast, good enough to spread seeds; every
+// generated case draws from one seeded by its own (seed, …, index), never from a shared stream.
+struct SplitMix64 {
+  std::uint64_t state;
+  std::uint64_t next() {
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double unit() { return (next() >> 11) * 0x1p-53; }  // [0, 1)
+};
+
 // x moved by `ulps` representable doubles (negative: downwards).
 double nudge(double x, int ulps);
 

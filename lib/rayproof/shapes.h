@@ -48,6 +48,11 @@ std::optional<ShapeKind> shape_kind_from_string(std::string_view s);
 // in exact arithmetic (decided by an exact orientation test on the doubles).
 std::optional<std::string> degenerate_reason(const Shape& s);
 
+// The shape with every length multiplied by `factor` (centre, radius, plane offset, vertices,
+// corners; a plane's normal keeps its direction). With a power of two as factor this is exact
+// until the range runs out: the scale-invariance tests and the fuzz families rely on it.
+Shape scaled(const Shape& s, double factor);
+
 // Unit outward normal at a point on (or next to) the surface. Planes and triangles are
 // two-sided: their "outward" normal is the front normal.
 Vec3 outward_normal(const Shape& s, const Vec3& p);

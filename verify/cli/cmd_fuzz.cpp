@@ -11,18 +11,6 @@
 
 namespace rayproof::cli {
 
-namespace {
-std::vector<std::string> split(const std::vector<std::string>& lists) {
-  std::vector<std::string> out;
-  for (const std::string& l : lists) {
-    std::stringstream ss(l);
-    for (std::string x; std::getline(ss, x, ',');)
-      if (!x.empty()) out.push_back(x);
-  }
-  return out;
-}
-}  // namespace
-
 void add_fuzz_command(CLI::App& app, int& exit_code) {
   struct Options {
     std::vector<std::string> families{"all"}, shapes{"all"};
@@ -52,7 +40,7 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
       ->group("");
   cmd->callback([opts, &exit_code] {
     fuzz::CampaignOptions o;
-    for (const std::string& f : split(opts->families)) {
+    for (const std::string& f : split_list(opts->families)) {
       if (f == "all") {
         o.families.assign(std::begin(fuzz::kAllFamilies), std::end(fuzz::kAllFamilies));
         continue;
@@ -61,7 +49,7 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
       if (!fam) throw CLI::ValidationError("--family", "unknown family '" + f + "'");
       o.families.push_back(*fam);
     }
-    for (const std::string& s : split(opts->shapes)) {
+    for (const std::string& s : split_list(opts->shapes)) {
       if (s == "all") {
         o.shapes.assign(kAllShapeKinds.begin(), kAllShapeKinds.end());
         continue;

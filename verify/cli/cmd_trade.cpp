@@ -13,16 +13,6 @@
 
 namespace rayproof::cli {
 
-std::vector<std::string> split_list(const std::vector<std::string>& lists) {
-  std::vector<std::string> out;
-  for (const std::string& l : lists) {
-    std::stringstream ss(l);
-    for (std::string x; std::getline(ss, x, ',');)
-      if (!x.empty()) out.push_back(x);
-  }
-  return out;
-}
-
 void add_trade_command(CLI::App& app, int& exit_code) {
   struct Options {
     std::vector<std::string> shapes{"sphere,plane,triangle,box"};

@@ -23,6 +23,9 @@ void add_stability_command(CLI::App& app, int& exit_code);
 void run_spawn_report(const std::vector<const Variant*>& variants, const std::vector<int>& scales, std::uint64_t count,
                       std::uint64_t seed, int threads, const std::string& csv_path);
 
+// Comma-separated option values, flattened ("a,b" "c" → a, b, c); empty items dropped.
+std::vector<std::string> split_list(const std::vector<std::string>& lists);
+
 // Resolves --variants names (comma lists allowed); an empty list means every variant.
 // Throws CLI::ValidationError naming an unknown variant.
 std::vector<const Variant*> resolve_variants(const std::vector<std::string>& names);

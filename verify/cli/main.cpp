@@ -13,20 +13,26 @@
 
 namespace rayproof::cli {
 
+std::vector<std::string> split_list(const std::vector<std::string>& lists) {
+  std::vector<std::string> out;
+  for (const std::string& l : lists) {
+    std::stringstream ss(l);
+    for (std::string x; std::getline(ss, x, ',');)
+      if (!x.empty()) out.push_back(x);
+  }
+  return out;
+}
+
 std::vector<const Variant*> resolve_variants(const std::vector<std::string>& names) {
   std::vector<const Variant*> out;
-  for (const std::string& list : names) {
-    std::stringstream ss(list);
-    for (std::string name; std::getline(ss, name, ',');) {
-      if (name.empty()) continue;
-      const Variant* v = find_variant(name);
-      if (!v) {
-        std::string known;
-        for (const Variant& k : all_variants()) known += (known.empty() ? "" : ", ") + std::string(k.name);
-        throw CLI::ValidationError("--variants", "unknown variant '" + name + "' (known: " + known + ")");
-      }
-      out.push_back(v);
+  for (const std::string& name : split_list(names)) {
+    const Variant* v = find_variant(name);
+    if (!v) {
+      std::string known;
+      for (const Variant& k : all_variants()) known += (known.empty() ? "" : ", ") + std::string(k.name);
+      throw CLI::ValidationError("--variants", "unknown variant '" + name + "' (known: " + known + ")");
     }
+    out.push_back(v);
   }
   if (out.empty())
     for (const Variant& v : all_variants()) out.push_back(&v);
