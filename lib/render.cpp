@@ -144,10 +144,14 @@ void write_png_file(const Image& image, FILE* f) {
 
 }  // namespace
 
+bool is_image_path(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  return ext == ".png" || ext == ".ppm";
+}
+
 void write_image(const Image& image, const std::string& path) {
   const std::string ext = std::filesystem::path(path).extension().string();
-  if (ext != ".png" && ext != ".ppm")
-    throw std::runtime_error(path + ": unknown image type '" + ext + "' (use .png or .ppm)");
+  if (!is_image_path(path)) throw std::runtime_error(path + ": unknown image type '" + ext + "' (use .png or .ppm)");
   const std::string tmp = path + ".tmp";
   FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) throw std::runtime_error(path + ": cannot write");

@@ -49,6 +49,10 @@ Vec3 shade(const Scene& scene, const Intersectors& isect, const Ray& ray);
 
 Image render(const Scene& scene, const RenderOptions& options = {});
 
+// Whether write_image can write this path (.png or .ppm): checked before rendering, so a long
+// render is never thrown away for a typo in the output name.
+bool is_image_path(const std::string& path);
+
 // Writes PNG or PPM by the extension (.png, .ppm), atomically (temporary file, then rename).
 // Throws std::runtime_error on failure.
 void write_image(const Image& image, const std::string& path);

@@ -22,6 +22,8 @@ void add_render_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--rule", opts->rule, "hit rule")->check(CLI::IsMember({"nearest", "enter-only"}));
   cmd->add_option("--threads", opts->threads, "worker threads (default: all cores)")->check(CLI::Range(0, 256));
   cmd->callback([opts, &exit_code] {
+    if (!is_image_path(opts->output))
+      throw CLI::ValidationError("--output", "'" + opts->output + "': the image type comes from the extension, .png or .ppm");
     RenderOptions ro;
     if (!opts->variants.empty())
       for (const Variant* v : resolve_variants(opts->variants)) ro.intersectors.use(v->name);
