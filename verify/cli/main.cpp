@@ -42,7 +42,11 @@ std::vector<const Variant*> resolve_variants(const std::vector<std::string>& nam
 Progress::Progress(std::string label) : label_(std::move(label)), enabled_(isatty(2)) {}
 
 void Progress::update(long done, long total) {
-  if (!enabled_ || total <= 0) return;
+  if (!enabled_) return;
+  if (total <= 0) {  // unknown total (a case file read as it streams): a count every 10,000
+    if (done % 10000 == 0) std::fprintf(stderr, "\r%s: %ld done", label_.c_str(), done), last_percent_ = 0;
+    return;
+  }
   const long percent = done * 100 / total;
   if (percent == last_percent_) return;
   last_percent_ = percent;
