@@ -44,17 +44,22 @@ class Expansion {
     for (int i = 0; i < r.n_; ++i) r.c_[i] = -r.c_[i];
     return r;
   }
+  // Every partial product a_i·b_j, split exactly by FMA into two doubles, grown into one
+  // expansion in place (GROW-EXPANSION keeps it non-overlapping), then compressed once.
   friend Expansion operator*(const Expansion& a, const Expansion& b) {
-    if (b.n_ > a.n_) return b * a;  // fewer partial products
-    if (b.n_ <= 1) {
-      Expansion r = b.n_ == 0 ? Expansion() : a.scaled(b.c_[0]);
-      r.valid_ = r.valid_ && a.valid_ && b.valid_;
-      r.compress();
-      return r;
-    }
     Expansion r;
     r.valid_ = a.valid_ && b.valid_;
-    for (int i = 0; i < b.n_ && r.valid_; ++i) r = sum(r, a.scaled(b.c_[i]), false);
+    for (int j = 0; j < b.n_ && r.valid_; ++j) {
+      for (int i = 0; i < a.n_; ++i) {
+        const double p = a.c_[i] * b.c_[j];
+        const double e = std::fma(a.c_[i], b.c_[j], -p);
+        // The low part is exact only while |p| stays far above the subnormal range.
+        if (!std::isfinite(p) || std::abs(p) < 0x1p-900) r.valid_ = false;
+        r.grow(e);
+        r.grow(p);
+      }
+      r.compress();  // keeps the running sum short for the next row
+    }
     return r;
   }
   friend int sgn(const Expansion& e) { return e.sign(); }
@@ -72,30 +77,21 @@ class Expansion {
     else c_[n_++] = x;
   }
 
-  // this · y (SCALE-EXPANSION with zero elimination). The low part of each product comes from
-  // FMA, exact only while |product| stays far above the subnormal range.
-  Expansion scaled(double y) const {
-    Expansion r;
-    r.valid_ = valid_ && std::isfinite(y);
-    if (n_ == 0 || y == 0 || !r.valid_) return r;
-    auto two_prod = [&r](double a, double b, double& p, double& e) {
-      p = a * b;
-      e = std::fma(a, b, -p);
-      if (!std::isfinite(p) || std::abs(p) < 0x1p-900) r.valid_ = false;  // overflow, or inexact low part
-    };
-    double q, h;
-    two_prod(c_[0], y, q, h);
-    r.push(h);
-    for (int i = 1; i < n_; ++i) {
-      double p1, p0, s, e;
-      two_prod(c_[i], y, p1, p0);
-      two_sum(q, p0, s, e);
-      r.push(e);
-      two_sum(p1, s, q, e);
-      r.push(e);
+  // this + x, in place (Shewchuk's GROW-EXPANSION with zero elimination): each output
+  // component is written at or before the position just read.
+  void grow(double x) {
+    if (x == 0) return;
+    double q = x;
+    int out = 0;
+    for (int i = 0; i < n_; ++i) {
+      double s, e;
+      two_sum(q, c_[i], s, e);
+      if (e != 0) c_[out++] = e;
+      q = s;
     }
-    r.push(q);
-    return r;
+    n_ = out;
+    if (!std::isfinite(q)) valid_ = false;
+    push(q);
   }
 
   // a ± b by merging components by magnitude and one TwoSum chain (FAST-EXPANSION-SUM with
