@@ -34,28 +34,28 @@ std::vector<Contender> variant_contenders() {
   return out;
 }
 
+namespace {
+// A batched variant as a contender: the queries laid out as structure of arrays once, in
+// prepare; only the kernel is timed.
+template <class S, class ShapesSoA, void (*Kernel)(const RaysSoA&, const ShapesSoA&, HitsSoA&)>
+Contender batched_contender(const BatchedVariant& b) {
+  return {std::string(b.name), b.shape, [](const std::vector<Query>& qs) {
+            auto rays = std::make_shared<RaysSoA>();
+            auto shapes = std::make_shared<ShapesSoA>();
+            for (const Query& q : qs) rays->push(q.ray), shapes->push(std::get<S>(q.shape));
+            auto hits = std::make_shared<HitsSoA>();
+            return Prepared{[rays, shapes, hits] { Kernel(*rays, *shapes, *hits); },
+                            [hits](size_t i) { return hits->at(i); }};
+          }, {}};
+}
+}  // namespace
+
 std::vector<Contender> batched_contenders() {
   std::vector<Contender> out;
   for (const BatchedVariant& b : batched_variants()) {
-    if (b.shape == ShapeKind::sphere) {
-      out.push_back({std::string(b.name), b.shape, [](const std::vector<Query>& qs) {
-                       auto rays = std::make_shared<RaysSoA>();
-                       auto spheres = std::make_shared<SpheresSoA>();
-                       for (const Query& q : qs) rays->push(q.ray), spheres->push(std::get<Sphere>(q.shape));
-                       auto hits = std::make_shared<HitsSoA>();
-                       return Prepared{[rays, spheres, hits] { sphere_stable_batch(*rays, *spheres, *hits); },
-                                       [hits](size_t i) { return hits->at(i); }};
-                     }, {}});
-    } else if (b.shape == ShapeKind::triangle) {
-      out.push_back({std::string(b.name), b.shape, [](const std::vector<Query>& qs) {
-                       auto rays = std::make_shared<RaysSoA>();
-                       auto tris = std::make_shared<TrianglesSoA>();
-                       for (const Query& q : qs) rays->push(q.ray), tris->push(std::get<Triangle>(q.shape));
-                       auto hits = std::make_shared<HitsSoA>();
-                       return Prepared{[rays, tris, hits] { triangle_moller_trumbore_batch(*rays, *tris, *hits); },
-                                       [hits](size_t i) { return hits->at(i); }};
-                     }, {}});
-    }
+    if (b.shape == ShapeKind::sphere) out.push_back(batched_contender<Sphere, SpheresSoA, sphere_stable_batch>(b));
+    if (b.shape == ShapeKind::triangle)
+      out.push_back(batched_contender<Triangle, TrianglesSoA, triangle_moller_trumbore_batch>(b));
   }
   return out;
 }
