@@ -2,51 +2,25 @@
 // one-sphere scene (single rays and 8-ray packets) against rayproof's variants on the same
 // rays, and a 10,000-triangle scene.
 #include <benchmark/benchmark.h>
-#include <embree3/rtcore.h>
 
 #include <cmath>
 #include <random>
 #include <vector>
 
-#include "rayproof/variants.h"
+#include "rayproof/core/variants.h"
+#include "rayproof/peers/embree.h"
 
 namespace rayproof::bench {
 namespace {
 
-RTCDevice device() {
-  static RTCDevice d = rtcNewDevice("threads=1");
-  return d;
-}
-
 RTCScene triangle_scene(const std::vector<Triangle>& tris, bool robust) {
-  RTCScene scene = rtcNewScene(device());
-  rtcSetSceneFlags(scene, robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
-  RTCGeometry g = rtcNewGeometry(device(), RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * tris.size()));
-  auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), tris.size()));
-  for (size_t t = 0; t < tris.size(); ++t)
-    for (int i = 0; i < 3; ++i) {
-      for (int k = 0; k < 3; ++k) v[9 * t + 3 * i + k] = static_cast<float>(tris[t].v[i][k]);
-      idx[3 * t + i] = static_cast<unsigned>(3 * t + i);
-    }
-  rtcCommitGeometry(g);
-  rtcAttachGeometry(scene, g);
-  rtcReleaseGeometry(g);
-  rtcCommitScene(scene);
-  return scene;
+  const std::vector<Shape> shapes(tris.begin(), tris.end());
+  return peers::build_embree_scene(shapes, robust);
 }
 
 RTCScene sphere_scene(const Sphere& s, bool robust) {
-  RTCScene scene = rtcNewScene(device());
-  rtcSetSceneFlags(scene, robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
-  RTCGeometry g = rtcNewGeometry(device(), RTC_GEOMETRY_TYPE_SPHERE_POINT);
-  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 1));
-  v[0] = float(s.center.x()), v[1] = float(s.center.y()), v[2] = float(s.center.z()), v[3] = float(s.radius);
-  rtcCommitGeometry(g);
-  rtcAttachGeometry(scene, g);
-  rtcReleaseGeometry(g);
-  rtcCommitScene(scene);
-  return scene;
+  const Shape shape = s;
+  return peers::build_embree_scene(std::span(&shape, 1), robust);
 }
 
 const Triangle kTriangle{{Vec3(-1, -1, 0.1), Vec3(1, -1, -0.2), Vec3(0, 1, 0.05)}};
@@ -69,13 +43,6 @@ std::vector<Ray> rays(size_t n) {
   return out;
 }
 
-void set(RTCRayHit& rh, const Ray& r) {
-  rh.ray.org_x = float(r.origin.x()), rh.ray.org_y = float(r.origin.y()), rh.ray.org_z = float(r.origin.z());
-  rh.ray.dir_x = float(r.direction.x()), rh.ray.dir_y = float(r.direction.y()), rh.ray.dir_z = float(r.direction.z());
-  rh.ray.tnear = 0, rh.ray.tfar = INFINITY, rh.ray.mask = ~0u, rh.ray.flags = 0;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-}
-
 void counters(benchmark::State& state, double tests) {
   state.counters["tests_per_s"] = benchmark::Counter(tests, benchmark::Counter::kIsRate);
   state.counters["per_test"] = benchmark::Counter(tests, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
@@ -87,8 +54,7 @@ void BM_EmbreeSingle(benchmark::State& state, RTCScene scene) {
   rtcInitIntersectContext(&ctx);
   size_t i = 0;
   for (auto _ : state) {
-    RTCRayHit rh;
-    set(rh, rs[i++ % rs.size()]);
+    RTCRayHit rh = peers::embree_ray(rs[i++ % rs.size()]);
     rtcIntersect1(scene, &ctx, &rh);
     benchmark::DoNotOptimize(rh.ray.tfar);
   }

@@ -6,8 +6,8 @@
 #include <CGAL/intersections.h>
 
 #include "inputs.h"
-#include "rayproof/oracle.h"
-#include "rayproof/variants.h"
+#include "rayproof/verify/oracle.h"
+#include "rayproof/core/variants.h"
 
 namespace rayproof::bench {
 namespace {
@@ -17,7 +17,7 @@ void BM_Oracle(benchmark::State& state, ShapeKind kind, std::string family, bool
   Oracle oracle(Oracle::Options{.filter = filter});
   size_t i = 0;
   for (auto _ : state) {
-    const fuzz::Query& q = qs[i++ % qs.size()];
+    const Query& q = qs[i++ % qs.size()];
     benchmark::DoNotOptimize(oracle.judge(q.ray, q.shape));
   }
   const OracleStats& s = oracle.stats(kind);
@@ -34,7 +34,7 @@ void BM_CgalEpickTriangle(benchmark::State& state, std::string family) {
   using K = CGAL::Exact_predicates_inexact_constructions_kernel;
   std::vector<std::pair<K::Ray_3, K::Triangle_3>> cgal;
   auto P = [](const Vec3& v) { return K::Point_3(v.x(), v.y(), v.z()); };
-  for (const fuzz::Query& q : inputs(ShapeKind::triangle, family)) {
+  for (const Query& q : inputs(ShapeKind::triangle, family)) {
     const Triangle& t = std::get<Triangle>(q.shape);
     cgal.push_back({K::Ray_3(P(q.ray.origin), K::Vector_3(q.ray.direction.x(), q.ray.direction.y(), q.ray.direction.z())),
                     K::Triangle_3(P(t.v[0]), P(t.v[1]), P(t.v[2]))});

@@ -2,7 +2,8 @@
 #include <benchmark/benchmark.h>
 
 #include "inputs.h"
-#include "rayproof/variants.h"
+#include "rayproof/core/variants.h"
+#include "rayproof/studies/trade.h"
 
 namespace rayproof::bench {
 namespace {
@@ -12,7 +13,7 @@ void BM_Variant(benchmark::State& state, const Variant* v, std::string family) {
   const auto& qs = inputs(v->shape, family);
   size_t i = 0;
   for (auto _ : state) {
-    const fuzz::Query& q = qs[i++ % qs.size()];
+    const Query& q = qs[i++ % qs.size()];
     benchmark::DoNotOptimize(v->intersect(q.ray, q.shape, HitRule::nearest_contact));
   }
   state.counters["tests_per_s"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
@@ -20,9 +21,9 @@ void BM_Variant(benchmark::State& state, const Variant* v, std::string family) {
 }
 
 // The whole ring per iteration, in the contender's own layout (structure of arrays).
-void BM_Batched(benchmark::State& state, const fuzz::Contender* c, std::string family) {
+void BM_Batched(benchmark::State& state, const studies::Contender* c, std::string family) {
   const auto& qs = inputs(c->shape, family);
-  const fuzz::Prepared p = c->prepare(qs);
+  const studies::Prepared p = c->prepare(qs);
   for (auto _ : state) {
     p.run();
     benchmark::ClobberMemory();
@@ -34,11 +35,11 @@ void BM_Batched(benchmark::State& state, const fuzz::Contender* c, std::string f
 }
 
 const bool registered = [] {
-  static const std::vector<fuzz::Contender> batched = fuzz::batched_contenders();
+  static const std::vector<studies::Contender> batched = studies::batched_contenders();
   for (const std::string& family : bench_families()) {
     for (const Variant& v : all_variants())
       benchmark::RegisterBenchmark(("variant/" + std::string(v.name) + "/" + family).c_str(), BM_Variant, &v, family);
-    for (const fuzz::Contender& c : batched)
+    for (const studies::Contender& c : batched)
       benchmark::RegisterBenchmark(("batched/" + c.name + "/" + family).c_str(), BM_Batched, &c, family);
   }
   return true;

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "rayproof/generators.h"
-#include "rayproof/oracle.h"
-#include "rayproof/trade.h"
+#include "rayproof/fuzz/generators.h"
+#include "rayproof/verify/oracle.h"
+#include "rayproof/core/query.h"
 
 namespace rayproof::bench {
 
@@ -20,8 +20,8 @@ inline const std::vector<std::string>& bench_families() {
   return names;
 }
 
-inline const std::vector<fuzz::Query>& inputs(ShapeKind shape, const std::string& family) {
-  static std::map<std::pair<int, std::string>, std::vector<fuzz::Query>> cache;
+inline const std::vector<Query>& inputs(ShapeKind shape, const std::string& family) {
+  static std::map<std::pair<int, std::string>, std::vector<Query>> cache;
   auto& qs = cache[{static_cast<int>(shape), family}];
   if (!qs.empty()) return qs;
   Oracle oracle;
@@ -30,7 +30,7 @@ inline const std::vector<fuzz::Query>& inputs(ShapeKind shape, const std::string
   for (std::uint64_t i = 0; qs.size() < kRing && i < 100 * kRing; ++i) {
     const fuzz::GeneratedCase g = fuzz::generate(f, shape, 7, i);
     if (split && (oracle.judge(g.ray, g.shape).cls == HitClass::miss) != (family == "random-miss")) continue;
-    qs.push_back({g.ray, g.shape});
+    qs.push_back(g);
   }
   return qs;
 }

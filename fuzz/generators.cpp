@@ -1,8 +1,8 @@
-#include "rayproof/generators.h"
+#include "rayproof/fuzz/generators.h"
 
 #include <cmath>
 
-#include "rayproof/variants.h"
+#include "rayproof/core/variants.h"
 
 namespace rayproof::fuzz {
 
@@ -24,11 +24,7 @@ std::optional<Family> family_from_string(std::string_view s) {
   return std::nullopt;
 }
 
-double nudge(double x, int ulps) {
-  for (; ulps > 0; --ulps) x = std::nextafter(x, INFINITY);
-  for (; ulps < 0; ++ulps) x = std::nextafter(x, -INFINITY);
-  return x;
-}
+bool is_shared_edge_pair(const GeneratedCase& c) { return c.detail.rfind("shared-edge", 0) == 0; }
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "rayproof/shrink.h"
+#include "rayproof/fuzz/shrink.h"
 
 #include <cmath>
 #include <cstring>
@@ -63,11 +63,6 @@ std::vector<double> candidates(double x) {
   return out;
 }
 
-bool valid(const Case& c) {
-  return c.ray.direction != Vec3::Zero() && all_finite(c.ray.origin) && all_finite(c.ray.direction) &&
-         !degenerate_reason(c.shape);
-}
-
 }  // namespace
 
 Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget) {
@@ -84,7 +79,7 @@ Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget) 
         const double before = *x;
         *x = candidate;
         --budget;
-        if (valid(trial) && disagrees(v, oracle, trial.ray, trial.shape, rule)) {
+        if (is_valid_query(trial.ray, trial.shape) && disagrees(v, oracle, trial.ray, trial.shape, rule)) {
           changed = true;
           break;  // keep the simplest candidate that still disagrees
         }

@@ -1,6 +1,6 @@
 // Compiled with -O3 -fno-math-errno -fno-trapping-math (sqrt and the selects may then vectorise;
 // no result changes: nothing here reads errno or traps) and -ffp-contract=off like every variant.
-#include "rayproof/batch.h"
+#include "rayproof/core/batch.h"
 
 #include <cmath>
 #include <limits>
@@ -99,10 +99,20 @@ void triangle_moller_trumbore_batch(const RaysSoA& rays, const TrianglesSoA& tr,
                          tr.z1.data(), tr.x2.data(), tr.y2.data(), tr.z2.data(), out.cls.data(), out.t.data());
 }
 
+QueriesSoA::QueriesSoA(std::span<const Query> queries) {
+  for (const Query& q : queries) {
+    rays.push(q.ray);
+    if (const auto* s = std::get_if<Sphere>(&q.shape)) spheres.push(*s);
+    if (const auto* t = std::get_if<Triangle>(&q.shape)) triangles.push(*t);
+  }
+}
+
 namespace {
 constexpr BatchedVariant kBatched[] = {
-    {"stable-batch", "stable", ShapeKind::sphere},
-    {"moller-trumbore-batch", "moller-trumbore", ShapeKind::triangle},
+    {"stable-batch", "stable", ShapeKind::sphere,
+     [](const QueriesSoA& q, HitsSoA& out) { sphere_stable_batch(q.rays, q.spheres, out); }},
+    {"moller-trumbore-batch", "moller-trumbore", ShapeKind::triangle,
+     [](const QueriesSoA& q, HitsSoA& out) { triangle_moller_trumbore_batch(q.rays, q.triangles, out); }},
 };
 }  // namespace
 

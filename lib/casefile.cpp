@@ -1,4 +1,4 @@
-#include "rayproof/casefile.h"
+#include "rayproof/core/casefile.h"
 
 #include <cmath>
 #include <fstream>

@@ -1,4 +1,4 @@
-#include "rayproof/hit.h"
+#include "rayproof/core/hit.h"
 
 namespace rayproof {
 

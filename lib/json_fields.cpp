@@ -1,4 +1,4 @@
-#include "rayproof/json_fields.h"
+#include "rayproof/core/json_fields.h"
 
 #include <cctype>
 #include <charconv>

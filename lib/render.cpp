@@ -1,4 +1,4 @@
-#include "rayproof/render.h"
+#include "rayproof/core/render.h"
 
 #include <png.h>
 
@@ -9,7 +9,10 @@
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
-#include <thread>
+
+#include "rayproof/core/atomic_file.h"
+#include "rayproof/core/offset.h"
+#include "rayproof/core/parallel.h"
 
 namespace rayproof {
 
@@ -40,15 +43,11 @@ SceneHit trace(const Scene& scene, const Intersectors& isect, const Ray& ray) {
 
 namespace {
 
-// Whether anything but object `self` blocks the segment from p to the light. The segment
-// starts at p pushed off the surface along n by a bound on p's rounding error: p = o + t·d is
-// computed with a relative error of a few ulps of |o| + |t·d| (pbrt-v4's offset-ray-origin
-// idea), so the push scales with the scene and no fixed epsilon is needed. `self` itself is
-// skipped: every shape here is convex or flat, so a point lit from the side n faces cannot be
-// shadowed by its own object.
-bool in_shadow(const Scene& scene, const Intersectors& isect, int self, const Vec3& p, const Vec3& n,
-               double error_bound, const Vec3& light) {
-  const Vec3 start = p + error_bound * n;
+// Whether anything but object `self` blocks the segment from `start` (the hit point moved off
+// the surface by core/offset.h's error bound) to the light. `self` itself is skipped: every shape
+// here is convex or flat, so a point lit from the side its normal faces cannot be shadowed by its
+// own object.
+bool in_shadow(const Scene& scene, const Intersectors& isect, int self, const Vec3& start, const Vec3& light) {
   const Ray shadow{start, light - start};
   for (size_t i = 0; i < scene.objects.size(); ++i) {
     if (static_cast<int>(i) == self) continue;
@@ -76,13 +75,12 @@ Vec3 shade(const Scene& scene, const Intersectors& isect, const Ray& ray) {
     case Shading::diffuse: {
       Vec3 n = outward_normal(obj.shape, p);
       if (dot(n, ray.direction) > 0) n = -n;  // the side the ray arrived from
-      const double error_bound =
-          64 * std::numeric_limits<double>::epsilon() * (max_abs(ray.origin) + max_abs(sh.hit.t * ray.direction));
+      const Vec3 start = offset_by_error_bound(ray, sh.hit.t, p, n);
       double light_sum = 0;
       for (const PointLight& light : scene.lights) {
         const Vec3 w = normalized(p - light.position);
         const double c = std::max(-dot(n, w), 0.0);
-        if (c > 0 && !in_shadow(scene, isect, sh.object, p, n, error_bound, light.position))
+        if (c > 0 && !in_shadow(scene, isect, sh.object, start, light.position))
           light_sum += light.intensity * c;
       }
       return obj.color * light_sum;
@@ -96,7 +94,7 @@ Image render(const Scene& scene, const RenderOptions& options) {
   Image image{cam.width, cam.height, std::vector<std::uint8_t>(3 * size_t(cam.width) * cam.height)};
   const int grid = static_cast<int>(std::lround(std::sqrt(scene.samples)));
   std::atomic<int> next_row{0}, rows_done{0};
-  auto worker = [&] {
+  auto worker = [&](int) {
     for (int y; (y = next_row.fetch_add(1)) < cam.height;) {
       for (int x = 0; x < cam.width; ++x) {
         Vec3 sum = Vec3::Zero();
@@ -113,18 +111,13 @@ Image render(const Scene& scene, const RenderOptions& options) {
       if (options.progress) options.progress(done, cam.height);
     }
   };
-  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::clamp(threads, 1, 256);
-  std::vector<std::thread> pool;
-  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  run_workers(std::clamp(options.threads > 0 ? options.threads : default_threads(), 1, 256), worker);
   return image;
 }
 
 namespace {
 
-void write_png_file(const Image& image, FILE* f) {
+void write_png(const Image& image, std::ostream& out) {
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!png || !info) throw std::runtime_error("libpng: out of memory");
@@ -132,7 +125,12 @@ void write_png_file(const Image& image, FILE* f) {
     png_destroy_write_struct(&png, &info);
     throw std::runtime_error("libpng: write failed");
   }
-  png_init_io(png, f);
+  png_set_write_fn(
+      png, &out,
+      [](png_structp p, png_bytep data, png_size_t n) {
+        static_cast<std::ostream*>(png_get_io_ptr(p))->write(reinterpret_cast<const char*>(data), std::streamsize(n));
+      },
+      [](png_structp p) { static_cast<std::ostream*>(png_get_io_ptr(p))->flush(); });
   png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
@@ -152,25 +150,14 @@ bool is_image_path(const std::string& path) {
 void write_image(const Image& image, const std::string& path) {
   const std::string ext = std::filesystem::path(path).extension().string();
   if (!is_image_path(path)) throw std::runtime_error(path + ": unknown image type '" + ext + "' (use .png or .ppm)");
-  const std::string tmp = path + ".tmp";
-  FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) throw std::runtime_error(path + ": cannot write");
-  try {
-    if (ext == ".png") {
-      write_png_file(image, f);
-    } else {
-      std::fprintf(f, "P6\n%d %d\n255\n", image.width, image.height);
-      std::fwrite(image.rgb.data(), 1, image.rgb.size(), f);
-    }
-  } catch (...) {
-    std::fclose(f);
-    std::remove(tmp.c_str());
-    throw;
+  AtomicFile file(path);
+  if (ext == ".png") {
+    write_png(image, file.stream());
+  } else {
+    file.stream() << "P6\n" << image.width << " " << image.height << "\n255\n";
+    file.stream().write(reinterpret_cast<const char*>(image.rgb.data()), std::streamsize(image.rgb.size()));
   }
-  if (std::fclose(f) != 0 || std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": cannot write");
-  }
+  file.commit();
 }
 
 Image read_png(const std::string& path) {

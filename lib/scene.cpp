@@ -1,4 +1,4 @@
-#include "rayproof/scene.h"
+#include "rayproof/core/scene.h"
 
 #include <cmath>
 #include <fstream>
@@ -6,7 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "rayproof/json_fields.h"
+#include "rayproof/core/json_fields.h"
 
 namespace rayproof {
 

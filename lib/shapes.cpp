@@ -1,11 +1,11 @@
-#include "rayproof/shapes.h"
+#include "rayproof/core/shapes.h"
 
 #include <gmpxx.h>
 
+#include <cmath>
 #include <limits>
 
-#include <cmath>
-
+#include "rayproof/core/fp.h"
 
 namespace rayproof {
 
@@ -30,16 +30,15 @@ bool exactly_collinear_rational(const Vec3& a, const Vec3& b, const Vec3& c);
 
 // Exactly whether (b−a)×(c−a) = 0. A double filter answers "not collinear" when some component
 // of the computed cross product exceeds its rounding-error bound (each difference and product
-// rounds once: γ(6) of the magnitudes covers them, while nothing under- or overflows); only
+// rounds once: γ(6) of the magnitudes covers them inside fp.h's safe range); only
 // the rest is decided in GMP rationals (a double converts to mpq exactly).
 bool exactly_collinear(const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 e1 = b - a, e2 = c - a;
-  constexpr double u = std::numeric_limits<double>::epsilon() / 2, gamma6 = 6 * u / (1 - 6 * u);
   for (int i = 0; i < 3; ++i) {
     const int j = (i + 1) % 3, k = (i + 2) % 3;
     const double p = e1[j] * e2[k], q = e1[k] * e2[j];
     const double magnitude = std::abs(p) + std::abs(q);
-    if (std::isfinite(magnitude) && magnitude > 0x1p-900 && std::abs(p - q) > 2 * gamma6 * magnitude) return false;
+    if (std::isfinite(magnitude) && magnitude > kSafeMagnitudeMin && std::abs(p - q) > 2 * gamma(6) * magnitude) return false;
   }
   return exactly_collinear_rational(a, b, c);
 }

@@ -1,7 +1,9 @@
 // The double-precision intersection variants. This file is compiled with -ffp-contract=off:
 // each variant's answer must be the same bits on every x86-64 machine, FMA or not. A variant
 // that wants FMA says so with std::fma and is a variant of its own.
-#include "rayproof/variants.h"
+#include "rayproof/core/variants.h"
+
+#include "rayproof/core/fp.h"
 
 #include <algorithm>
 #include <array>
@@ -13,12 +15,6 @@ namespace rayproof {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// pbrt's γ(n) = n·u / (1 − n·u), u = 2^-53: bounds the relative error of n roundings.
-constexpr double gamma(int n) {
-  constexpr double u = std::numeric_limits<double>::epsilon() * 0.5;
-  return (n * u) / (1 - n * u);
-}
 
 // From the two real roots t0 <= t1 of the sphere's quadratic to a Hit under a rule.
 // `touching` says the variant computed a zero discriminant (it believes the ray is tangent).

@@ -4,7 +4,7 @@ set -euo pipefail
 build=${1:-build}
 out=out
 mkdir -p "$out"
-rp="$build/verify/rayproof"
+rp="$build/rayproof"
 for scene in seed1-sphere seed2-diffuse depth all-shapes; do
   "$rp" render "scenes/$scene.json" -o "$out/$scene.png"
 done

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <random>
 
-#include "rayproof/casefile.h"
+#include "rayproof/core/casefile.h"
 
 namespace rayproof {
 namespace {

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "rayproof/json_fields.h"
+#include "rayproof/core/json_fields.h"
 
 namespace rayproof {
 namespace {

@@ -2,15 +2,15 @@
 // inputs are the float-rounded queries, and the oracle can count its shared-edge holes.
 #include <gtest/gtest.h>
 
-#include "peers/embree.h"
-#include "rayproof/oracle.h"
+#include "rayproof/peers/embree.h"
+#include "rayproof/verify/oracle.h"
 
 namespace rayproof::peers {
 namespace {
 
-Hit ask(const fuzz::Contender& c, const fuzz::Query& q) {
-  const std::vector<fuzz::Query> qs = {q};
-  const fuzz::Prepared p = c.prepare(qs);
+Hit ask(const studies::Contender& c, const Query& q) {
+  const std::vector<Query> qs = {q};
+  const studies::Prepared p = c.prepare(qs);
   p.run();
   return p.answer(0);
 }
@@ -18,7 +18,7 @@ Hit ask(const fuzz::Contender& c, const fuzz::Query& q) {
 TEST(EmbreePeer, FrontBackAndMissFollowTheCaseFormat) {
   const Triangle tri{{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)}};  // front +z
   const Sphere sphere{Vec3(0, 0, 0), 1};
-  for (const fuzz::Contender& c : embree_contenders()) {
+  for (const studies::Contender& c : embree_contenders()) {
     if (c.shape == ShapeKind::triangle) {
       EXPECT_EQ(ask(c, {Ray{Vec3(0.25, 0.25, 1), Vec3(0, 0, -1)}, tri}).cls, HitClass::enter) << c.name;
       EXPECT_EQ(ask(c, {Ray{Vec3(0.25, 0.25, -1), Vec3(0, 0, 1)}, tri}).cls, HitClass::exit) << c.name;
@@ -34,7 +34,7 @@ TEST(EmbreePeer, FrontBackAndMissFollowTheCaseFormat) {
 }
 
 TEST(EmbreePeer, FloatRoundingIsWhatTheOracleJudges) {
-  const fuzz::Query q{Ray{Vec3(0.1, 0.2, 0.3), Vec3(1, 1e-3, 0)}, Sphere{Vec3(5, 0.2, 0.3), 0.7}};
+  const Query q{Ray{Vec3(0.1, 0.2, 0.3), Vec3(1, 1e-3, 0)}, Sphere{Vec3(5, 0.2, 0.3), 0.7}};
   const auto f = as_float_query(q);
   ASSERT_TRUE(f);
   EXPECT_EQ(f->ray.origin.x(), double(0.1f));

@@ -12,7 +12,7 @@
 #include <cstring>
 #include <random>
 
-#include "rayproof/oracle.h"
+#include "rayproof/verify/oracle.h"
 
 namespace rayproof {
 namespace {

@@ -9,8 +9,8 @@
 #include <sstream>
 #include <sys/wait.h>
 
-#include "rayproof/json_fields.h"
-#include "rayproof/render.h"
+#include "rayproof/core/json_fields.h"
+#include "rayproof/core/render.h"
 
 namespace rayproof {
 namespace {

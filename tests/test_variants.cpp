@@ -5,7 +5,7 @@
 #include <cmath>
 #include <set>
 
-#include "rayproof/variants.h"
+#include "rayproof/core/variants.h"
 
 namespace rayproof {
 namespace {
@@ -238,7 +238,7 @@ TEST(BoxSlab, NaiveSlabLosesARayAlongAFacePlane) {
 }  // namespace
 }  // namespace rayproof
 
-#include "rayproof/batch.h"
+#include "rayproof/core/batch.h"
 #include <cstring>
 #include <random>
 

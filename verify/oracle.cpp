@@ -1,8 +1,8 @@
 // The exact oracle. See rayproof/oracle.h for the contract; this file is the only place that
 // includes CGAL's number types.
-#include "rayproof/oracle.h"
+#include "rayproof/verify/oracle.h"
 
-#include "rayproof/expansion.h"
+#include "rayproof/verify/expansion.h"
 
 #include <CGAL/Exact_rational.h>
 #include <CGAL/Interval_nt.h>
@@ -56,62 +56,14 @@ std::optional<int> sign_of(const Expansion& x) {
   return x.sign();
 }
 
-// What a classification decided, before the rule and before t is rounded. `t_source` names
-// which exact expression is the contact parameter; it is built from exact terms only.
+// What a classification decided, before the rule and before t is rounded: the class, the side,
+// and which of the policy's exact expressions is the contact parameter (none: no t).
+template <class Source>
 struct Decision {
   HitClass cls = HitClass::miss;
   bool front = false;
-  int t_source = -1;  // shape-specific; −1: no t
+  std::optional<Source> source;
 };
-
-// ---------------------------------------------------------------------------------------------
-// Sphere: with f = o − m, a = d·d, b′ = −f·d, c = f·f − r², D′ = b′² − a·c, the roots are
-// t = (b′ ∓ √D′)/a. Their signs follow from the signs of D′, b′ and c alone:
-// both roots positive ⇔ c > 0 ∧ b′ > 0; one positive ⇔ c < 0; a zero root ⇔ c = 0.
-template <class NT>
-struct SphereTerms {
-  NT a, b, c, disc;  // b = b′
-};
-template <class NT>
-SphereTerms<NT> sphere_terms(const Ray& ray, const Sphere& s) {
-  const V<NT> f = lift<NT>(ray.origin) - lift<NT>(s.center);
-  const V<NT> d = lift<NT>(ray.direction);
-  SphereTerms<NT> t;
-  t.a = dot(d, d);
-  t.b = -dot(f, d);
-  t.c = NT(dot(f, f) - NT(s.radius) * NT(s.radius));
-  t.disc = NT(t.b * t.b - t.a * t.c);
-  return t;
-}
-enum SphereT { kTangentRoot, kNearRoot, kFarRoot, kSecondRootAtOrigin };
-
-template <class NT>
-std::optional<Decision> decide_sphere(const SphereTerms<NT>& t) {
-  const auto sd = sign_of(t.disc);
-  if (!sd) return std::nullopt;
-  if (*sd < 0) return Decision{};
-  const auto sb = sign_of(t.b);
-  if (!sb) return std::nullopt;
-  if (*sd == 0) {  // discriminant exactly zero: one double root b′/a
-    if (*sb > 0) return Decision{HitClass::tangent, false, kTangentRoot};
-    return Decision{};
-  }
-  const auto sc = sign_of(t.c);
-  if (!sc) return std::nullopt;
-  if (*sc > 0) return *sb > 0 ? Decision{HitClass::enter, true, kNearRoot} : Decision{};
-  if (*sc == 0) return *sb > 0 ? Decision{HitClass::exit, false, kSecondRootAtOrigin} : Decision{};
-  return Decision{HitClass::exit, false, kFarRoot};
-}
-
-template <class NT>
-ParameterOf<NT> sphere_parameter(const SphereTerms<NT>& t, int source) {
-  switch (source) {
-    case kTangentRoot: return {t.b, NT(0), t.a, 0};
-    case kNearRoot: return {t.b, t.disc, t.a, -1};
-    case kFarRoot: return {t.b, t.disc, t.a, +1};
-    default: return {NT(t.b + t.b), NT(0), t.a, 0};  // roots 0 and 2b′/a
-  }
-}
 
 // num/den as a parameter with a positive denominator.
 template <class NT>
@@ -120,66 +72,167 @@ ParameterOf<NT> ratio_parameter(const NT& num, const NT& den) {
   return {num, NT(0), den, 0};
 }
 
+// A shape policy fixes the exact meaning of one shape, as CGAL fixes a predicate's once:
+//   Terms<NT>             the exact quantities the classification needs, over any number type;
+//   terms<NT>(ray, s)     computes them (over intervals, expansions or rationals alike);
+//   decide(terms)         the class from their signs, or nullopt when a sign is uncertain;
+//   parameter(terms, src) the contact parameter t the decision names;
+//   kExpansionTerms       whether the terms are polynomial (expansions can hold them);
+//   special_case(...)     a verdict the terms alone cannot give (nullopt nearly always).
+// The driver below (decide_filtered, judge_with) layers the stages over any policy.
+struct NoSpecialCase {
+  template <class... Any>
+  static std::optional<Verdict> special_case(const Any&...) { return std::nullopt; }
+};
+
+// ---------------------------------------------------------------------------------------------
+// Sphere: with f = o − m, a = d·d, b′ = −f·d, c = f·f − r², D′ = b′² − a·c, the roots are
+// t = (b′ ∓ √D′)/a. Their signs follow from the signs of D′, b′ and c alone:
+// both roots positive ⇔ c > 0 ∧ b′ > 0; one positive ⇔ c < 0; a zero root ⇔ c = 0.
+struct SpherePolicy : NoSpecialCase {
+  using ShapeType = Sphere;
+  enum class Source { tangent_root, near_root, far_root, second_root_at_origin };
+  template <class NT>
+  struct Terms {
+    NT a, b, c, disc;  // b = b′
+  };
+  static constexpr bool kExpansionTerms = true;
+
+  template <class NT>
+  static Terms<NT> terms(const Ray& ray, const Sphere& s) {
+    const V<NT> f = lift<NT>(ray.origin) - lift<NT>(s.center);
+    const V<NT> d = lift<NT>(ray.direction);
+    Terms<NT> t;
+    t.a = dot(d, d);
+    t.b = -dot(f, d);
+    t.c = NT(dot(f, f) - NT(s.radius) * NT(s.radius));
+    t.disc = NT(t.b * t.b - t.a * t.c);
+    return t;
+  }
+
+  template <class NT>
+  static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
+    const auto sd = sign_of(t.disc);
+    if (!sd) return std::nullopt;
+    if (*sd < 0) return Decision<Source>{};
+    const auto sb = sign_of(t.b);
+    if (!sb) return std::nullopt;
+    if (*sd == 0) {  // discriminant exactly zero: one double root b′/a
+      if (*sb > 0) return Decision<Source>{HitClass::tangent, false, Source::tangent_root};
+      return Decision<Source>{};
+    }
+    const auto sc = sign_of(t.c);
+    if (!sc) return std::nullopt;
+    if (*sc > 0) return *sb > 0 ? Decision<Source>{HitClass::enter, true, Source::near_root} : Decision<Source>{};
+    if (*sc == 0)
+      return *sb > 0 ? Decision<Source>{HitClass::exit, false, Source::second_root_at_origin} : Decision<Source>{};
+    return Decision<Source>{HitClass::exit, false, Source::far_root};
+  }
+
+  template <class NT>
+  static ParameterOf<NT> parameter(const Terms<NT>& t, Source source) {
+    switch (source) {
+      case Source::tangent_root: return {t.b, NT(0), t.a, 0};
+      case Source::near_root: return {t.b, t.disc, t.a, -1};
+      case Source::far_root: return {t.b, t.disc, t.a, +1};
+      case Source::second_root_at_origin: break;
+    }
+    return {NT(t.b + t.b), NT(0), t.a, 0};  // roots 0 and 2b′/a
+  }
+};
+
 // ---------------------------------------------------------------------------------------------
 // Plane n·x = k: t = (k − n·o)/(n·d).
-template <class NT>
-struct PlaneTerms {
-  NT num, den;
+struct PlanePolicy : NoSpecialCase {
+  using ShapeType = Plane;
+  enum class Source { crossing };
+  template <class NT>
+  struct Terms {
+    NT num, den;
+  };
+  static constexpr bool kExpansionTerms = true;
+
+  template <class NT>
+  static Terms<NT> terms(const Ray& ray, const Plane& p) {
+    const V<NT> n = lift<NT>(p.normal);
+    return {NT(NT(p.offset) - dot(n, lift<NT>(ray.origin))), dot(n, lift<NT>(ray.direction))};
+  }
+
+  template <class NT>
+  static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
+    const auto sd = sign_of(t.den), sn = sign_of(t.num);
+    if (!sd || !sn) return std::nullopt;
+    if (*sd == 0) return *sn == 0 ? Decision<Source>{HitClass::tangent} : Decision<Source>{};
+    if (*sn != *sd) return Decision<Source>{};  // t ≤ 0
+    const bool front = *sd < 0;                 // arrives against the normal: from the front side
+    return Decision<Source>{front ? HitClass::enter : HitClass::exit, front, Source::crossing};
+  }
+
+  template <class NT>
+  static ParameterOf<NT> parameter(const Terms<NT>& t, Source) {
+    return ratio_parameter(t.num, t.den);
+  }
 };
-template <class NT>
-PlaneTerms<NT> plane_terms(const Ray& ray, const Plane& p) {
-  const V<NT> n = lift<NT>(p.normal);
-  return {NT(NT(p.offset) - dot(n, lift<NT>(ray.origin))), dot(n, lift<NT>(ray.direction))};
-}
-template <class NT>
-std::optional<Decision> decide_plane(const PlaneTerms<NT>& t) {
-  const auto sd = sign_of(t.den), sn = sign_of(t.num);
-  if (!sd || !sn) return std::nullopt;
-  if (*sd == 0) return *sn == 0 ? Decision{HitClass::tangent, false, -1} : Decision{};
-  if (*sn != *sd) return Decision{};  // t ≤ 0
-  const bool front = *sd < 0;         // arrives against the normal: from the front side
-  return Decision{front ? HitClass::enter : HitClass::exit, front, 0};
-}
 
 // ---------------------------------------------------------------------------------------------
 // Triangle: n = (v1−v0)×(v2−v0), t = n·(v0−o)/(n·d). The line meets the closed triangle iff the
 // three triple products e_i = d·((v_i−o)×(v_{i+1}−o)) all have the sign of n·d or are zero
 // (their sum is n·d); a zero one puts the hit on an edge, two on a vertex.
-template <class NT>
-struct TriangleTerms {
-  NT num, den;
-  NT edge[3];
-};
-template <class NT>
-TriangleTerms<NT> triangle_terms(const Ray& ray, const Triangle& tri) {
-  const V<NT> o = lift<NT>(ray.origin), d = lift<NT>(ray.direction);
-  const V<NT> v[3] = {lift<NT>(tri.v[0]), lift<NT>(tri.v[1]), lift<NT>(tri.v[2])};
-  const V<NT> n = cross(v[1] - v[0], v[2] - v[0]);
-  TriangleTerms<NT> t;
-  t.den = dot(n, d);
-  t.num = dot(n, v[0] - o);
-  const V<NT> rel[3] = {v[0] - o, v[1] - o, v[2] - o};
-  for (int i = 0; i < 3; ++i) t.edge[i] = dot(d, cross(rel[i], rel[(i + 1) % 3]));
-  return t;
-}
-constexpr int kCoplanar = 1;  // Decision::t_source flag: the ray lies in the triangle's plane
+Verdict coplanar_triangle(const Ray& ray, const Triangle& tri, RoundingStats& rounding);
 
-template <class NT>
-std::optional<Decision> decide_triangle(const TriangleTerms<NT>& t) {
-  const auto sd = sign_of(t.den), sn = sign_of(t.num);
-  if (!sd || !sn) return std::nullopt;
-  if (*sd == 0) return *sn == 0 ? Decision{HitClass::tangent, false, kCoplanar} : Decision{};
-  if (*sn != *sd) return Decision{};  // plane met at t ≤ 0
-  bool on_edge = false;
-  for (const NT& e : t.edge) {
-    const auto se = sign_of(e);
-    if (!se) return std::nullopt;
-    if (*se == -*sd) return Decision{};
-    on_edge = on_edge || *se == 0;
+struct TrianglePolicy {
+  using ShapeType = Triangle;
+  enum class Source { plane_crossing, coplanar };  // coplanar: the ray lies in the triangle's plane
+  template <class NT>
+  struct Terms {
+    NT num, den;
+    NT edge[3];
+  };
+  static constexpr bool kExpansionTerms = true;
+
+  template <class NT>
+  static Terms<NT> terms(const Ray& ray, const Triangle& tri) {
+    const V<NT> o = lift<NT>(ray.origin), d = lift<NT>(ray.direction);
+    const V<NT> v[3] = {lift<NT>(tri.v[0]), lift<NT>(tri.v[1]), lift<NT>(tri.v[2])};
+    const V<NT> n = cross(v[1] - v[0], v[2] - v[0]);
+    Terms<NT> t;
+    t.den = dot(n, d);
+    t.num = dot(n, v[0] - o);
+    const V<NT> rel[3] = {v[0] - o, v[1] - o, v[2] - o};
+    for (int i = 0; i < 3; ++i) t.edge[i] = dot(d, cross(rel[i], rel[(i + 1) % 3]));
+    return t;
   }
-  const bool front = *sd < 0;
-  return Decision{on_edge ? HitClass::boundary : front ? HitClass::enter : HitClass::exit, front, 0};
-}
+
+  template <class NT>
+  static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
+    const auto sd = sign_of(t.den), sn = sign_of(t.num);
+    if (!sd || !sn) return std::nullopt;
+    if (*sd == 0) return *sn == 0 ? Decision<Source>{HitClass::tangent, false, Source::coplanar} : Decision<Source>{};
+    if (*sn != *sd) return Decision<Source>{};  // plane met at t ≤ 0
+    bool on_edge = false;
+    for (const NT& e : t.edge) {
+      const auto se = sign_of(e);
+      if (!se) return std::nullopt;
+      if (*se == -*sd) return Decision<Source>{};
+      on_edge = on_edge || *se == 0;
+    }
+    const bool front = *sd < 0;
+    return Decision<Source>{on_edge ? HitClass::boundary : front ? HitClass::enter : HitClass::exit, front,
+                            Source::plane_crossing};
+  }
+
+  template <class NT>
+  static ParameterOf<NT> parameter(const Terms<NT>& t, Source) {
+    return ratio_parameter(t.num, t.den);
+  }
+
+  // A coplanar ray is a 2D problem the 3D terms cannot settle.
+  static std::optional<Verdict> special_case(const Ray& ray, const Triangle& tri, const Decision<Source>& d,
+                                             RoundingStats& rounding) {
+    if (d.source != Source::coplanar) return std::nullopt;
+    return coplanar_triangle(ray, tri, rounding);
+  }
+};
 
 // A ray in the triangle's plane, in exact rationals: tangent without t when it runs into the
 // closed triangle from an origin on it; tangent at the first edge crossing when it comes from
@@ -226,97 +279,110 @@ Verdict coplanar_triangle(const Ray& ray, const Triangle& tri, RoundingStats& ro
 // Box: the line's parameter interval [t_min, t_max] inside the closed box (slabs of the axes
 // where d ≠ 0; an axis with d = 0 keeps the line or loses it). The open interior is met iff
 // t_min < t_max and every d = 0 axis has its origin strictly between the planes.
-template <class NT>
-struct BoxTerms {
-  int axes = 0;
-  int axis[3];
-  NT near[3], far[3];
-  bool outside = false;     // some d = 0 axis has the origin outside its slab
-  bool on_a_face = false;   // some d = 0 axis has the origin on one of its planes
-};
-template <class NT>
-BoxTerms<NT> box_terms(const Ray& ray, const Box& b) {
-  BoxTerms<NT> t;
-  for (int i = 0; i < 3; ++i) {
-    const double o = ray.origin[i], d = ray.direction[i];
-    if (d == 0) {  // exact comparisons of input doubles
-      t.outside = t.outside || o < b.min[i] || o > b.max[i];
-      t.on_a_face = t.on_a_face || o == b.min[i] || o == b.max[i];
-      continue;
+struct BoxPolicy : NoSpecialCase {
+  using ShapeType = Box;
+  // t is where the ray crosses the near or far plane of slab `slab` (slabs count the axes with d ≠ 0).
+  struct Source {
+    bool far = false;
+    int slab = 0;
+  };
+  template <class NT>
+  struct Terms {
+    int axes = 0;
+    int axis[3];
+    NT near[3], far[3];
+    bool outside = false;    // some d = 0 axis has the origin outside its slab
+    bool on_a_face = false;  // some d = 0 axis has the origin on one of its planes
+  };
+  // The terms divide, which expansions cannot hold: the class goes from intervals to rationals,
+  // and t's expansion form comes from fast_parameter instead.
+  static constexpr bool kExpansionTerms = false;
+
+  template <class NT>
+  static Terms<NT> terms(const Ray& ray, const Box& b) {
+    Terms<NT> t;
+    for (int i = 0; i < 3; ++i) {
+      const double o = ray.origin[i], d = ray.direction[i];
+      if (d == 0) {  // exact comparisons of input doubles
+        t.outside = t.outside || o < b.min[i] || o > b.max[i];
+        t.on_a_face = t.on_a_face || o == b.min[i] || o == b.max[i];
+        continue;
+      }
+      const NT lo = NT(NT(b.min[i]) - NT(o)) / NT(d), hi = NT(NT(b.max[i]) - NT(o)) / NT(d);
+      t.axis[t.axes] = i;
+      t.near[t.axes] = d > 0 ? lo : hi;
+      t.far[t.axes] = d > 0 ? hi : lo;
+      ++t.axes;
     }
-    const NT lo = NT(NT(b.min[i]) - NT(o)) / NT(d), hi = NT(NT(b.max[i]) - NT(o)) / NT(d);
-    t.axis[t.axes] = i;
-    t.near[t.axes] = d > 0 ? lo : hi;
-    t.far[t.axes] = d > 0 ? hi : lo;
-    ++t.axes;
+    return t;
   }
-  return t;
-}
-// t_source encodes which slab plane gives t: 0..2 the near plane of slab k, 3..5 the far one.
-template <class NT>
-std::optional<Decision> decide_box(const BoxTerms<NT>& t) {
-  if (t.outside) return Decision{};
-  int enter_k = 0, leave_k = 0;  // slabs giving t_min (largest near) and t_max (smallest far)
-  for (int k = 1; k < t.axes; ++k) {
-    const auto sn = sign_of(NT(t.near[k] - t.near[enter_k]));
-    const auto sf = sign_of(NT(t.far[k] - t.far[leave_k]));
-    if (!sn || !sf) return std::nullopt;
-    if (*sn > 0) enter_k = k;
-    if (*sf < 0) leave_k = k;
-  }
-  const NT& t_min = t.near[enter_k];
-  const NT& t_max = t.far[leave_k];
-  const auto order = sign_of(NT(t_min - t_max)), s_max = sign_of(t_max), s_min = sign_of(t_min);
-  if (!order || !s_max || !s_min) return std::nullopt;
-  if (*order > 0 || *s_max <= 0) return Decision{};
-  if (*order < 0 && !t.on_a_face) {  // the open interior is crossed
-    if (*s_min > 0) return Decision{HitClass::enter, true, enter_k};
-    return Decision{HitClass::exit, false, 3 + leave_k};  // origin inside or on the boundary
-  }
-  // Only the boundary is met: at t_min, or for every small t > 0 when t_min ≤ 0.
-  return Decision{HitClass::tangent, false, *s_min > 0 ? enter_k : -1};
-}
 
-ExactParameter box_parameter(const BoxTerms<Exact>& t, int source) {
-  return {source < 3 ? t.near[source] : t.far[source - 3], 0, 1, 0};
-}
+  template <class NT>
+  static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
+    if (t.outside) return Decision<Source>{};
+    int enter_k = 0, leave_k = 0;  // slabs giving t_min (largest near) and t_max (smallest far)
+    for (int k = 1; k < t.axes; ++k) {
+      const auto sn = sign_of(NT(t.near[k] - t.near[enter_k]));
+      const auto sf = sign_of(NT(t.far[k] - t.far[leave_k]));
+      if (!sn || !sf) return std::nullopt;
+      if (*sn > 0) enter_k = k;
+      if (*sf < 0) leave_k = k;
+    }
+    const NT& t_min = t.near[enter_k];
+    const NT& t_max = t.far[leave_k];
+    const auto order = sign_of(NT(t_min - t_max)), s_max = sign_of(t_max), s_min = sign_of(t_min);
+    if (!order || !s_max || !s_min) return std::nullopt;
+    if (*order > 0 || *s_max <= 0) return Decision<Source>{};
+    const Source entry{false, enter_k}, leaving{true, leave_k};
+    if (*order < 0 && !t.on_a_face) {  // the open interior is crossed
+      if (*s_min > 0) return Decision<Source>{HitClass::enter, true, entry};
+      return Decision<Source>{HitClass::exit, false, leaving};  // origin inside or on the boundary
+    }
+    // Only the boundary is met: at t_min, or for every small t > 0 when t_min ≤ 0.
+    if (*s_min > 0) return Decision<Source>{HitClass::tangent, false, entry};
+    return Decision<Source>{HitClass::tangent};
+  }
 
-// The same parameter as (plane − o_i)/d_i in expansions, without division.
-ParameterOf<Expansion> box_parameter_fast(const Ray& ray, const Box& b, int source) {
-  const int slab = source % 3;
-  int axis = -1;
-  for (int i = 0, k = 0; i < 3; ++i)
-    if (ray.direction[i] != 0 && k++ == slab) axis = i;
-  const double d = ray.direction[axis];
-  const bool near = source < 3;
-  const double plane = (d > 0) == near ? b.min[axis] : b.max[axis];
-  return ratio_parameter(Expansion(Expansion(plane) - Expansion(ray.origin[axis])), Expansion(d));
-}
+  static ExactParameter parameter(const Terms<Exact>& t, Source source) {
+    return {source.far ? t.far[source.slab] : t.near[source.slab], 0, 1, 0};
+  }
+
+  // The same parameter as (plane − o_i)/d_i in expansions, without division.
+  static ParameterOf<Expansion> fast_parameter(const Ray& ray, const Box& b, Source source) {
+    int axis = -1;
+    for (int i = 0, k = 0; i < 3; ++i)
+      if (ray.direction[i] != 0 && k++ == source.slab) axis = i;
+    const double d = ray.direction[axis];
+    const double plane = (d > 0) == !source.far ? b.min[axis] : b.max[axis];
+    return ratio_parameter(Expansion(Expansion(plane) - Expansion(ray.origin[axis])), Expansion(d));
+  }
+};
 
 // ---------------------------------------------------------------------------------------------
-// Filtered, then exact: decide with interval terms when every sign is certain; else with exact
-// floating-point expansions when no product under- or overflowed; else with GMP rationals.
-// Each stage evaluates the same templated terms and the same decision function.
-template <template <class> class Terms>
+// The one driver, for every policy: decide with interval terms when every sign is certain; else
+// with exact floating-point expansions when the terms are polynomial and no product under- or
+// overflowed; else with GMP rationals. Each stage evaluates the same terms and decision.
+template <class P>
 struct Decided {
-  Decision decision;
-  std::optional<Terms<Expansion>> expansion;  // set when expansions decided
-  std::optional<Terms<Exact>> exact;          // set when rationals decided
+  Decision<typename P::Source> decision;
+  std::optional<typename P::template Terms<Expansion>> expansion;  // set when expansions decided
+  std::optional<typename P::template Terms<Exact>> exact;          // set when rationals decided
 };
 
-template <template <class> class Terms, bool kExpansionsApply, class MakeTerms, class Decide>
-Decided<Terms> decide_filtered(const Oracle::Options& options, OracleStats& stats, MakeTerms make, Decide decide) {
+template <class P>
+Decided<P> decide_filtered(const Ray& ray, const typename P::ShapeType& shape, const Oracle::Options& options,
+                           OracleStats& stats) {
   if (options.filter) {
-    std::optional<Decision> d;
+    std::optional<Decision<typename P::Source>> d;
     {
       CGAL::Protect_FPU_rounding<true> upward;
-      d = decide(make(Interval{}));
+      d = P::decide(P::template terms<Interval>(ray, shape));
     }
     if (d) return {*d, std::nullopt, std::nullopt};
-    if constexpr (kExpansionsApply) {
+    if constexpr (P::kExpansionTerms) {
       if (options.expansions) {
-        Terms<Expansion> terms = make(Expansion{});
-        if (const auto e = decide(terms)) {
+        auto terms = P::template terms<Expansion>(ray, shape);
+        if (const auto e = P::decide(terms)) {
           ++stats.class_expansion;
           return {*e, std::move(terms), std::nullopt};
         }
@@ -324,8 +390,8 @@ Decided<Terms> decide_filtered(const Oracle::Options& options, OracleStats& stat
     }
   }
   ++stats.class_exact;
-  Terms<Exact> exact = make(Exact{});
-  return {*decide(exact), std::nullopt, std::move(exact)};
+  auto exact = P::template terms<Exact>(ray, shape);
+  return {*P::decide(exact), std::nullopt, std::move(exact)};
 }
 
 }  // namespace
@@ -413,7 +479,7 @@ std::optional<double> round_with_expansions(const ParameterOf<Expansion>& t) {
     if (!num.valid()) return std::nullopt;
     estimate = num.estimate() / (q * (p - t.s * root));
   }
-  if (!(estimate > 0x1p-900 && estimate < 0x1p+900)) return std::nullopt;
+  if (!(estimate > kSafeMagnitudeMin && estimate < kSafeMagnitudeMax)) return std::nullopt;
   return walk_to_nearest(t, estimate, 8);
 }
 
@@ -490,58 +556,52 @@ Verdict apply_rule(Verdict v, HitRule rule) {
     return Verdict{};
   return v;
 }
+
+// t from the fastest exact representation at hand: expansions, else rationals.
+template <class P>
+Verdict judge_with(const Ray& ray, const typename P::ShapeType& shape, const Oracle::Options& options,
+                   OracleStats& stats) {
+  const Decided<P> r = decide_filtered<P>(ray, shape, options, stats);
+  if (auto special = P::special_case(ray, shape, r.decision, stats.rounding)) return std::move(*special);
+  Verdict v;
+  v.cls = r.decision.cls;
+  v.front = r.decision.front;
+  if (!r.decision.source) return v;
+  const auto source = *r.decision.source;
+  auto exact_parameter = [&] { return P::parameter(r.exact ? *r.exact : P::template terms<Exact>(ray, shape), source); };
+  auto fast_parameter = [&] {
+    if constexpr (P::kExpansionTerms)
+      return P::parameter(r.expansion ? *r.expansion : P::template terms<Expansion>(ray, shape), source);
+    else
+      return P::fast_parameter(ray, shape, source);
+  };
+  std::optional<double> t;
+  if (options.filter && options.expansions) t = round_with_expansions(fast_parameter());
+  if (t) {
+    ++stats.rounding.rounded;
+  } else {
+    v.exact_t = exact_parameter();
+    t = round_to_nearest(*v.exact_t, stats.rounding);
+  }
+  v.t = t;
+  if (options.keep_exact_parameter && !v.exact_t) v.exact_t = exact_parameter();
+  return v;
+}
+
+template <class S> struct PolicyOf;
+template <> struct PolicyOf<Sphere> { using type = SpherePolicy; };
+template <> struct PolicyOf<Plane> { using type = PlanePolicy; };
+template <> struct PolicyOf<Triangle> { using type = TrianglePolicy; };
+template <> struct PolicyOf<Box> { using type = BoxPolicy; };
+
 }  // namespace
 
 Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
-  OracleStats& st = stats_[shape.index()];
-  ++st.queries;
-  Verdict v;
-  // t from the fastest exact representation at hand: expansions, else rationals.
-  auto settle = [&](const Decision& d, auto&& fast_parameter, auto&& exact_parameter) {
-    v.cls = d.cls;
-    v.front = d.front;
-    if (d.t_source < 0) return;
-    std::optional<double> t;
-    if (options_.filter && options_.expansions) t = round_with_expansions(fast_parameter());
-    if (t) {
-      ++st.rounding.rounded;
-    } else {
-      v.exact_t = exact_parameter();
-      t = round_to_nearest(*v.exact_t, st.rounding);
-    }
-    v.t = t;
-    if (options_.keep_exact_parameter && !v.exact_t) v.exact_t = exact_parameter();
-  };
-  if (const auto* s = std::get_if<Sphere>(&shape)) {
-    auto make = [&](auto nt) { return sphere_terms<decltype(nt)>(ray, *s); };
-    auto r = decide_filtered<SphereTerms, true>(options_, st, make, [](const auto& t) { return decide_sphere(t); });
-    settle(r.decision,
-           [&] { return sphere_parameter(r.expansion ? *r.expansion : make(Expansion{}), r.decision.t_source); },
-           [&] { return sphere_parameter(r.exact ? *r.exact : make(Exact{}), r.decision.t_source); });
-  } else if (const auto* p = std::get_if<Plane>(&shape)) {
-    auto make = [&](auto nt) { return plane_terms<decltype(nt)>(ray, *p); };
-    auto r = decide_filtered<PlaneTerms, true>(options_, st, make, [](const auto& t) { return decide_plane(t); });
-    auto param = [&](const auto& t) { return ratio_parameter(t.num, t.den); };
-    settle(r.decision, [&] { return param(r.expansion ? *r.expansion : make(Expansion{})); },
-           [&] { return param(r.exact ? *r.exact : make(Exact{})); });
-  } else if (const auto* tri = std::get_if<Triangle>(&shape)) {
-    auto make = [&](auto nt) { return triangle_terms<decltype(nt)>(ray, *tri); };
-    auto r = decide_filtered<TriangleTerms, true>(options_, st, make, [](const auto& t) { return decide_triangle(t); });
-    if (r.decision.cls == HitClass::tangent) {
-      v = coplanar_triangle(ray, *tri, st.rounding);
-    } else {
-      auto param = [&](const auto& t) { return ratio_parameter(t.num, t.den); };
-      settle(r.decision, [&] { return param(r.expansion ? *r.expansion : make(Expansion{})); },
-             [&] { return param(r.exact ? *r.exact : make(Exact{})); });
-    }
-  } else {
-    const Box& b = std::get<Box>(shape);
-    auto make = [&](auto nt) { return box_terms<decltype(nt)>(ray, b); };
-    // Box terms divide, which expansions cannot: the class goes from intervals to rationals.
-    auto r = decide_filtered<BoxTerms, false>(options_, st, make, [](const auto& t) { return decide_box(t); });
-    settle(r.decision, [&] { return box_parameter_fast(ray, b, r.decision.t_source); },
-           [&] { return box_parameter(r.exact ? *r.exact : make(Exact{}), r.decision.t_source); });
-  }
+  OracleStats& stats = stats_[shape.index()];
+  ++stats.queries;
+  Verdict v = std::visit(
+      [&](const auto& s) { return judge_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(ray, s, options_, stats); },
+      shape);
   return apply_rule(std::move(v), rule);
 }
 

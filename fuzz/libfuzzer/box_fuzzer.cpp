@@ -3,8 +3,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, size_t size) {
   using namespace rayproof;
-  fuzzing::Bytes in(data, size);
+  fuzz::harness::Bytes in(data, size);
   const Ray ray{in.vec(), in.vec()};
-  fuzzing::exercise(ray, Box{in.vec(), in.vec()});
+  fuzz::harness::exercise(ray, Box{in.vec(), in.vec()});
   return 0;
 }

@@ -4,8 +4,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "rayproof/casefile.h"
-#include "rayproof/scene.h"
+#include "rayproof/core/casefile.h"
+#include "rayproof/core/scene.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

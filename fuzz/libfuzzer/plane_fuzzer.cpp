@@ -3,8 +3,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, size_t size) {
   using namespace rayproof;
-  fuzzing::Bytes in(data, size);
+  fuzz::harness::Bytes in(data, size);
   const Ray ray{in.vec(), in.vec()};
-  fuzzing::exercise(ray, Plane{in.vec(), in.next()});
+  fuzz::harness::exercise(ray, Plane{in.vec(), in.next()});
   return 0;
 }

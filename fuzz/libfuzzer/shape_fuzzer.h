@@ -9,10 +9,11 @@
 #include <cstdint>
 #include <cstring>
 
-#include "rayproof/oracle.h"
-#include "rayproof/variants.h"
+#include "rayproof/core/query.h"
+#include "rayproof/verify/oracle.h"
+#include "rayproof/core/variants.h"
 
-namespace rayproof::fuzzing {
+namespace rayproof::fuzz::harness {
 
 class Bytes {
  public:
@@ -46,9 +47,7 @@ inline void exercise(const Ray& ray, const Shape& shape) {
       const Hit h = v->intersect(ray, shape, rule);
       check(static_cast<int>(h.cls) >= 0 && static_cast<int>(h.cls) <= 4);
     }
-  const bool valid = all_finite(ray.origin) && all_finite(ray.direction) && ray.direction != Vec3::Zero() &&
-                     !degenerate_reason(shape);
-  if (!valid) return;
+  if (!is_valid_query(ray, shape)) return;
   Oracle oracle(Oracle::Options{.keep_exact_parameter = true});
   Oracle exact_only(Oracle::Options{.filter = false});
   const Verdict v = oracle.judge(ray, shape);
@@ -76,4 +75,4 @@ inline void exercise(const Ray& ray, const Shape& shape) {
   }
 }
 
-}  // namespace rayproof::fuzzing
+}  // namespace rayproof::fuzz::harness

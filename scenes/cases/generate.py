@@ -4,7 +4,7 @@ file's own exact rational arithmetic (Python's fractions), independent of the C+
 
 Run from anywhere: python3 scenes/cases/generate.py  (rewrites the *.jsonl beside it).
 Every number written is a double; the expectations treat those doubles as exact rationals,
-as shared/spec/cases.md requires.
+as docs/spec/cases.md requires.
 """
 import json
 import math

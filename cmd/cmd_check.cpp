@@ -1,0 +1,170 @@
+// rayproof check FILE...: the exact verdict and every variant's class, t, ULP error and
+// agreement, one JSON line per case; the per-variant summary on stderr.
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+
+#include "commands.h"
+#include "rayproof/core/atomic_file.h"
+#include "rayproof/verify/compare.h"
+#include "rayproof/verify/tally.h"
+
+namespace rayproof::cli {
+
+namespace {
+
+// Per variant (by name, with its shape): one Tally.
+using CheckSummary = std::map<std::string, std::pair<ShapeKind, Tally>>;
+
+void add_to_summary(CheckSummary& summary, const Verdict& exact, const std::vector<VariantOutcome>& outcomes) {
+  for (const VariantOutcome& o : outcomes) {
+    auto& [shape, tally] = summary[std::string(o.variant->name)];
+    shape = o.variant->shape;
+    tally.add(exact.cls, o);
+  }
+}
+
+void print_summary_table(const CheckSummary& summary, std::ostream& out) {
+  out << std::left << std::setw(17) << "variant" << std::setw(10) << "shape" << std::right << std::setw(9) << "cases"
+      << std::setw(9) << "agree" << std::setw(9) << "wrong" << std::setw(13) << "cannot-tell" << std::setw(12)
+      << "ulp-median" << std::setw(21) << "ulp-p99" << std::setw(21) << "ulp-max"
+      << "  disagreements (exact->variant)\n";
+  for (const auto& [name, entry] : summary) {
+    const auto& [shape, t] = entry;
+    std::string kinds;
+    for (const auto& [k, n] : t.confusion) kinds += (kinds.empty() ? "" : ", ") + k + " " + std::to_string(n);
+    out << std::left << std::setw(17) << name << std::setw(10) << to_string(shape) << std::right << std::setw(9)
+        << t.cases << std::setw(9) << t.agree << std::setw(9) << t.wrong << std::setw(13) << t.cannot_tell
+        << std::setw(12) << t.ulps.quantile(0.5) << std::setw(21) << t.ulps.quantile(0.99) << std::setw(21)
+        << t.ulps.max() << "  " << (kinds.empty() ? "-" : kinds) << "\n";
+  }
+}
+
+json summary_json(const CheckSummary& summary) {
+  json j = json::object();
+  for (const auto& [name, entry] : summary) {
+    const auto& [shape, t] = entry;
+    j[name] = {{"shape", std::string(to_string(shape))},
+               {"cases", t.cases},
+               {"agree", t.agree},
+               {"wrong", t.wrong},
+               {"cannot_tell", t.cannot_tell},
+               {"disagreements", t.confusion},
+               {"ulp", {{"count", t.ulps.count()},
+                        {"median", t.ulps.quantile(0.5)},
+                        {"p99", t.ulps.quantile(0.99)},
+                        {"max", t.ulps.max()}}}};
+  }
+  return j;
+}
+
+void print_oracle_stats(std::ostream& out, const Oracle& oracle) {
+  out << "oracle: ";
+  bool first = true;
+  for (ShapeKind k : kAllShapeKinds) {
+    const OracleStats& s = oracle.stats(k);
+    if (s.queries == 0) continue;
+    out << (first ? "" : "\n        ") << to_string(k) << ": " << s.queries << " queries; class beyond the interval filter "
+        << s.class_expansion + s.class_exact << " (rationals " << s.class_exact << "); t rounded " << s.rounding.rounded
+        << " (rationals " << s.rounding.rational << ", exact midpoint test " << s.rounding.exact_fallbacks << ")";
+    first = false;
+  }
+  out << "\n";
+}
+
+json oracle_stats_json(const Oracle& oracle) {
+  json j = json::object();
+  for (ShapeKind k : kAllShapeKinds) {
+    const OracleStats& s = oracle.stats(k);
+    j[std::string(to_string(k))] = {{"queries", s.queries},
+                                    {"class_expansion", s.class_expansion},
+                                    {"class_exact", s.class_exact},
+                                    {"t_rounded", s.rounding.rounded},
+                                    {"t_rational", s.rounding.rational},
+                                    {"t_exact_fallbacks", s.rounding.exact_fallbacks}};
+  }
+  return j;
+}
+
+}  // namespace
+
+void add_check_command(CLI::App& app, int& exit_code) {
+  struct Options {
+    std::vector<std::string> files, variants, shapes;
+    std::string rule = "nearest", summary, output;
+    bool exact_only = false;
+  };
+  auto opts = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand("check", "Judge variants against the exact oracle (JSON lines; summary on stderr)");
+  cmd->add_option("files", opts->files, "case files (JSON Lines, docs/spec/cases.md)")->required();
+  add_variants_flag(cmd, opts->variants);
+  add_shapes_flag(cmd, opts->shapes);
+  add_rule_flag(cmd, opts->rule);
+  cmd->add_option("--summary", opts->summary, "also write the summary as JSON to this file");
+  cmd->add_option("-o,--output", opts->output, "write the per-case lines here (atomically) instead of stdout");
+  cmd->add_flag("--exact-only", opts->exact_only, "skip the interval filter (decide every class in rationals)");
+  cmd->callback([opts, &exit_code] {
+    const auto variants = parse_variants(opts->variants, parse_shapes(opts->shapes));
+    const HitRule rule = parse_rule(opts->rule);
+    Oracle oracle(Oracle::Options{!opts->exact_only});
+    CheckSummary summary;
+    std::unique_ptr<AtomicFile> file;
+    if (!opts->output.empty()) file = std::make_unique<AtomicFile>(opts->output);
+    std::ostream& out = file ? file->stream() : std::cout;
+    long cases = 0, unreadable = 0, oracle_disagreements = 0;
+    Progress progress("check");
+    for (const std::string& path : opts->files) {
+      long in_file = 0, errors_before = unreadable;
+      read_case_file(
+          path,
+          [&](const Case& c, long line) {
+            ++cases, ++in_file;
+            const Verdict exact = oracle.judge(c.ray, c.shape, rule);
+            std::vector<VariantOutcome> outcomes;
+            for (const Variant* v : variants)
+              if (v->shape == kind_of(c.shape)) outcomes.push_back(compare_variant(*v, exact, c.ray, c.shape, rule));
+            add_to_summary(summary, exact, outcomes);
+            out << check_line(c.id, exact, outcomes).dump() << "\n";
+            if (c.expect && rule == HitRule::nearest_contact) {
+              const std::string why = expectation_mismatch(*c.expect, exact);
+              if (!why.empty()) {
+                ++oracle_disagreements;
+                std::cerr << "rayproof: " << path << ":" << line << ": case '" << c.id << "': " << why << "\n";
+              }
+            }
+            progress.update(cases, 0);
+          },
+          [&](const CaseError& e) {
+            ++unreadable;
+            std::cerr << "rayproof: " << e.to_string() << "\n";
+          });
+      if (in_file == 0 && unreadable == errors_before) {
+        ++unreadable;
+        std::cerr << "rayproof: " << path << ": no cases in file\n";
+      }
+    }
+    progress.finish();
+    if (file) file->commit();
+    else std::cout.flush();
+    print_summary_table(summary, std::cerr);
+    print_oracle_stats(std::cerr, oracle);
+    std::cerr << "rayproof check: " << cases << " cases, " << unreadable << " unreadable, " << oracle_disagreements
+              << " expectations contradicted by the exact oracle\n";
+    if (!opts->summary.empty()) {
+      AtomicFile s(opts->summary);
+      s.stream() << json{{"cases", cases},
+                         {"unreadable", unreadable},
+                         {"expect_disagreements", oracle_disagreements},
+                         {"rule", opts->rule},
+                         {"variants", summary_json(summary)},
+                         {"oracle", oracle_stats_json(oracle)}}
+                        .dump(2)
+                 << "\n";
+      s.commit();
+    }
+    exit_code = (unreadable > 0 || oracle_disagreements > 0) ? 1 : 0;
+  });
+}
+
+}  // namespace rayproof::cli

@@ -1,0 +1,60 @@
+// rayproof render SCENE -o OUT.png: the scene through the chosen variants.
+#include <chrono>
+#include <iostream>
+#include <mutex>
+
+#include "commands.h"
+#include "rayproof/core/render.h"
+
+namespace rayproof::cli {
+
+void add_render_command(CLI::App& app, int& exit_code) {
+  struct Options {
+    std::string scene, output, rule = "nearest";
+    std::vector<std::string> variants;
+    int threads = 0;
+  };
+  auto opts = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand("render", "Render a scene file to PNG or PPM");
+  cmd->add_option("scene", opts->scene, "scene file (docs/spec/scene.md)")->required();
+  cmd->add_option("-o,--output", opts->output, "output image, .png or .ppm")->required();
+  cmd->add_option("--variants,--variant", opts->variants,
+                  "one variant per shape, comma separated or repeated (default: stable, direct, watertight, robust-slab)");
+  add_rule_flag(cmd, opts->rule);
+  add_threads_flag(cmd, opts->threads);
+  cmd->callback([opts, &exit_code] {
+    if (!is_image_path(opts->output))
+      throw CLI::ValidationError("--output", "'" + opts->output + "': the image type comes from the extension, .png or .ppm");
+    RenderOptions ro;
+    std::array<const Variant*, 4> chosen{};
+    if (!opts->variants.empty())
+      for (const Variant* v : parse_variants(opts->variants)) {
+        const Variant*& slot = chosen[static_cast<int>(v->shape)];
+        if (slot)
+          throw CLI::ValidationError("--variants", "two " + std::string(to_string(v->shape)) + " variants, " +
+                                                       std::string(slot->name) + " and " + std::string(v->name) +
+                                                       ": a render uses one per shape");
+        slot = v;
+        ro.intersectors.use(v->name);
+      }
+    ro.intersectors.rule = parse_rule(opts->rule);
+    ro.threads = opts->threads;
+    const Scene scene = load_scene(opts->scene);
+    Progress progress("render " + opts->scene);
+    std::mutex mutex;
+    ro.progress = [&](int done, int total) {
+      std::lock_guard lock(mutex);
+      progress.update(done, total);
+    };
+    const auto start = std::chrono::steady_clock::now();
+    const Image image = render(scene, ro);
+    progress.finish();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    write_image(image, opts->output);
+    std::cerr << "rayproof render: " << opts->output << " (" << image.width << "x" << image.height << ", "
+              << seconds << " s)\n";
+    exit_code = 0;
+  });
+}
+
+}  // namespace rayproof::cli

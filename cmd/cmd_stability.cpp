@@ -1,0 +1,74 @@
+// rayproof stability: where each formula breaks, as one heatmap per variant.
+#include <filesystem>
+#include <iostream>
+
+#include "commands.h"
+#include "rayproof/core/atomic_file.h"
+#include "rayproof/studies/stability.h"
+
+namespace rayproof::cli {
+
+namespace {
+// stability.csv and one SVG per variant of one shape, in `dir`.
+void write_stability(const std::string& dir, ShapeKind shape, const std::string& rule,
+                     const std::map<std::string, std::vector<studies::StabilityCell>>& cells,
+                     const studies::StabilityGrid& grid) {
+  std::filesystem::create_directories(dir);
+  AtomicFile csv(dir + "/stability.csv");
+  studies::write_stability_csv(cells, csv.stream());
+  csv.commit();
+  for (const auto& [name, list] : cells) {
+    const std::string path = dir + "/" + name + ".svg";
+    AtomicFile svg(path);
+    studies::write_stability_svg(
+        name + " (" + std::string(to_string(shape)) + ", rule " + rule + "): class disagreement rate", list, grid,
+        svg.stream());
+    svg.commit();
+    std::cerr << "rayproof stability: " << path << "\n";
+  }
+  std::cerr << "rayproof stability: " << dir << "/stability.csv\n";
+}
+}  // namespace
+
+void add_stability_command(CLI::App& app, int& exit_code) {
+  struct Options {
+    std::vector<std::string> shapes{"sphere"}, variants;
+    std::string output, rule = "nearest";
+    int lo = -200, hi = 200, step = 10, threads = 0;
+    std::uint64_t cases = 200, seed = 1;
+  };
+  auto opts = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand("stability", "Stability maps: disagreement rate over position scale x size scale");
+  cmd->add_option("--shapes,--shape", opts->shapes,
+                  "shapes, comma separated, or all (default: sphere); several go to OUTPUT/SHAPE/");
+  add_variants_flag(cmd, opts->variants);
+  add_rule_flag(cmd, opts->rule);
+  cmd->add_option("--from", opts->lo, "smallest log2 scale")->check(CLI::Range(-1000, 1000));
+  cmd->add_option("--to", opts->hi, "largest log2 scale")->check(CLI::Range(-1000, 1000));
+  cmd->add_option("--step", opts->step, "log2 step")->check(CLI::Range(1, 1000));
+  cmd->add_option("--count,--cases", opts->cases, "cases per cell")->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 24));
+  add_seed_flag(cmd, opts->seed);
+  add_threads_flag(cmd, opts->threads);
+  cmd->add_option("-o,--output", opts->output, "directory for stability.csv and one SVG heatmap per variant")->required();
+  cmd->callback([opts, &exit_code] {
+    if (opts->lo > opts->hi) throw CLI::ValidationError("--from", "must not exceed --to");
+    const std::vector<ShapeKind> shapes = parse_shapes(opts->shapes);
+    const std::vector<const Variant*> named = parse_variants(opts->variants);
+    for (const Variant* v : opts->variants.empty() ? std::vector<const Variant*>{} : named)
+      if (std::find(shapes.begin(), shapes.end(), v->shape) == shapes.end())
+        throw CLI::ValidationError("--variants", std::string(v->name) + " is a " + std::string(to_string(v->shape)) +
+                                                     " variant; add --shapes " + std::string(to_string(v->shape)));
+    const studies::StabilityGrid grid{opts->lo, opts->hi, opts->step, opts->cases, opts->seed};
+    const HitRule rule = parse_rule(opts->rule);
+    for (ShapeKind shape : shapes) {
+      const std::vector<const Variant*> variants = parse_variants(opts->variants, {shape});
+      if (variants.empty()) continue;
+      const auto cells = studies::stability_study(shape, variants, rule, grid, thread_count(opts->threads));
+      write_stability(shapes.size() == 1 ? opts->output : opts->output + "/" + std::string(to_string(shape)), shape,
+                      opts->rule, cells, grid);
+    }
+    exit_code = 0;
+  });
+}
+
+}  // namespace rayproof::cli

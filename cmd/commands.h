@@ -1,0 +1,70 @@
+// Subcommands of the `rayproof` executable; each registers itself on the CLI11 app. The flag
+// vocabulary they share lives in options.cpp, so every command spells a flag the same way.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "rayproof/core/hit.h"
+#include "rayproof/core/variants.h"
+#include "rayproof/fuzz/generators.h"
+#include "rayproof/studies/trade.h"
+
+namespace rayproof::cli {
+
+void add_variants_command(CLI::App& app, int& exit_code);
+void add_intersect_command(CLI::App& app, int& exit_code);
+void add_render_command(CLI::App& app, int& exit_code);
+void add_check_command(CLI::App& app, int& exit_code);
+void add_fuzz_command(CLI::App& app, int& exit_code);
+void add_spawn_command(CLI::App& app, int& exit_code);
+void add_trade_command(CLI::App& app, int& exit_code);
+void add_stability_command(CLI::App& app, int& exit_code);
+// The spawn study's table on stderr and its CSV (shared by `spawn` and `fuzz --families near-origin`).
+void run_spawn_report(const std::vector<const Variant*>& variants, const std::vector<int>& scales, std::uint64_t count,
+                      std::uint64_t seed, int threads, const std::string& csv_path);
+
+// ---- the shared flags: one spelling each, lists comma separated or repeated, `all` anywhere.
+// --variants (alias --variant), --shapes (--shape), --families (--family), --rule, --threads,
+// --seed, --count; -o is each command's own (its meaning differs: file or directory).
+void add_variants_flag(CLI::App* cmd, std::vector<std::string>& names);
+void add_shapes_flag(CLI::App* cmd, std::vector<std::string>& names);
+void add_families_flag(CLI::App* cmd, std::vector<std::string>& names);
+void add_rule_flag(CLI::App* cmd, std::string& rule);
+void add_threads_flag(CLI::App* cmd, int& threads);
+void add_seed_flag(CLI::App* cmd, std::uint64_t& seed);
+void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what, std::uint64_t most);
+
+// Comma-separated option values, flattened ("a,b" "c" → a, b, c); empty items dropped.
+std::vector<std::string> split_list(const std::vector<std::string>& lists);
+// The chosen shapes (every shape for `all` or nothing given), or CLI::ValidationError.
+std::vector<ShapeKind> parse_shapes(const std::vector<std::string>& names);
+std::vector<fuzz::Family> parse_families(const std::vector<std::string>& names);
+// The chosen variants of the chosen shapes: named ones (every one for `all` or nothing given),
+// kept only where their shape is among `shapes`. Throws CLI::ValidationError for an unknown name.
+std::vector<const Variant*> parse_variants(const std::vector<std::string>& names,
+                                           const std::vector<ShapeKind>& shapes = {kAllShapeKinds.begin(),
+                                                                                   kAllShapeKinds.end()});
+HitRule parse_rule(const std::string& rule);
+int thread_count(int flag);  // 0: every hardware thread
+
+// Everything `trade` and the benchmarks measure: the registered variants, their batched forms
+// and, when built, peer libraries.
+std::vector<studies::Contender> trade_contenders();
+
+// A progress line on stderr, only when stderr is a terminal.
+class Progress {
+ public:
+  explicit Progress(std::string label);
+  void update(long done, long total);
+  void finish();
+
+ private:
+  std::string label_;
+  bool enabled_;
+  long last_percent_ = -1;
+};
+
+}  // namespace rayproof::cli

@@ -1,0 +1,133 @@
+// The flag vocabulary every command shares, the contenders of `trade`, and the progress line.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <sstream>
+
+#include "commands.h"
+#include "rayproof/core/parallel.h"
+#ifdef RAYPROOF_HAVE_EMBREE
+#include "rayproof/peers/embree.h"
+#endif
+
+namespace rayproof::cli {
+
+void add_variants_flag(CLI::App* cmd, std::vector<std::string>& names) {
+  cmd->add_option("--variants,--variant", names, "variants, comma separated or repeated, or all (default: all)");
+}
+void add_shapes_flag(CLI::App* cmd, std::vector<std::string>& names) {
+  cmd->add_option("--shapes,--shape", names, "shapes, comma separated: sphere, plane, triangle, box, all");
+}
+void add_families_flag(CLI::App* cmd, std::vector<std::string>& names) {
+  cmd->add_option("--families,--family", names,
+                  "families, comma separated: random, tangent, grazing, near-origin, exit-entry, extremes, all");
+}
+void add_rule_flag(CLI::App* cmd, std::string& rule) {
+  cmd->add_option("--rule", rule, "hit rule: nearest (first contact) or enter-only")
+      ->check(CLI::IsMember({"nearest", "enter-only"}));
+}
+void add_threads_flag(CLI::App* cmd, int& threads) {
+  cmd->add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::Range(0, 256));
+}
+void add_seed_flag(CLI::App* cmd, std::uint64_t& seed) {
+  cmd->add_option("--seed", seed, "seed: the same seed and count give the same cases on any machine");
+}
+void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what, std::uint64_t most) {
+  cmd->add_option("--count", count, what)->check(CLI::Range(std::uint64_t(1), most));
+}
+
+std::vector<std::string> split_list(const std::vector<std::string>& lists) {
+  std::vector<std::string> out;
+  for (const std::string& l : lists) {
+    std::stringstream ss(l);
+    for (std::string x; std::getline(ss, x, ',');)
+      if (!x.empty()) out.push_back(x);
+  }
+  return out;
+}
+
+namespace {
+// Names resolved by `lookup`; `all` (or no name) means every one of `all_values`.
+template <class T, class Lookup>
+std::vector<T> parse_named(const std::vector<std::string>& names, const std::vector<T>& all_values,
+                           const std::string& flag, const std::string& what, Lookup lookup,
+                           const std::string& known = "") {
+  std::vector<T> out;
+  const auto items = split_list(names);
+  for (const std::string& name : items) {
+    if (name == "all") {
+      for (const T& v : all_values)
+        if (std::find(out.begin(), out.end(), v) == out.end()) out.push_back(v);
+      continue;
+    }
+    const auto value = lookup(name);
+    if (!value)
+      throw CLI::ValidationError(flag, "unknown " + what + " '" + name + "'" + (known.empty() ? "" : " (known: " + known + ")"));
+    if (std::find(out.begin(), out.end(), *value) == out.end()) out.push_back(*value);
+  }
+  return items.empty() ? all_values : out;
+}
+}  // namespace
+
+std::vector<ShapeKind> parse_shapes(const std::vector<std::string>& names) {
+  return parse_named<ShapeKind>(names, {kAllShapeKinds.begin(), kAllShapeKinds.end()}, "--shapes", "shape",
+                                shape_kind_from_string);
+}
+
+std::vector<fuzz::Family> parse_families(const std::vector<std::string>& names) {
+  return parse_named<fuzz::Family>(names, {std::begin(fuzz::kAllFamilies), std::end(fuzz::kAllFamilies)},
+                                   "--families", "family", fuzz::family_from_string);
+}
+
+std::vector<const Variant*> parse_variants(const std::vector<std::string>& names, const std::vector<ShapeKind>& shapes) {
+  std::vector<const Variant*> every;
+  for (const Variant& v : all_variants()) every.push_back(&v);
+  auto lookup = [](const std::string& name) -> std::optional<const Variant*> {
+    if (const Variant* v = find_variant(name)) return v;
+    return std::nullopt;
+  };
+  std::string known;
+  for (const Variant* v : every) known += (known.empty() ? "" : ", ") + std::string(v->name);
+  std::vector<const Variant*> chosen = parse_named<const Variant*>(names, every, "--variants", "variant", lookup, known);
+  std::erase_if(chosen, [&](const Variant* v) { return std::find(shapes.begin(), shapes.end(), v->shape) == shapes.end(); });
+  return chosen;
+}
+
+HitRule parse_rule(const std::string& rule) {
+  const auto r = hit_rule_from_string(rule);
+  if (!r) throw CLI::ValidationError("--rule", "unknown rule '" + rule + "' (nearest or enter-only)");
+  return *r;
+}
+
+int thread_count(int flag) { return flag > 0 ? flag : default_threads(); }
+
+std::vector<studies::Contender> trade_contenders() {
+  std::vector<studies::Contender> all = studies::variant_contenders();
+  for (studies::Contender& c : studies::batched_contenders()) all.push_back(std::move(c));
+#ifdef RAYPROOF_HAVE_EMBREE
+  for (studies::Contender& c : peers::embree_contenders()) all.push_back(std::move(c));
+#endif
+  return all;
+}
+
+Progress::Progress(std::string label) : label_(std::move(label)), enabled_(isatty(2)) {}
+
+void Progress::update(long done, long total) {
+  if (!enabled_) return;
+  if (total <= 0) {  // unknown total (a case file read as it streams): a count every 10,000
+    if (done % 10000 == 0) std::fprintf(stderr, "\r%s: %ld done", label_.c_str(), done), last_percent_ = 0;
+    return;
+  }
+  const long percent = done * 100 / total;
+  if (percent == last_percent_) return;
+  last_percent_ = percent;
+  std::fprintf(stderr, "\r%s: %ld/%ld (%ld%%)", label_.c_str(), done, total, percent);
+  std::fflush(stderr);
+}
+
+void Progress::finish() {
+  if (enabled_ && last_percent_ >= 0) std::fprintf(stderr, "\n");
+}
+
+}  // namespace rayproof::cli

@@ -1,0 +1,61 @@
+// Fuzzing campaigns: every variant against the exact oracle on generated families, findings
+// written whole, line by line, as replayable case-file lines; resumable from a checkpoint.
+#pragma once
+
+#include <compare>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "rayproof/core/json_fields.h"
+#include "rayproof/core/variants.h"
+#include "rayproof/fuzz/generators.h"
+#include "rayproof/verify/tally.h"
+
+namespace rayproof::fuzz {
+
+struct CampaignOptions {
+  std::vector<Family> families;
+  std::vector<ShapeKind> shapes;
+  std::uint64_t count = 10000;  // cases per family × shape (before sharding)
+  std::uint64_t seed = 1;
+  unsigned shard = 0, shards = 1;
+  int threads = 1;
+  HitRule rule = HitRule::nearest_contact;
+  std::string output;           // findings, JSON Lines; a checkpoint goes to output + ".checkpoint"
+  bool resume = false;
+  bool shrink = true;
+  std::uint64_t max_findings = 1000;  // written per family × shape; all are still counted
+  std::uint64_t batch = 8192;
+  long crash_after_batches = -1;  // testing hook: exit hard after writing that many batches' findings
+  std::function<void(Family, ShapeKind, std::uint64_t done, std::uint64_t total)> progress;
+};
+
+// What a report row is about: a family and a variant (tallies) or a shape (cases, seconds).
+// Serialised as "family\tname", the summary file's key.
+struct ReportKey {
+  std::string family, name;
+  auto operator<=>(const ReportKey&) const = default;
+  std::string to_string() const { return family + "\t" + name; }
+  static ReportKey parse(const std::string& joined);
+};
+
+struct CampaignReport {
+  std::map<ReportKey, Tally> tallies;             // family × variant
+  std::map<ReportKey, double> seconds;            // family × shape
+  std::map<ReportKey, std::uint64_t> cases;       // family × shape
+  std::uint64_t findings_written = 0;
+  json to_json() const;
+  static CampaignReport from_json(const json& j);
+};
+
+// Runs (or, with options.resume, continues) a campaign; throws std::runtime_error on I/O errors
+// or a checkpoint that belongs to other options.
+CampaignReport run_campaign(const CampaignOptions& options);
+
+void print_report(const CampaignReport& report, int threads, std::ostream& out);
+
+}  // namespace rayproof::fuzz

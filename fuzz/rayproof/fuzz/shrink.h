@@ -1,0 +1,23 @@
+// Shrinking a finding: the simplest numbers on which a variant still disagrees with the exact
+// oracle — fewer significant bits, exponents nearer zero, components zeroed — so a user gets
+// `origin (0, 1, −4)`, not seventeen digits, whenever such a case exists.
+#pragma once
+
+#include "rayproof/core/casefile.h"
+#include "rayproof/verify/oracle.h"
+#include "rayproof/core/variants.h"
+
+namespace rayproof::fuzz {
+
+// Whether the variant's class differs from the exact class on this query.
+bool disagrees(const Variant& v, Oracle& oracle, const Ray& ray, const Shape& shape, HitRule rule);
+
+// A simpler query on which `v` still disagrees (the input itself when nothing simpler does).
+// Every accepted step strictly lowers the total cost of the numbers (significant bits plus
+// |binary exponent|), so shrinking terminates; `budget` caps the oracle calls.
+Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget = 3000);
+
+// The cost that shrinking lowers: 0 for zero, else significant bits + |unbiased exponent|.
+int number_cost(double x);
+
+}  // namespace rayproof::fuzz

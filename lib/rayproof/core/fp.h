@@ -1,0 +1,51 @@
+// The error-bound vocabulary of the double kernel, in one place: the unit roundoff, pbrt's γ(n),
+// distances in ulps, nudges by ulps, and the magnitude range inside which the bounds are proved.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <optional>
+
+namespace rayproof {
+
+// u = 2^-53: |fl(x ∘ y) − x ∘ y| ≤ u·|x ∘ y| for one rounding, while nothing under- or overflows.
+inline constexpr double kUnitRoundoff = std::numeric_limits<double>::epsilon() * 0.5;
+
+// γ(n) = n·u / (1 − n·u) (Higham, "Accuracy and Stability of Numerical Algorithms", §3.1; pbrt-v4
+// util/float.h): a product of n factors (1 + δ_i), |δ_i| ≤ u, lies within 1 ± γ(n).
+constexpr double gamma(int n) { return (n * kUnitRoundoff) / (1 - n * kUnitRoundoff); }
+
+// The magnitudes between which the double filters' bounds are proved (error-free products and
+// relative bounds γ(n)). FMA's product error a·b − fl(a·b) is itself a double unless underflow
+// intervenes, which it cannot while e_a + e_b ≥ e_min + p − 1 = −1022 + 52 = −970 (Boldo & Muller,
+// "Exact and Approximated Error of the FMA", IEEE TC 2011), i.e. for |a·b| ≥ 2^-969; a relative
+// bound γ(n) likewise needs every rounded intermediate to stay normal. 2^-900 leaves 69 binades
+// of headroom for the few products a formula forms after the guard; 2^+900 mirrors it below the
+// overflow threshold 2^1024 with the same margin for the sums and products that follow.
+inline constexpr double kSafeMagnitudeMin = 0x1p-900;
+inline constexpr double kSafeMagnitudeMax = 0x1p+900;
+
+// The number of doubles between a and b (0 when equal; +0 and −0 are one point), or nullopt
+// when either is NaN. ±inf count as the doubles just beyond ±DBL_MAX.
+inline std::optional<std::uint64_t> ulp_distance(double a, double b) {
+  if (std::isnan(a) || std::isnan(b)) return std::nullopt;
+  // Map the IEEE bit patterns onto a line where consecutive doubles are consecutive integers.
+  auto ordered = [](double x) {
+    std::int64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    return bits < 0 ? -(bits & INT64_MAX) : bits;
+  };
+  const std::int64_t ia = ordered(a), ib = ordered(b);
+  return ia > ib ? std::uint64_t(ia) - std::uint64_t(ib) : std::uint64_t(ib) - std::uint64_t(ia);
+}
+
+// x moved by `ulps` representable doubles (negative: downwards).
+inline double nudge(double x, int ulps) {
+  for (; ulps > 0; --ulps) x = std::nextafter(x, INFINITY);
+  for (; ulps < 0; ++ulps) x = std::nextafter(x, -INFINITY);
+  return x;
+}
+
+}  // namespace rayproof

@@ -1,0 +1,30 @@
+// What an intersector answers: the class of the first contact and its parameter t.
+#pragma once
+
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <string_view>
+
+namespace rayproof {
+
+// The classes of docs/spec/cases.md, in that order.
+enum class HitClass { miss, enter, exit, tangent, boundary };
+
+std::string_view to_string(HitClass c);
+std::optional<HitClass> hit_class_from_string(std::string_view s);
+
+struct Hit {
+  HitClass cls = HitClass::miss;
+  double t = std::numeric_limits<double>::quiet_NaN();  // NaN where there is no t
+  bool has_t() const { return !std::isnan(t); }
+  static Hit miss() { return {}; }
+};
+
+// Which contact counts. nearest_contact: the first contact with t > 0 (the case format's truth).
+// enter_only: the first tutorial's rule — a contact counts only where the ray enters.
+enum class HitRule { nearest_contact, enter_only };
+std::string_view to_string(HitRule r);
+std::optional<HitRule> hit_rule_from_string(std::string_view s);
+
+}  // namespace rayproof

@@ -1,0 +1,49 @@
+// Reading the numbers, vectors and shapes shared by case files and scene files
+// (docs/spec/cases.md, "Every number is ..."). Errors name the field by its JSON path.
+#pragma once
+
+#include <initializer_list>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "rayproof/core/shapes.h"
+
+namespace rayproof {
+
+using nlohmann::json;
+
+// A malformed field: `field` is its path, e.g. "shape.center[2]".
+struct FieldError : std::runtime_error {
+  FieldError(std::string field, const std::string& message)
+      : std::runtime_error(message), field(std::move(field)) {}
+  std::string field;
+};
+
+// Parses a C99 hexadecimal float exactly ("0x1.8p+1"); nullopt when the text is not one.
+std::optional<double> parse_hex_double(std::string_view text);
+// The hex form of a double as printf's %a writes it ("0x1p+1", "-0x0p+0", "inf").
+std::string hex_double(double x);
+// A JSON value for x: a plain number when a short decimal names it exactly, else a hex string.
+json exact_json_number(double x);
+
+// json::parse, except that a JSON number beyond the double range (1e999) does not abort the
+// whole document: it becomes a marker that read_number reports under the field's own name.
+// Throws json::parse_error for malformed JSON.
+json parse_json_text(const std::string& text);
+
+// A finite double from a JSON number or a hex-float string.
+double read_number(const json& j, const std::string& field);
+Vec3 read_vec3(const json& j, const std::string& field);
+// Rejects any key of `obj` not in `allowed`, and any missing key of `required`.
+void check_keys(const json& obj, const std::string& field, std::initializer_list<std::string_view> allowed,
+                std::initializer_list<std::string_view> required);
+const json& require_object(const json& j, const std::string& field);
+// A shape object of the case format. `extra_keys` are allowed besides the shape's own
+// (scene objects add "color" and "id"). Degenerate shapes are errors.
+Shape read_shape(const json& j, const std::string& field,
+                 std::initializer_list<std::string_view> extra_keys = {});
+json shape_to_json(const Shape& s);
+
+}  // namespace rayproof

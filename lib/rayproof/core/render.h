@@ -1,0 +1,62 @@
+// A small multithreaded renderer on top of the variants, so their errors can be seen.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "rayproof/core/hit.h"
+#include "rayproof/core/scene.h"
+#include "rayproof/core/variants.h"
+
+namespace rayproof {
+
+struct Image {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgb;  // row-major, 3 bytes a pixel, top row first
+  std::array<std::uint8_t, 3> at(int x, int y) const {
+    const size_t k = 3 * (static_cast<size_t>(y) * width + x);
+    return {rgb[k], rgb[k + 1], rgb[k + 2]};
+  }
+};
+
+// Which variant intersects each shape kind, and which contacts count.
+struct Intersectors {
+  std::array<const Variant*, 4> by_shape{};  // indexed by ShapeKind
+  HitRule rule = HitRule::nearest_contact;
+  static Intersectors defaults();
+  // Picks `variant` for its own shape; returns false for an unknown name.
+  bool use(std::string_view variant);
+};
+
+struct RenderOptions {
+  Intersectors intersectors = Intersectors::defaults();
+  int threads = 0;                                    // 0: one per hardware thread
+  std::function<void(int rows_done, int rows)> progress;  // called from worker threads
+};
+
+// The nearest hit of a ray among the scene's objects (object index, or -1).
+struct SceneHit {
+  int object = -1;
+  Hit hit;
+};
+SceneHit trace(const Scene& scene, const Intersectors& isect, const Ray& ray);
+
+// Linear 0..1 colour of one primary ray (scene.md's shading rules).
+Vec3 shade(const Scene& scene, const Intersectors& isect, const Ray& ray);
+
+Image render(const Scene& scene, const RenderOptions& options = {});
+
+// Whether write_image can write this path (.png or .ppm): checked before rendering, so a long
+// render is never thrown away for a typo in the output name.
+bool is_image_path(const std::string& path);
+
+// Writes PNG or PPM by the extension (.png, .ppm), atomically (temporary file, then rename).
+// Throws std::runtime_error on failure.
+void write_image(const Image& image, const std::string& path);
+// Reads a PNG written by write_image (8-bit RGB); for tests and audits.
+Image read_png(const std::string& path);
+
+}  // namespace rayproof

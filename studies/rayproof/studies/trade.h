@@ -1,0 +1,62 @@
+// The speed–accuracy trade: every contender (a variant, a batched variant, a peer library) timed
+// on the same generated cases in one run, and judged against the exact oracle on them.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "rayproof/core/hit.h"
+#include "rayproof/core/query.h"
+#include "rayproof/fuzz/generators.h"
+#include "rayproof/verify/tally.h"
+
+namespace rayproof::studies {
+
+using fuzz::Family;
+
+// A contender readied for one batch of queries: `run` answers them all (this is what is
+// timed); `answer(i)` then reads the i-th answer.
+struct Prepared {
+  std::function<void()> run;
+  std::function<Hit(size_t)> answer;
+};
+
+// Something to measure: readies a whole batch of queries of one shape in its own layout (so
+// batched and peer implementations are timed the way they are meant to be used).
+struct Contender {
+  std::string name;
+  ShapeKind shape;
+  std::function<Prepared(const std::vector<Query>&)> prepare;
+  // Inputs as the contender really sees them (a float library rounds them); the oracle judges
+  // these, and a query the contender cannot take (nullopt) is left out of its row. Empty: the
+  // queries as generated.
+  std::function<std::optional<Query>(const Query&)> effective_input;
+};
+
+std::vector<Contender> variant_contenders();  // every registered variant, called per query
+std::vector<Contender> batched_contenders();  // the structure-of-arrays batched variants
+
+struct TradeRow {
+  std::string variant;
+  ShapeKind shape;
+  Family family;
+  double ns_per_test = 0;
+  Tally tally;          // against the oracle on the contender's effective inputs
+  bool pareto = false;  // no other contender on this shape and family is both as fast and as accurate
+};
+
+std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, const std::vector<ShapeKind>& shapes,
+                                    const std::vector<Family>& families, std::uint64_t count, std::uint64_t seed,
+                                    int threads);
+
+// CSV with exactly: variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max
+void write_trade_csv(const std::vector<TradeRow>& rows, std::ostream& out);
+void print_trade_markdown(const std::vector<TradeRow>& rows, std::ostream& out);
+// Scatter plot: x ns per test (log), y disagreement rate (log), one mark per row.
+void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out);
+
+}  // namespace rayproof::studies

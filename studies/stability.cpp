@@ -1,0 +1,148 @@
+#include "rayproof/studies/stability.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include "rayproof/core/parallel.h"
+#include "rayproof/fuzz/generators.h"
+#include "rayproof/studies/svg.h"
+#include "rayproof/verify/compare.h"
+#include "rayproof/verify/oracle.h"
+
+namespace rayproof::studies {
+
+namespace {
+
+struct CellRng : fuzz::SplitMix64 {  // seeded per (seed, cell, case): independent of threads
+  double sym() { return 2 * unit() - 1; }
+  Vec3 direction() {
+    Vec3 v;
+    do v = Vec3(sym(), sym(), sym()); while (dot(v, v) > 1 || dot(v, v) < 1e-3);
+    return normalized(v);
+  }
+};
+
+// One query of cell (a, b): a shape of size 2^b at distance 2^a from the ray's origin (0,0,0),
+// the ray aimed at a random point of the shape's extent, 10% beyond it so silhouettes and
+// tangents are covered.
+Query cell_query(ShapeKind kind, int a, int b, CellRng& rng) {
+  const double pos = std::ldexp(1.0, a), size = std::ldexp(1.0, b);
+  const Vec3 centre = pos * rng.direction();
+  switch (kind) {
+    case ShapeKind::sphere: {
+      const double r = size * (1 + rng.unit());
+      const Vec3 target = centre + (1.1 * std::sqrt(rng.unit()) * r) * rng.direction();
+      return {Ray{Vec3::Zero(), target}, Sphere{centre, r}};
+    }
+    case ShapeKind::plane: {
+      const Vec3 n = rng.direction();
+      const Vec3 target = centre + size * rng.direction();
+      return {Ray{Vec3::Zero(), target}, Plane{n, dot(n, centre)}};
+    }
+    case ShapeKind::triangle: {
+      Triangle t{{centre + size * rng.direction(), centre + size * rng.direction(), centre + size * rng.direction()}};
+      if (degenerate_reason(t)) t.v[2] = centre + size * Vec3(0.3, 0.7, -0.2);
+      const double u = 1.2 * rng.unit() - 0.1, v = (1.2 - u) * rng.unit() - 0.1;
+      const Vec3 target = t.v[0] + u * (t.v[1] - t.v[0]) + v * (t.v[2] - t.v[0]);
+      return {Ray{Vec3::Zero(), target}, t};
+    }
+    case ShapeKind::box: {
+      const Vec3 half = size * Vec3(0.5 + 0.5 * rng.unit(), 0.5 + 0.5 * rng.unit(), 0.5 + 0.5 * rng.unit());
+      const Vec3 target = centre + Vec3(1.1 * rng.sym() * half.x(), 1.1 * rng.sym() * half.y(), 1.1 * rng.sym() * half.z());
+      return {Ray{Vec3::Zero(), target}, Box{centre - half, centre + half}};
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+std::map<std::string, std::vector<StabilityCell>> stability_study(ShapeKind shape,
+                                                                  const std::vector<const Variant*>& variants,
+                                                                  HitRule rule, const StabilityGrid& grid, int threads) {
+  std::vector<std::pair<int, int>> coords;
+  for (int b = grid.lo; b <= grid.hi; b += grid.step)
+    for (int a = grid.lo; a <= grid.hi; a += grid.step) coords.push_back({a, b});
+  std::map<std::string, std::vector<StabilityCell>> out;
+  for (const Variant* v : variants) out[std::string(v->name)].resize(coords.size());
+  run_workers(threads, [&](int w) {
+    Oracle oracle;
+    for (size_t c = w; c < coords.size(); c += threads) {
+      const auto [a, b] = coords[c];
+      std::vector<Tally> tallies(variants.size());
+      for (std::uint64_t i = 0; i < grid.cases_per_cell; ++i) {
+        CellRng rng{grid.seed * 0x9E3779B97F4A7C15ull ^ (std::uint64_t(a + 4096) << 40) ^ (std::uint64_t(b + 4096) << 20) ^ i};
+        const Query q = cell_query(shape, a, b, rng);
+        if (!is_valid_query(q.ray, q.shape)) continue;
+        const Verdict exact = oracle.judge(q.ray, q.shape, rule);
+        for (size_t vi = 0; vi < variants.size(); ++vi)
+          tallies[vi].add(exact.cls, compare_variant(*variants[vi], exact, q.ray, q.shape, rule));
+      }
+      for (size_t vi = 0; vi < variants.size(); ++vi)
+        out[std::string(variants[vi]->name)][c] = {a, b, std::move(tallies[vi])};
+    }
+  });
+  return out;
+}
+
+void write_stability_csv(const std::map<std::string, std::vector<StabilityCell>>& cells, std::ostream& out) {
+  out << "variant,log2_scale,log2_size,cases,disagreement_rate,ulp_p99\n";
+  char buf[64];
+  for (const auto& [name, list] : cells)
+    for (const StabilityCell& c : list) {
+      std::snprintf(buf, sizeof buf, "%.6g", c.tally.disagreement_rate());
+      out << name << "," << c.log2_scale << "," << c.log2_size << "," << c.tally.cases << "," << buf << ","
+          << c.tally.ulps.quantile(0.99) << "\n";
+    }
+}
+
+namespace {
+// A perceptually ordered ramp (viridis-like) over t ∈ [0, 1].
+std::string ramp(double t) {
+  static const double stops[][3] = {{68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}};
+  t = std::clamp(t, 0.0, 1.0) * 4;
+  const int i = std::min(3, static_cast<int>(t));
+  const double f = t - i;
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", int(stops[i][0] + f * (stops[i + 1][0] - stops[i][0])),
+                int(stops[i][1] + f * (stops[i + 1][1] - stops[i][1])), int(stops[i][2] + f * (stops[i + 1][2] - stops[i][2])));
+  return buf;
+}
+// Colour of a disagreement rate: light grey for none, the ramp over log10(rate) ∈ [−4, 0].
+std::string colour_of(double rate) { return rate <= 0 ? "#eeeeee" : ramp((std::log10(std::max(rate, 1e-4)) + 4) / 4); }
+}  // namespace
+
+void write_stability_svg(const std::string& title, const std::vector<StabilityCell>& cells, const StabilityGrid& grid,
+                         std::ostream& out) {
+  const int n = (grid.hi - grid.lo) / grid.step + 1;
+  const double cell = std::max(12.0, 520.0 / n), left = 80, top = 50, plot = cell * n;
+  svg::begin(out, left + plot + 170, top + plot + 70, 11);
+  out << svg::text(left, 28, title, "font-size='15'") << "\n";
+  for (const StabilityCell& c : cells) {
+    const int col = (c.log2_scale - grid.lo) / grid.step, row = (c.log2_size - grid.lo) / grid.step;
+    const std::string tip = svg::format("distance 2^%d, size 2^%d: %llu of %llu disagree, ULP p99 %llu", c.log2_scale,
+                                        c.log2_size, (unsigned long long)c.tally.disagreements(),
+                                        (unsigned long long)c.tally.cases, (unsigned long long)c.tally.ulps.quantile(0.99));
+    out << svg::rect(left + col * cell, top + (n - 1 - row) * cell, cell, cell, colour_of(c.tally.disagreement_rate()), tip)
+        << "\n";
+  }
+  const int label_every = std::max(1, n / 8);
+  for (int i = 0; i < n; i += label_every) {
+    const std::string k = std::to_string(grid.lo + i * grid.step);
+    out << svg::text(left + (i + 0.5) * cell, top + plot + 16, k, "text-anchor='middle'")
+        << svg::text(left - 6, top + (n - 1 - i + 0.5) * cell + 4, k, "text-anchor='end'") << "\n";
+  }
+  out << svg::text(left + plot / 2, top + plot + 40, "log2 of the distance from the ray origin", "text-anchor='middle'")
+      << svg::format("<text transform='translate(24 %.1f) rotate(-90)' text-anchor='middle'>", top + plot / 2)
+      << "log2 of the size (sphere radius, triangle or box extent)</text>\n";
+  const double lx = left + plot + 30;  // legend
+  out << svg::text(lx, top + 4, "disagreement rate") << "\n";
+  const char* labels[] = {"100%", "10%", "1%", "0.1%", "0.01%"};
+  for (int i = 0; i < 5; ++i)
+    out << svg::rect(lx, top + 14 + i * 22.0, 18, 18, ramp(1 - i / 4.0)) << svg::text(lx + 24, top + 27 + i * 22.0, labels[i])
+        << "\n";
+  out << svg::rect(lx, top + 14 + 5 * 22.0, 18, 18, "#eeeeee") << svg::text(lx + 24, top + 27 + 5 * 22.0, "0") << "\n";
+  svg::end(out);
+}
+
+}  // namespace rayproof::studies

@@ -1,0 +1,232 @@
+#include "rayproof/studies/trade.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include "rayproof/core/batch.h"
+#include "rayproof/core/parallel.h"
+#include "rayproof/core/variants.h"
+#include "rayproof/studies/svg.h"
+#include "rayproof/verify/compare.h"
+#include "rayproof/verify/oracle.h"
+
+namespace rayproof::studies {
+
+std::vector<Contender> variant_contenders() {
+  std::vector<Contender> out;
+  for (const Variant& v : all_variants()) {
+    const Variant* p = &v;
+    out.push_back({std::string(v.name), v.shape,
+                   [p](const std::vector<Query>& qs) {
+                     auto hits = std::make_shared<std::vector<Hit>>(qs.size());
+                     return Prepared{[p, &qs, hits] {
+                                       for (size_t i = 0; i < qs.size(); ++i)
+                                         (*hits)[i] = p->intersect(qs[i].ray, qs[i].shape, HitRule::nearest_contact);
+                                     },
+                                     [hits](size_t i) { return (*hits)[i]; }};
+                   },
+                   {}});
+  }
+  return out;
+}
+
+std::vector<Contender> batched_contenders() {
+  std::vector<Contender> out;
+  for (const BatchedVariant& b : batched_variants()) {
+    // The queries laid out as structure of arrays once, in prepare; only the kernel is timed.
+    const BatchedVariant* v = &b;
+    out.push_back({std::string(b.name), b.shape,
+                   [v](const std::vector<Query>& qs) {
+                     auto laid_out = std::make_shared<QueriesSoA>(qs);
+                     auto hits = std::make_shared<HitsSoA>();
+                     return Prepared{[v, laid_out, hits] { v->intersect_all(*laid_out, *hits); },
+                                     [hits](size_t i) { return hits->at(i); }};
+                   },
+                   {}});
+  }
+  return out;
+}
+
+namespace {
+
+// Exact verdicts for a batch of queries, in parallel.
+std::vector<Verdict> judge_all(const std::vector<Query>& qs, int threads) {
+  std::vector<Verdict> out(qs.size());
+  run_workers(threads, [&](int w) {
+    Oracle oracle;
+    for (size_t i = w; i < qs.size(); i += threads) out[i] = oracle.judge(qs[i].ray, qs[i].shape);
+  });
+  return out;
+}
+
+// Nanoseconds per query, single-threaded: the fastest of several passes over the first 4096
+// queries (cache-resident, like a benchmark's prepared inputs; the whole set is still judged).
+double time_per_query(const Contender& c, const std::vector<Query>& all) {
+  const std::vector<Query> qs(all.begin(), all.begin() + std::min<size_t>(all.size(), 4096));
+  const Prepared p = c.prepare(qs);
+  const int repeats = static_cast<int>(std::max<size_t>(1, 200000 / qs.size()));
+  double best = INFINITY;
+  for (int pass = 0; pass < 5; ++pass) {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int r = 0; r < repeats; ++r) p.run();
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / repeats;
+    best = std::min(best, s);
+  }
+  // Keep the answers observable so the passes cannot be optimised away.
+  volatile double sink = 0;
+  for (size_t i = 0; i < qs.size(); ++i) sink = sink + (p.answer(i).has_t() ? p.answer(i).t : 0);
+  return best * 1e9 / std::max<size_t>(1, qs.size());
+}
+
+void mark_pareto(std::vector<TradeRow>& rows) {
+  for (TradeRow& r : rows) {
+    r.pareto = true;
+    for (const TradeRow& o : rows) {
+      if (&o == &r || o.shape != r.shape || o.family != r.family) continue;
+      const double o_rate = o.tally.disagreement_rate(), r_rate = r.tally.disagreement_rate();
+      const bool no_worse = o.ns_per_test <= r.ns_per_test && o_rate <= r_rate;
+      const bool better = o.ns_per_test < r.ns_per_test || o_rate < r_rate;
+      if (no_worse && better) r.pareto = false;
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, const std::vector<ShapeKind>& shapes,
+                                    const std::vector<Family>& families, std::uint64_t count, std::uint64_t seed,
+                                    int threads) {
+  std::vector<TradeRow> rows;
+  for (ShapeKind shape : shapes) {
+    for (Family family : families) {
+      std::vector<Query> generated(count);
+      for (std::uint64_t i = 0; i < count; ++i) generated[i] = fuzz::generate(family, shape, seed, i);
+      const std::vector<Verdict> exact = judge_all(generated, threads);
+      for (const Contender& c : contenders) {
+        if (c.shape != shape) continue;
+        std::vector<Query> inputs = generated;
+        std::vector<Verdict> truth;
+        if (c.effective_input) {
+          inputs.clear();
+          for (const Query& q : generated)
+            if (auto e = c.effective_input(q)) inputs.push_back(*e);
+          truth = judge_all(inputs, threads);
+          if (inputs.empty()) continue;
+        }
+        const std::vector<Verdict>& judge = c.effective_input ? truth : exact;
+        const Prepared prepared = c.prepare(inputs);
+        prepared.run();
+        std::vector<Hit> hits(inputs.size());
+        for (size_t i = 0; i < inputs.size(); ++i) hits[i] = prepared.answer(i);
+        TradeRow row{c.name, shape, family, time_per_query(c, inputs)};
+        for (size_t i = 0; i < inputs.size(); ++i) row.tally.add(judge[i].cls, judge_answer(judge[i], hits[i]));
+        rows.push_back(std::move(row));
+      }
+    }
+  }
+  mark_pareto(rows);
+  return rows;
+}
+
+void write_trade_csv(const std::vector<TradeRow>& rows, std::ostream& out) {
+  out << "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max\n";
+  char buf[64];
+  for (const TradeRow& r : rows) {
+    std::snprintf(buf, sizeof buf, "%.3f", r.ns_per_test);
+    out << r.variant << "," << to_string(r.shape) << "," << to_string(r.family) << "," << r.tally.cases << "," << buf
+        << "," << r.tally.disagreements() << ",";
+    std::snprintf(buf, sizeof buf, "%.9g", r.tally.disagreement_rate());
+    out << buf << "," << r.tally.ulps.quantile(0.99) << "," << r.tally.ulps.max() << "\n";
+  }
+}
+
+void print_trade_markdown(const std::vector<TradeRow>& rows, std::ostream& out) {
+  out << "| shape | family | variant | ns/test | disagreement rate | ULP p99 | ULP max | Pareto |\n"
+      << "|---|---|---|---:|---:|---:|---:|:---:|\n";
+  char buf[256];
+  for (const TradeRow& r : rows) {
+    std::snprintf(buf, sizeof buf, "| %s | %s | %s | %.2f | %.3g%% | %llu | %llu | %s |\n",
+                  std::string(to_string(r.shape)).c_str(), std::string(to_string(r.family)).c_str(), r.variant.c_str(),
+                  r.ns_per_test, 100 * r.tally.disagreement_rate(),
+                  static_cast<unsigned long long>(r.tally.ulps.quantile(0.99)),
+                  static_cast<unsigned long long>(r.tally.ulps.max()), r.pareto ? "★" : "");
+    out << buf;
+  }
+}
+
+void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
+  // Layout: plot area with log axes; zero rates sit on a floor line labelled "0".
+  const double W = 900, H = 600, left = 90, right = 230, top = 50, bottom = 70;
+  double x_lo = INFINITY, x_hi = 0, y_min_nonzero = 1;
+  for (const TradeRow& r : rows) {
+    x_lo = std::min(x_lo, r.ns_per_test), x_hi = std::max(x_hi, r.ns_per_test);
+    if (r.tally.disagreement_rate() > 0) y_min_nonzero = std::min(y_min_nonzero, r.tally.disagreement_rate());
+  }
+  if (rows.empty()) x_lo = 1, x_hi = 10;
+  const double lx0 = std::floor(std::log10(std::max(x_lo, 1e-3))), lx1 = std::ceil(std::log10(std::max(x_hi, 1e-3)) + 1e-9);
+  const double ly1 = 0, ly_floor = std::floor(std::log10(y_min_nonzero)) - 1, ly0 = ly_floor - 0.5;
+  auto px = [&](double ns) { return left + (std::log10(std::max(ns, 1e-3)) - lx0) / std::max(1.0, lx1 - lx0) * (W - left - right); };
+  auto py = [&](double rate) {
+    const double l = rate > 0 ? std::log10(rate) : ly_floor;
+    return top + (ly1 - l) / (ly1 - ly0) * (H - top - bottom);
+  };
+  svg::begin(out, W, H, 12);
+  out << svg::text(left, 28, "Speed against accuracy: every variant on every family (lower left is better)",
+                   "font-size='16'") << "\n";
+  for (int e = static_cast<int>(lx0); e <= static_cast<int>(lx1); ++e) {  // x grid
+    const double x = px(std::pow(10, e));
+    out << svg::line(x, top, x, H - bottom, "stroke='#ddd'")
+        << svg::text(x, H - bottom + 18, svg::format("%g", std::pow(10, e)), "text-anchor='middle'") << "\n";
+  }
+  for (int e = static_cast<int>(ly_floor) + 1; e <= 0; ++e) {  // y grid
+    const double y = py(std::pow(10, e));
+    out << svg::line(left, y, W - right, y, "stroke='#ddd'")
+        << svg::text(left - 6, y + 4, svg::format("%g%%", 100 * std::pow(10, e)), "text-anchor='end'") << "\n";
+  }
+  out << svg::line(left, py(0), W - right, py(0), "stroke='#999' stroke-dasharray='4 3'")
+      << svg::text(left - 6, py(0) + 4, "0", "text-anchor='end'") << "\n"
+      << svg::text((left + W - right) / 2, H - 25, "ns per test (log)", "text-anchor='middle'")
+      << svg::format("<text transform='translate(22 %.1f) rotate(-90)' text-anchor='middle'>", (top + H - bottom) / 2)
+      << "class disagreement rate (log)</text>\n";
+  // One colour per variant, one marker per family.
+  static const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e",
+                                  "#8c564b", "#e377c2", "#17becf", "#7f7f7f", "#bcbd22"};
+  std::vector<std::string> variants;
+  std::vector<Family> families;
+  for (const TradeRow& r : rows) {
+    if (std::find(variants.begin(), variants.end(), r.variant) == variants.end()) variants.push_back(r.variant);
+    if (std::find(families.begin(), families.end(), r.family) == families.end()) families.push_back(r.family);
+  }
+  auto marker = [&](double x, double y, size_t family, const char* colour) {
+    switch (family % 4) {
+      case 0: return svg::format("<circle cx='%.1f' cy='%.1f' r='5' fill='%s'/>", x, y, colour);
+      case 1: return svg::rect(x - 4.5, y - 4.5, 9, 9, colour);
+      case 2: return svg::format("<path d='M%.1f %.1f l5 9 l-10 0 z' fill='%s'/>", x, y - 5.5, colour);
+      default:
+        return svg::format("<path d='M%.1f %.1f l5 5 l-5 5 l-5 -5 z' fill='none' stroke='%s' stroke-width='2'/>", x,
+                           y - 5, colour);
+    }
+  };
+  for (const TradeRow& r : rows) {
+    const size_t vi = std::find(variants.begin(), variants.end(), r.variant) - variants.begin();
+    const size_t fi = std::find(families.begin(), families.end(), r.family) - families.begin();
+    const double rate = r.tally.disagreement_rate();
+    out << "<g><title>"
+        << svg::escape(r.variant + " / " + std::string(to_string(r.shape)) + " / " + std::string(to_string(r.family)) +
+                       svg::format(": %g ns, rate %g", r.ns_per_test, rate))
+        << "</title>" << marker(px(r.ns_per_test), py(rate), fi, colours[vi % 10]) << "</g>\n";
+  }
+  double ly = top + 10;
+  for (size_t i = 0; i < variants.size(); ++i, ly += 18)
+    out << svg::rect(W - right + 20, ly - 10, 12, 12, colours[i % 10]) << svg::text(W - right + 38, ly, variants[i])
+        << "\n";
+  ly += 10;
+  for (size_t i = 0; i < families.size(); ++i, ly += 18)
+    out << marker(W - right + 26, ly - 4, i, "#444") << svg::text(W - right + 38, ly, to_string(families[i])) << "\n";
+  svg::end(out);
+}
+
+}  // namespace rayproof::studies

@@ -1,0 +1,91 @@
+// One flag vocabulary for every command: --variants/--shapes/--families (lists, `all`), their
+// old singular spellings as aliases, and render's one variant per shape.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace {
+
+// A directory of this test's own (ctest runs tests in parallel processes).
+std::string test_dir() {
+  const auto* info = testing::UnitTest::GetInstance()->current_test_info();
+  const std::string dir = testing::TempDir() + "/flags-" + info->test_suite_name() + "-" + info->name();
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+int run(const std::string& args, const std::string& dir) {
+  const std::string cmd = std::string(RAYPROOF_CLI) + " " + args + " >'" + dir + "/stdout' 2>'" + dir + "/stderr'";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string read(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(Flags, SingularSpellingsAreAliasesOfTheLists) {
+  const std::string d = test_dir();
+  ASSERT_EQ(run("fuzz --family tangent,grazing --shape sphere --count 600 --seed 4 --threads 1 -o '" + d + "/a.jsonl'", d), 0);
+  ASSERT_EQ(run("fuzz --families tangent --families grazing --shapes sphere --count 600 --seed 4 --threads 2 -o '" + d +
+                    "/b.jsonl'", d),
+            0);
+  const std::string a = read(d + "/a.jsonl");
+  EXPECT_FALSE(a.empty());
+  EXPECT_EQ(a, read(d + "/b.jsonl"));
+  const std::string cases = std::string(RAYPROOF_SCENES_DIR) + "/cases/sphere.jsonl";
+  ASSERT_EQ(run("check '" + cases + "' --variant stable -o '" + d + "/c1.jsonl'", d), 0);
+  ASSERT_EQ(run("check '" + cases + "' --variants stable -o '" + d + "/c2.jsonl'", d), 0);
+  EXPECT_EQ(read(d + "/c1.jsonl"), read(d + "/c2.jsonl"));
+  EXPECT_EQ(read(d + "/c1.jsonl").find("textbook"), std::string::npos);
+}
+
+TEST(Flags, AllMeansEveryOneAnywhereInTheList) {
+  const std::string d = test_dir();
+  const std::string cases = std::string(RAYPROOF_SCENES_DIR) + "/cases/box.jsonl";
+  ASSERT_EQ(run("check '" + cases + "' -o '" + d + "/default.jsonl'", d), 0);
+  ASSERT_EQ(run("check '" + cases + "' --variants slab,all -o '" + d + "/all.jsonl'", d), 0);
+  EXPECT_EQ(read(d + "/default.jsonl"), read(d + "/all.jsonl"));
+  // --shapes narrows --variants: no box variant is left for sphere only.
+  ASSERT_EQ(run("check '" + cases + "' --shapes sphere -o '" + d + "/none.jsonl'", d), 0);
+  EXPECT_EQ(read(d + "/none.jsonl").find("robust-slab"), std::string::npos);
+  EXPECT_NE(run("check '" + cases + "' --variants nope", d), 0);
+  EXPECT_NE(read(d + "/stderr").find("unknown variant 'nope'"), std::string::npos);
+  EXPECT_NE(run("fuzz --families nope -o '" + d + "/x.jsonl'", d), 0);
+  EXPECT_NE(run("fuzz --shapes cube -o '" + d + "/x.jsonl'", d), 0);
+}
+
+TEST(Flags, TradeAndStabilityTakeTheSameFlags) {
+  const std::string d = test_dir();
+  ASSERT_EQ(run("trade --variants stable --shapes sphere --families random --count 300 -o '" + d + "/t.csv'", d), 0);
+  const std::string csv = read(d + "/t.csv");
+  EXPECT_NE(csv.find("\nstable,sphere,random,300,"), std::string::npos) << csv;
+  EXPECT_EQ(csv.find("textbook"), std::string::npos);
+  ASSERT_EQ(run("stability --shapes sphere,box --variants textbook,slab --from -20 --to 20 --step 20 --count 5 -o '" + d +
+                    "/s'", d),
+            0);
+  EXPECT_TRUE(std::filesystem::exists(d + "/s/sphere/textbook.svg"));
+  EXPECT_TRUE(std::filesystem::exists(d + "/s/box/slab.svg"));
+  EXPECT_FALSE(std::filesystem::exists(d + "/s/sphere/stable.svg"));
+  EXPECT_NE(run("stability --shapes sphere --variants slab -o '" + d + "/s2'", d), 0);
+}
+
+TEST(Flags, RenderTakesOneVariantPerShape) {
+  const std::string d = test_dir();
+  const std::string scene = std::string(RAYPROOF_SCENES_DIR) + "/seed1-sphere.json";
+  EXPECT_EQ(run("render '" + scene + "' --variants textbook,watertight -o '" + d + "/a.png'", d), 0);
+  EXPECT_TRUE(std::filesystem::exists(d + "/a.png"));
+  EXPECT_NE(run("render '" + scene + "' --variants textbook,stable -o '" + d + "/b.png'", d), 0);
+  EXPECT_NE(read(d + "/stderr").find("two sphere variants"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(d + "/b.png"));
+}
+
+}  // namespace

@@ -1,0 +1,82 @@
+// The exact oracle: what is true about a ray and a shape, in exact arithmetic over the input
+// doubles (docs/spec/cases.md, "Exact classification"). This header carries no CGAL: only
+// oracle.cpp includes it, so the build stays lean.
+//
+// Filtered, then exact (CGAL's Filtered_predicate pattern): each shape's meaning is fixed once,
+// as a policy — its terms over any number type, one decision over their signs, and the contact
+// parameter the decision names — and one driver layers three stages over it: CGAL::Interval_nt
+// (answers only when every sign is certain), exact floating-point expansions (while no product
+// under- or overflows), then GMP rationals. The correctly rounded t comes from exact midpoint
+// tests in expansions, else from a 128-bit MPFR enclosure with exact midpoint tests where the
+// enclosure straddles a rounding boundary. Each fallback is counted.
+#pragma once
+
+#include <gmpxx.h>
+
+#include <array>
+#include <cstdint>
+#include <optional>
+
+#include "rayproof/core/hit.h"
+#include "rayproof/core/shapes.h"
+
+namespace rayproof {
+
+// An exact contact parameter t = (p + s·√radicand) / q with q > 0 and s ∈ {−1, 0, +1}:
+// rational for planes, triangles and boxes (s = 0), a quadratic root for spheres. NT is an
+// exact number type: GMP rationals here, exact floating-point expansions inside the oracle.
+template <class NT>
+struct ParameterOf {
+  NT p, radicand, q = NT(1);
+  int s = 0;
+};
+using ExactParameter = ParameterOf<mpq_class>;
+
+// sign(t − m), decided exactly by signs of rational expressions (never a floating √).
+int compare(const ExactParameter& t, const mpq_class& m);
+
+struct RoundingStats {
+  std::uint64_t rounded = 0;          // correctly rounded t values produced
+  std::uint64_t rational = 0;         // ... that needed GMP rationals (expansions could not)
+  std::uint64_t exact_fallbacks = 0;  // ... of those, where the MPFR enclosure straddled a midpoint
+};
+
+// The double nearest to t > 0 (ties to even), over the whole double range: a t below half
+// the smallest subnormal gives +0, one beyond the largest double gives +inf. Proved: either a
+// rigorous MPFR enclosure rounds the same at both ends, or exact midpoint tests decide.
+double round_to_nearest(const ExactParameter& t, RoundingStats& stats);
+
+struct Verdict {
+  HitClass cls = HitClass::miss;
+  std::optional<double> t;               // correctly rounded; absent for miss and t-less tangents
+  std::optional<ExactParameter> exact_t;
+  bool front = false;                    // the contact is on the front side (plane, triangle)
+};
+
+struct OracleStats {
+  std::uint64_t queries = 0;
+  std::uint64_t class_expansion = 0;  // the interval filter failed; exact expansions decided
+  std::uint64_t class_exact = 0;      // ... and GMP rationals had to (expansions under/overflowed)
+  RoundingStats rounding;
+};
+
+class Oracle {
+ public:
+  struct Options {
+    bool filter = true;       // false: every class and t decided in GMP rationals (tests, benchmarks)
+    bool expansions = true;   // the exact floating-point expansion stage between interval and GMP
+    bool keep_exact_parameter = false;  // fill Verdict::exact_t (in rationals) for audits and tests
+  };
+  Oracle() = default;
+  explicit Oracle(Options options) : options_(options) {}
+
+  Verdict judge(const Ray& ray, const Shape& shape, HitRule rule = HitRule::nearest_contact);
+  const OracleStats& stats(ShapeKind kind) const { return stats_[static_cast<int>(kind)]; }
+  void merge_stats(const Oracle& other);
+
+ private:
+  Options options_{};
+  std::array<OracleStats, 4> stats_{};
+};
+
+}  // namespace rayproof

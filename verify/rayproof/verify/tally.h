@@ -1,0 +1,51 @@
+// The one tally of how an intersector fared against the exact oracle: class agreement split into
+// wrong and cannot-tell, the confusion of classes, ULP errors of t as a mergeable histogram,
+// shared-edge holes and crashes. `check`, `fuzz`, `trade`, `stability` and the Embree peer all
+// count with it, so a number means the same thing in every report.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include "rayproof/core/json_fields.h"
+#include "rayproof/verify/compare.h"
+
+namespace rayproof {
+
+// ULP errors in buckets: exact below 128, then 8 buckets per power of two (≤ 12.5% wide), so
+// quantiles of millions of cases cost a few kilobytes and merge by addition.
+class UlpHistogram {
+ public:
+  void add(std::uint64_t ulp);
+  void merge(const UlpHistogram& other);
+  std::uint64_t count() const { return count_; }
+  // Nearest rank, as the bucket's lower bound (exact below 128; the maximum is exact too).
+  std::uint64_t quantile(double q) const;
+  std::uint64_t max() const { return max_; }
+  json to_json() const;
+  static UlpHistogram from_json(const json& j);
+
+ private:
+  static int bucket(std::uint64_t ulp);
+  static std::uint64_t lower_bound(int bucket);
+  std::map<int, std::uint64_t> buckets_;
+  std::uint64_t count_ = 0, max_ = 0;
+};
+
+struct Tally {
+  std::uint64_t cases = 0, agree = 0, wrong = 0, cannot_tell = 0;
+  std::uint64_t shared_edge_holes = 0;  // see crosses_shared_edge (verify/compare.h)
+  std::uint64_t crashes = 0;            // answers the intersector failed to give (serialised when > 0)
+  std::map<std::string, std::uint64_t> confusion;  // "exact->reported", disagreements only
+  UlpHistogram ulps;                               // wherever both t exist
+
+  void add(HitClass exact, const VariantOutcome& outcome);
+  std::uint64_t disagreements() const { return wrong + cannot_tell; }
+  double disagreement_rate() const { return cases ? static_cast<double>(disagreements()) / cases : 0; }
+  void merge(const Tally& o);
+  json to_json() const;
+  static Tally from_json(const json& j);
+};
+
+}  // namespace rayproof
