@@ -87,15 +87,88 @@ json oracle_stats_json(const Oracle& oracle) {
   return j;
 }
 
+struct CheckOptions {
+  std::vector<std::string> files, variants, shapes;
+  std::string rule = "nearest", summary, output;
+  bool exact_only = false;
+};
+
+struct CheckRun {
+  std::vector<const Variant*> variants;
+  HitRule rule;
+  Oracle oracle;
+  CheckSummary summary;
+  long cases = 0, unreadable = 0, contradicted = 0;  // contradicted: an `expect` the oracle refutes
+};
+
+// One file's cases: a result line each on `out`, tallied; bad lines and refuted expectations
+// reported on stderr and counted.
+void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progress& progress) {
+  long in_file = 0;
+  const long errors_before = run.unreadable;
+  read_case_file(
+      path,
+      [&](const Case& c, long line) {
+        ++run.cases, ++in_file;
+        const Verdict exact = run.oracle.judge(c.ray, c.shape, run.rule);
+        std::vector<VariantOutcome> outcomes;
+        for (const Variant* v : run.variants)
+          if (v->shape == kind_of(c.shape)) outcomes.push_back(compare_variant(*v, exact, c.ray, c.shape, run.rule));
+        add_to_summary(run.summary, exact, outcomes);
+        out << check_line(c.id, exact, outcomes).dump() << "\n";
+        if (c.expect && run.rule == HitRule::nearest_contact) {
+          const std::string why = expectation_mismatch(*c.expect, exact);
+          if (!why.empty()) {
+            ++run.contradicted;
+            std::cerr << "rayproof: " << path << ":" << line << ": case '" << c.id << "': " << why << "\n";
+          }
+        }
+        progress.update(run.cases, 0);
+      },
+      [&](const CaseError& e) {
+        ++run.unreadable;
+        std::cerr << "rayproof: " << e.to_string() << "\n";
+      });
+  if (in_file == 0 && run.unreadable == errors_before) {
+    ++run.unreadable;
+    std::cerr << "rayproof: " << path << ": no cases in file\n";
+  }
+}
+
+int run_check(const CheckOptions& opts) {
+  CheckRun run{parse_variants(opts.variants, parse_shapes(opts.shapes)), parse_rule(opts.rule),
+               Oracle(Oracle::Options{!opts.exact_only})};
+  std::unique_ptr<AtomicFile> file;
+  if (!opts.output.empty()) file = std::make_unique<AtomicFile>(opts.output);
+  std::ostream& out = file ? file->stream() : std::cout;
+  Progress progress("check");
+  for (const std::string& path : opts.files) check_file(path, run, out, progress);
+  progress.finish();
+  if (file) file->commit();
+  else std::cout.flush();
+  print_summary_table(run.summary, std::cerr);
+  print_oracle_stats(std::cerr, run.oracle);
+  std::cerr << "rayproof check: " << run.cases << " cases, " << run.unreadable << " unreadable, " << run.contradicted
+            << " expectations contradicted by the exact oracle\n";
+  if (!opts.summary.empty()) {
+    AtomicFile s(opts.summary);
+    s.stream() << json{{"cases", run.cases},
+                       {"unreadable", run.unreadable},
+                       {"expect_disagreements", run.contradicted},
+                       {"rule", opts.rule},
+                       {"variants", summary_json(run.summary)},
+                       {"oracle", oracle_stats_json(run.oracle)}}
+                      .dump(2)
+               << "\n";
+    s.commit();
+  }
+  return (run.unreadable > 0 || run.contradicted > 0) ? 1 : 0;
+}
+
 }  // namespace
 
 void add_check_command(CLI::App& app, int& exit_code) {
-  struct Options {
-    std::vector<std::string> files, variants, shapes;
-    std::string rule = "nearest", summary, output;
-    bool exact_only = false;
-  };
-  auto opts = std::make_shared<Options>();
+  auto opts = std::make_shared<CheckOptions>();
   auto* cmd = app.add_subcommand("check", "Judge variants against the exact oracle (JSON lines; summary on stderr)");
   cmd->add_option("files", opts->files, "case files (JSON Lines, docs/spec/cases.md)")->required();
   add_variants_flag(cmd, opts->variants);
@@ -104,67 +177,7 @@ void add_check_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--summary", opts->summary, "also write the summary as JSON to this file");
   cmd->add_option("-o,--output", opts->output, "write the per-case lines here (atomically) instead of stdout");
   cmd->add_flag("--exact-only", opts->exact_only, "skip the interval filter (decide every class in rationals)");
-  cmd->callback([opts, &exit_code] {
-    const auto variants = parse_variants(opts->variants, parse_shapes(opts->shapes));
-    const HitRule rule = parse_rule(opts->rule);
-    Oracle oracle(Oracle::Options{!opts->exact_only});
-    CheckSummary summary;
-    std::unique_ptr<AtomicFile> file;
-    if (!opts->output.empty()) file = std::make_unique<AtomicFile>(opts->output);
-    std::ostream& out = file ? file->stream() : std::cout;
-    long cases = 0, unreadable = 0, oracle_disagreements = 0;
-    Progress progress("check");
-    for (const std::string& path : opts->files) {
-      long in_file = 0, errors_before = unreadable;
-      read_case_file(
-          path,
-          [&](const Case& c, long line) {
-            ++cases, ++in_file;
-            const Verdict exact = oracle.judge(c.ray, c.shape, rule);
-            std::vector<VariantOutcome> outcomes;
-            for (const Variant* v : variants)
-              if (v->shape == kind_of(c.shape)) outcomes.push_back(compare_variant(*v, exact, c.ray, c.shape, rule));
-            add_to_summary(summary, exact, outcomes);
-            out << check_line(c.id, exact, outcomes).dump() << "\n";
-            if (c.expect && rule == HitRule::nearest_contact) {
-              const std::string why = expectation_mismatch(*c.expect, exact);
-              if (!why.empty()) {
-                ++oracle_disagreements;
-                std::cerr << "rayproof: " << path << ":" << line << ": case '" << c.id << "': " << why << "\n";
-              }
-            }
-            progress.update(cases, 0);
-          },
-          [&](const CaseError& e) {
-            ++unreadable;
-            std::cerr << "rayproof: " << e.to_string() << "\n";
-          });
-      if (in_file == 0 && unreadable == errors_before) {
-        ++unreadable;
-        std::cerr << "rayproof: " << path << ": no cases in file\n";
-      }
-    }
-    progress.finish();
-    if (file) file->commit();
-    else std::cout.flush();
-    print_summary_table(summary, std::cerr);
-    print_oracle_stats(std::cerr, oracle);
-    std::cerr << "rayproof check: " << cases << " cases, " << unreadable << " unreadable, " << oracle_disagreements
-              << " expectations contradicted by the exact oracle\n";
-    if (!opts->summary.empty()) {
-      AtomicFile s(opts->summary);
-      s.stream() << json{{"cases", cases},
-                         {"unreadable", unreadable},
-                         {"expect_disagreements", oracle_disagreements},
-                         {"rule", opts->rule},
-                         {"variants", summary_json(summary)},
-                         {"oracle", oracle_stats_json(oracle)}}
-                        .dump(2)
-                 << "\n";
-      s.commit();
-    }
-    exit_code = (unreadable > 0 || oracle_disagreements > 0) ? 1 : 0;
-  });
+  cmd->callback([opts, &exit_code] { exit_code = run_check(*opts); });
 }
 
 }  // namespace rayproof::cli

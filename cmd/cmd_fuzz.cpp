@@ -18,18 +18,63 @@ std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
     throw CLI::ValidationError("--shard", "expected i/n with 0 <= i < n, got '" + text + "'");
   return {i, n};
 }
+
+struct FuzzOptions {
+  std::vector<std::string> families{"all"}, shapes{"all"};
+  std::string shard = "0/1", output, rule = "nearest", summary;
+  std::uint64_t count = 100000, seed = 1, max_findings = 1000, batch = 8192;
+  int threads = 0;
+  bool resume = false, no_shrink = false;
+  long crash_after = -1;
+};
+
+fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
+  fuzz::CampaignOptions o;
+  o.families = parse_families(opts.families);
+  o.shapes = parse_shapes(opts.shapes);
+  std::tie(o.shard, o.shards) = parse_shard(opts.shard);
+  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings, o.batch = opts.batch;
+  o.threads = thread_count(opts.threads);
+  o.rule = parse_rule(opts.rule);
+  o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink;
+  o.crash_after_batches = opts.crash_after;
+  return o;
+}
+
+void run_fuzz(const FuzzOptions& opts) {
+  fuzz::CampaignOptions o = campaign_options(opts);
+  Progress progress("fuzz");
+  std::optional<std::pair<fuzz::Family, ShapeKind>> current;
+  o.progress = [&](fuzz::Family family, ShapeKind shape, std::uint64_t done, std::uint64_t total) {
+    if (current != std::pair{family, shape}) {
+      progress.finish();
+      progress = Progress("fuzz " + std::string(to_string(family)) + "/" + std::string(to_string(shape)));
+      current = {family, shape};
+    }
+    progress.update(static_cast<long>(done), static_cast<long>(total));
+  };
+  const fuzz::CampaignReport report = fuzz::run_campaign(o);
+  progress.finish();
+  fuzz::print_report(report, o.threads, std::cerr);
+  std::cerr << "rayproof fuzz: " << report.findings_written << " findings in " << o.output << "\n";
+  if (std::find(o.families.begin(), o.families.end(), fuzz::Family::near_origin) != o.families.end()) {
+    // Near-origin hits raise the question users ask most: which t_min / offset? Answer it.
+    std::vector<int> scales;
+    for (int k = -40; k <= 40; k += 10) scales.push_back(k);
+    run_spawn_report(parse_variants({}, o.shapes), scales, std::min<std::uint64_t>(o.count, 20000), o.seed, o.threads,
+                     o.output + ".spawn.csv");
+  }
+  if (!opts.summary.empty()) {
+    AtomicFile s(opts.summary);
+    s.stream() << report.to_json().dump(2) << "\n";
+    s.commit();
+  }
+}
+
 }  // namespace
 
 void add_fuzz_command(CLI::App& app, int& exit_code) {
-  struct Options {
-    std::vector<std::string> families{"all"}, shapes{"all"};
-    std::string shard = "0/1", output, rule = "nearest", summary;
-    std::uint64_t count = 100000, seed = 1, max_findings = 1000, batch = 8192;
-    int threads = 0;
-    bool resume = false, no_shrink = false;
-    long crash_after = -1;
-  };
-  auto opts = std::make_shared<Options>();
+  auto opts = std::make_shared<FuzzOptions>();
   auto* cmd = app.add_subcommand("fuzz", "Hunt for disagreements between the variants and the exact oracle");
   add_families_flag(cmd, opts->families);
   add_shapes_flag(cmd, opts->shapes);
@@ -47,42 +92,7 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--crash-after-batches", opts->crash_after, "testing: exit abruptly after writing that many batches")
       ->group("");
   cmd->callback([opts, &exit_code] {
-    fuzz::CampaignOptions o;
-    o.families = parse_families(opts->families);
-    o.shapes = parse_shapes(opts->shapes);
-    std::tie(o.shard, o.shards) = parse_shard(opts->shard);
-    o.count = opts->count, o.seed = opts->seed, o.max_findings = opts->max_findings, o.batch = opts->batch;
-    o.threads = thread_count(opts->threads);
-    o.rule = parse_rule(opts->rule);
-    o.output = opts->output, o.resume = opts->resume, o.shrink = !opts->no_shrink;
-    o.crash_after_batches = opts->crash_after;
-    Progress progress("fuzz");
-    std::pair<fuzz::Family, ShapeKind> current{};
-    bool started = false;
-    o.progress = [&](fuzz::Family family, ShapeKind shape, std::uint64_t done, std::uint64_t total) {
-      if (!started || current != std::pair{family, shape}) {
-        progress.finish();
-        progress = Progress("fuzz " + std::string(to_string(family)) + "/" + std::string(to_string(shape)));
-        current = {family, shape}, started = true;
-      }
-      progress.update(static_cast<long>(done), static_cast<long>(total));
-    };
-    const fuzz::CampaignReport report = fuzz::run_campaign(o);
-    progress.finish();
-    fuzz::print_report(report, o.threads, std::cerr);
-    std::cerr << "rayproof fuzz: " << report.findings_written << " findings in " << o.output << "\n";
-    if (std::find(o.families.begin(), o.families.end(), fuzz::Family::near_origin) != o.families.end()) {
-      // Near-origin hits raise the question users ask most: which t_min / offset? Answer it.
-      std::vector<int> scales;
-      for (int k = -40; k <= 40; k += 10) scales.push_back(k);
-      run_spawn_report(parse_variants({}, o.shapes), scales, std::min<std::uint64_t>(o.count, 20000), o.seed, o.threads,
-                       o.output + ".spawn.csv");
-    }
-    if (!opts->summary.empty()) {
-      AtomicFile s(opts->summary);
-      s.stream() << report.to_json().dump(2) << "\n";
-      s.commit();
-    }
+    run_fuzz(*opts);
     exit_code = 0;
   });
 }

@@ -109,145 +109,136 @@ struct Builder {
     return {Ray{o, rng.uvec(1.5 * s) - o}, shape, "random"};
   }
 
+  // The exact construction c at scale 2^k, its origin then nudged; detail "what/2^k/nudge".
+  GeneratedCase scaled_and_nudged(GeneratedCase c, int k) {
+    c.ray = Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)};
+    c.shape = scaled(c.shape, k);
+    const std::string n = nudge_origin(c.ray);
+    c.detail += "/2^" + std::to_string(k) + "/" + n;
+    return c;
+  }
+
   GeneratedCase tangent(ShapeKind kind) {
     const int k = static_cast<int>(rng.integer(-40, 40));
-    Ray ray;
-    Shape shape;
-    std::string what;
     switch (kind) {
-      case ShapeKind::sphere: {  // touches the Pythagorean point P = m + n of |n| = r
-        Vec3 n;
-        double r;
-        quadruple(n, r);
-        const Vec3 m = rng.ivec(1 << 20), t = perpendicular(n);
-        ray = Ray{m + n - double(rng.integer(1, 8)) * t, t};
-        shape = Sphere{m, r};
-        what = "sphere-tangent";
-        break;
-      }
-      case ShapeKind::plane: {  // lies in the plane n·x = n·p
-        const Vec3 n = rng.ivec(9), p = rng.ivec(1 << 20);
-        const Vec3 nn = n == Vec3::Zero() ? Vec3(0, 0, 1) : n;
-        const Vec3 t = perpendicular(nn);
-        ray = Ray{p - double(rng.integer(1, 8)) * t, t};
-        shape = Plane{nn, dot(nn, p)};
-        what = "in-plane";
-        break;
-      }
-      case ShapeKind::triangle: {  // in the triangle's plane, through a dyadic point of it
-        const Triangle tri = integer_triangle(1 << 10);
-        const Vec3 e1 = tri.v[1] - tri.v[0], e2 = tri.v[2] - tri.v[0];
-        const double a = rng.integer(-4, 8) / 4.0, b = rng.integer(-4, 8) / 4.0;
-        const Vec3 through = tri.v[0] + a * e1 + b * e2;
-        const Vec3 d = double(rng.integer(-3, 3)) * e1 + double(rng.integer(1, 3)) * e2;
-        ray = Ray{through - double(rng.integer(1, 4)) * d, d};
-        shape = tri;
-        what = "coplanar";
-        break;
-      }
-      case ShapeKind::box: {  // along a face, along an edge, or touching an edge or a corner
-        const Box b = integer_box(1 << 10);
-        const Vec3 mid = 0.5 * (b.min + b.max);
-        const long mode = rng.integer(0, 3);
-        Vec3 at = mid, d;
-        if (mode == 0) {  // along the face x = min
-          at.x() = b.min.x();
-          d = Vec3(0, rng.integer(1, 3), rng.integer(-3, 3));
-          what = "along-face";
-        } else if (mode == 1) {  // along the edge x = min, y = min
-          at.x() = b.min.x(), at.y() = b.min.y();
-          d = Vec3(0, 0, 1);
-          what = "along-edge";
-        } else if (mode == 2) {  // touches the edge x = min, y = min at one point
-          at.x() = b.min.x(), at.y() = b.min.y();
-          d = Vec3(rng.integer(1, 3), -rng.integer(1, 3), rng.integer(-3, 3));
-          what = "touch-edge";
-        } else {  // touches the corner min
-          at = b.min;
-          d = Vec3(rng.integer(1, 3), -rng.integer(1, 3), -rng.integer(1, 3));
-          what = "touch-corner";
-        }
-        ray = Ray{at - double(rng.integer(1, 4)) * d, d};
-        shape = b;
-        break;
-      }
+      case ShapeKind::sphere: return scaled_and_nudged(tangent_sphere(), k);
+      case ShapeKind::plane: return scaled_and_nudged(in_plane(), k);
+      case ShapeKind::triangle: return scaled_and_nudged(coplanar(), k);
+      case ShapeKind::box: break;
     }
-    ray = Ray{scaled(ray.origin, k), scaled(ray.direction, k)};
-    shape = scaled(shape, k);
-    const std::string n = nudge_origin(ray);
-    return {ray, shape, what + "/2^" + std::to_string(k) + "/" + n};
+    return scaled_and_nudged(along_box(), k);
+  }
+
+  GeneratedCase tangent_sphere() {  // touches the Pythagorean point P = m + n of |n| = r
+    Vec3 n;
+    double r;
+    quadruple(n, r);
+    const Vec3 m = rng.ivec(1 << 20), t = perpendicular(n);
+    return {Ray{m + n - double(rng.integer(1, 8)) * t, t}, Sphere{m, r}, "sphere-tangent"};
+  }
+
+  GeneratedCase in_plane() {  // lies in the plane n·x = n·p
+    const Vec3 n = rng.ivec(9), p = rng.ivec(1 << 20);
+    const Vec3 nn = n == Vec3::Zero() ? Vec3(0, 0, 1) : n;
+    const Vec3 t = perpendicular(nn);
+    return {Ray{p - double(rng.integer(1, 8)) * t, t}, Plane{nn, dot(nn, p)}, "in-plane"};
+  }
+
+  GeneratedCase coplanar() {  // in the triangle's plane, through a dyadic point of it
+    const Triangle tri = integer_triangle(1 << 10);
+    const Vec3 e1 = tri.v[1] - tri.v[0], e2 = tri.v[2] - tri.v[0];
+    const double a = rng.integer(-4, 8) / 4.0, b = rng.integer(-4, 8) / 4.0;
+    const Vec3 through = tri.v[0] + a * e1 + b * e2;
+    const Vec3 d = double(rng.integer(-3, 3)) * e1 + double(rng.integer(1, 3)) * e2;
+    return {Ray{through - double(rng.integer(1, 4)) * d, d}, tri, "coplanar"};
+  }
+
+  GeneratedCase along_box() {  // along a face, along an edge, or touching an edge or a corner
+    const Box b = integer_box(1 << 10);
+    const Vec3 mid = 0.5 * (b.min + b.max);
+    const long mode = rng.integer(0, 3);
+    Vec3 at = mid, d;
+    std::string what;
+    if (mode == 0) {  // along the face x = min
+      at.x() = b.min.x();
+      d = Vec3(0, rng.integer(1, 3), rng.integer(-3, 3));
+      what = "along-face";
+    } else if (mode == 1) {  // along the edge x = min, y = min
+      at.x() = b.min.x(), at.y() = b.min.y();
+      d = Vec3(0, 0, 1);
+      what = "along-edge";
+    } else if (mode == 2) {  // touches the edge x = min, y = min at one point
+      at.x() = b.min.x(), at.y() = b.min.y();
+      d = Vec3(rng.integer(1, 3), -rng.integer(1, 3), rng.integer(-3, 3));
+      what = "touch-edge";
+    } else {  // touches the corner min
+      at = b.min;
+      d = Vec3(rng.integer(1, 3), -rng.integer(1, 3), -rng.integer(1, 3));
+      what = "touch-corner";
+    }
+    return {Ray{at - double(rng.integer(1, 4)) * d, d}, b, what};
   }
 
   // Rays through triangle edges and vertices (in pairs sharing an edge), box edges and
   // corners, and near-tangent chords of spheres and planes.
   GeneratedCase grazing(ShapeKind kind, std::uint64_t index, std::uint64_t seed) {
     const int k = static_cast<int>(rng.integer(-40, 40));
-    Ray ray;
-    Shape shape;
-    std::string what;
     switch (kind) {
-      case ShapeKind::triangle: {
-        // Pair p = index/2 shares ray and edge; its two cases are the triangles on either side.
-        Rng pair_rng{seed ^ (0xA5A5A5A5ull + (index / 2) * 0x9E3779B97F4A7C15ull)};
-        Builder pair{pair_rng, nudging};
-        const Vec3 v0 = pair.rng.ivec(1 << 10), v1 = pair.rng.ivec(1 << 10);
-        Vec3 v2, v3;
-        do {
-          v2 = pair.rng.ivec(1 << 10);
-          v3 = v0 + v1 - v2 + (pair.rng.integer(0, 1) ? Vec3(pair.rng.ivec(64)) : Vec3::Zero());  // opposite v2: a flat quad or a fold
-        } while (degenerate_reason(Triangle{{v0, v1, v2}}) || degenerate_reason(Triangle{{v1, v0, v3}}));
-        const double w = pair.rng.integer(0, 16) / 16.0;  // 0 or 1: a vertex
-        const Vec3 target = 16 * v0 + w * 16 * (v1 - v0);
-        const Vec3 d = pair.rng.ivec(7) + Vec3(0, 0, 8);
-        ray = Ray{target - double(pair.rng.integer(1, 4)) * d, d};
-        const Triangle t = index % 2 == 0 ? Triangle{{16 * v0, 16 * v1, 16 * v2}} : Triangle{{16 * v1, 16 * v0, 16 * v3}};
-        shape = t;
-        what = std::string(w == 0 || w == 1 ? "vertex" : "shared-edge") + (index % 2 ? "/B" : "/A");
-        const int pair_k = static_cast<int>(pair.rng.integer(-40, 40));  // shared by both triangles
-        ray = Ray{scaled(ray.origin, pair_k), scaled(ray.direction, pair_k)};
-        shape = scaled(shape, pair_k);
-        const std::string n = pair.nudge_origin(ray);
-        return {ray, shape, what + "/2^" + std::to_string(pair_k) + "/" + n};
-      }
-      case ShapeKind::box: {
-        const Box b = integer_box(1 << 10);
-        const bool corner = rng.integer(0, 1) == 1;
-        Vec3 at = 0.5 * (b.min + b.max);
-        at.x() = b.min.x(), at.y() = b.min.y();
-        if (corner) at.z() = b.min.z();
-        const Vec3 d(rng.integer(1, 5), rng.integer(1, 5), corner ? rng.integer(1, 5) : rng.integer(-5, 5));
-        ray = Ray{at - double(rng.integer(1, 4)) * d, d};
-        shape = b;
-        what = corner ? "through-corner" : "through-edge";
-        break;
-      }
-      case ShapeKind::sphere: {  // a chord at angle 2^-j to the tangent plane at P
-        Vec3 n;
-        double r;
-        quadruple(n, r);
-        const Vec3 m = rng.ivec(1 << 20), t = perpendicular(n);
-        const int j = static_cast<int>(rng.integer(10, 40));
-        const Vec3 d = t - std::ldexp(1.0, -j) * n;
-        ray = Ray{m + n - d, d};
-        shape = Sphere{m, r};
-        what = "chord-2^-" + std::to_string(j);
-        break;
-      }
-      case ShapeKind::plane: {
-        const Vec3 n = rng.ivec(9), p = rng.ivec(1 << 20);
-        const Vec3 nn = n == Vec3::Zero() ? Vec3(0, 0, 1) : n;
-        const int j = static_cast<int>(rng.integer(10, 40));
-        const Vec3 d = perpendicular(nn) - std::ldexp(1.0, -j) * nn;
-        ray = Ray{p - d, d};
-        shape = Plane{nn, dot(nn, p)};
-        what = "glancing-2^-" + std::to_string(j);
-        break;
-      }
+      case ShapeKind::triangle: return shared_edge_pair(index, seed);
+      case ShapeKind::box: return scaled_and_nudged(through_box_edge(), k);
+      case ShapeKind::sphere: return scaled_and_nudged(sphere_chord(), k);
+      case ShapeKind::plane: break;
     }
-    ray = Ray{scaled(ray.origin, k), scaled(ray.direction, k)};
-    shape = scaled(shape, k);
-    const std::string n = nudge_origin(ray);
-    return {ray, shape, what + "/2^" + std::to_string(k) + "/" + n};
+    return scaled_and_nudged(glancing_plane(), k);
+  }
+
+  // Pair p = index/2 shares ray, edge and scale (its own generator); its two cases are the
+  // triangles on either side of the edge.
+  GeneratedCase shared_edge_pair(std::uint64_t index, std::uint64_t seed) {
+    Rng pair_rng{seed ^ (0xA5A5A5A5ull + (index / 2) * 0x9E3779B97F4A7C15ull)};
+    Builder pair{pair_rng, nudging};
+    const Vec3 v0 = pair.rng.ivec(1 << 10), v1 = pair.rng.ivec(1 << 10);
+    Vec3 v2, v3;
+    do {
+      v2 = pair.rng.ivec(1 << 10);
+      v3 = v0 + v1 - v2 + (pair.rng.integer(0, 1) ? Vec3(pair.rng.ivec(64)) : Vec3::Zero());  // opposite v2: a flat quad or a fold
+    } while (degenerate_reason(Triangle{{v0, v1, v2}}) || degenerate_reason(Triangle{{v1, v0, v3}}));
+    const double w = pair.rng.integer(0, 16) / 16.0;  // 0 or 1: a vertex
+    const Vec3 target = 16 * v0 + w * 16 * (v1 - v0);
+    const Vec3 d = pair.rng.ivec(7) + Vec3(0, 0, 8);
+    const Ray ray{target - double(pair.rng.integer(1, 4)) * d, d};
+    const Triangle t = index % 2 == 0 ? Triangle{{16 * v0, 16 * v1, 16 * v2}} : Triangle{{16 * v1, 16 * v0, 16 * v3}};
+    const std::string what = std::string(w == 0 || w == 1 ? "vertex" : "shared-edge") + (index % 2 ? "/B" : "/A");
+    const int pair_k = static_cast<int>(pair.rng.integer(-40, 40));  // shared by both triangles
+    return pair.scaled_and_nudged({ray, t, what}, pair_k);
+  }
+
+  GeneratedCase through_box_edge() {
+    const Box b = integer_box(1 << 10);
+    const bool corner = rng.integer(0, 1) == 1;
+    Vec3 at = 0.5 * (b.min + b.max);
+    at.x() = b.min.x(), at.y() = b.min.y();
+    if (corner) at.z() = b.min.z();
+    const Vec3 d(rng.integer(1, 5), rng.integer(1, 5), corner ? rng.integer(1, 5) : rng.integer(-5, 5));
+    return {Ray{at - double(rng.integer(1, 4)) * d, d}, b, corner ? "through-corner" : "through-edge"};
+  }
+
+  GeneratedCase sphere_chord() {  // a chord at angle 2^-j to the tangent plane at P
+    Vec3 n;
+    double r;
+    quadruple(n, r);
+    const Vec3 m = rng.ivec(1 << 20), t = perpendicular(n);
+    const int j = static_cast<int>(rng.integer(10, 40));
+    const Vec3 d = t - std::ldexp(1.0, -j) * n;
+    return {Ray{m + n - d, d}, Sphere{m, r}, "chord-2^-" + std::to_string(j)};
+  }
+
+  GeneratedCase glancing_plane() {
+    const Vec3 n = rng.ivec(9), p = rng.ivec(1 << 20);
+    const Vec3 nn = n == Vec3::Zero() ? Vec3(0, 0, 1) : n;
+    const int j = static_cast<int>(rng.integer(10, 40));
+    const Vec3 d = perpendicular(nn) - std::ldexp(1.0, -j) * nn;
+    return {Ray{p - d, d}, Plane{nn, dot(nn, p)}, "glancing-2^-" + std::to_string(j)};
   }
 
   // Secondary rays from a variant's own computed hit point (the variants take turns by index),
@@ -277,67 +268,68 @@ struct Builder {
   // triangles and planes.
   GeneratedCase exit_entry(ShapeKind kind) {
     const int k = static_cast<int>(rng.integer(-40, 40));
-    Ray ray;
-    Shape shape;
-    std::string what;
     switch (kind) {
-      case ShapeKind::sphere: {
-        Vec3 n;
-        double r;
-        quadruple(n, r);
-        const Vec3 m = rng.ivec(1 << 20);
-        const long mode = rng.integer(0, 2);
-        Vec3 o = mode == 0 ? Vec3(m + 0.5 * n) : Vec3(m + n);
-        what = mode == 0 ? "inside" : mode == 1 ? "on-surface" : "ulp-outside";
-        ray = Ray{scaled(o, k), scaled(Vec3(rng.ivec(9) + Vec3(0.5, 0, 0)), k)};
-        shape = scaled(Shape(Sphere{m, r}), k);
-        if (mode == 2) {  // one ulp outward on the dominant normal axis
-          int a = 0;
-          for (int i = 1; i < 3; ++i)
-            if (std::abs(n[i]) > std::abs(n[a])) a = i;
-          ray.origin[a] = nudge(ray.origin[a], n[a] > 0 ? 1 : -1);
-        }
-        return {ray, shape, what + "/2^" + std::to_string(k)};
-      }
-      case ShapeKind::box: {
-        const Box b = integer_box(1 << 10);
-        const long mode = rng.integer(0, 3);
-        Vec3 o = 0.5 * (b.min + b.max);
-        if (mode >= 1) o.x() = b.min.x();                 // on a face
-        if (mode >= 2) o.y() = b.min.y();                 // on an edge
-        if (mode == 3) o.z() = b.min.z();                 // on a corner
-        what = mode == 0 ? "inside" : mode == 1 ? "on-face" : mode == 2 ? "on-edge" : "on-corner";
-        ray = Ray{scaled(o, k), scaled(Vec3(rng.ivec(5) + Vec3(0.5, 0, 0)), k)};
-        shape = scaled(Shape(b), k);
-        if (rng.integer(0, 1) == 1) {
-          ray.origin.x() = nudge(ray.origin.x(), -1);
-          what += "-ulp-outside";
-        }
-        return {ray, shape, what + "/2^" + std::to_string(k)};
-      }
-      case ShapeKind::triangle: {
-        const Triangle t = integer_triangle(1 << 10);
-        const Vec3 n = cross(t.v[1] - t.v[0], t.v[2] - t.v[0]);
-        const Vec3 inner = 0.25 * (2 * t.v[0] + t.v[1] + t.v[2]);
-        const Vec3 d = rng.direction();
-        const Vec3 dd = dot(d, n) > 0 ? d : Vec3(-d);  // travels along n: meets the back face
-        ray = Ray{inner - dd, dd};
-        shape = t;
-        what = "back-face";
-        break;
-      }
-      case ShapeKind::plane: {
-        const Vec3 n = rng.direction();
-        const double off = rng.uniform(-4, 4);
-        Vec3 d = rng.direction();
-        if (dot(d, n) < 0) d = -d;
-        ray = Ray{Vec3(rng.uvec(4) - 8 * n), d};
-        shape = Plane{n, off};
-        what = "back-side";
-        break;
-      }
+      case ShapeKind::sphere: return origin_at_sphere(k);
+      case ShapeKind::box: return origin_at_box(k);
+      case ShapeKind::triangle: return scaled_by(back_face(), k);
+      case ShapeKind::plane: break;
     }
-    return {Ray{scaled(ray.origin, k), scaled(ray.direction, k)}, scaled(shape, k), what + "/2^" + std::to_string(k)};
+    return scaled_by(back_side(), k);
+  }
+
+  static GeneratedCase scaled_by(const GeneratedCase& c, int k) {
+    return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k), c.detail + "/2^" + std::to_string(k)};
+  }
+
+  GeneratedCase origin_at_sphere(int k) {
+    Vec3 n;
+    double r;
+    quadruple(n, r);
+    const Vec3 m = rng.ivec(1 << 20);
+    const long mode = rng.integer(0, 2);
+    Vec3 o = mode == 0 ? Vec3(m + 0.5 * n) : Vec3(m + n);
+    const std::string what = mode == 0 ? "inside" : mode == 1 ? "on-surface" : "ulp-outside";
+    Ray ray{scaled(o, k), scaled(Vec3(rng.ivec(9) + Vec3(0.5, 0, 0)), k)};
+    if (mode == 2) {  // one ulp outward on the dominant normal axis
+      int a = 0;
+      for (int i = 1; i < 3; ++i)
+        if (std::abs(n[i]) > std::abs(n[a])) a = i;
+      ray.origin[a] = nudge(ray.origin[a], n[a] > 0 ? 1 : -1);
+    }
+    return {ray, scaled(Shape(Sphere{m, r}), k), what + "/2^" + std::to_string(k)};
+  }
+
+  GeneratedCase origin_at_box(int k) {
+    const Box b = integer_box(1 << 10);
+    const long mode = rng.integer(0, 3);
+    Vec3 o = 0.5 * (b.min + b.max);
+    if (mode >= 1) o.x() = b.min.x();  // on a face
+    if (mode >= 2) o.y() = b.min.y();  // on an edge
+    if (mode == 3) o.z() = b.min.z();  // on a corner
+    std::string what = mode == 0 ? "inside" : mode == 1 ? "on-face" : mode == 2 ? "on-edge" : "on-corner";
+    Ray ray{scaled(o, k), scaled(Vec3(rng.ivec(5) + Vec3(0.5, 0, 0)), k)};
+    if (rng.integer(0, 1) == 1) {
+      ray.origin.x() = nudge(ray.origin.x(), -1);
+      what += "-ulp-outside";
+    }
+    return {ray, scaled(Shape(b), k), what + "/2^" + std::to_string(k)};
+  }
+
+  GeneratedCase back_face() {
+    const Triangle t = integer_triangle(1 << 10);
+    const Vec3 n = cross(t.v[1] - t.v[0], t.v[2] - t.v[0]);
+    const Vec3 inner = 0.25 * (2 * t.v[0] + t.v[1] + t.v[2]);
+    const Vec3 d = rng.direction();
+    const Vec3 dd = dot(d, n) > 0 ? d : Vec3(-d);  // travels along n: meets the back face
+    return {Ray{inner - dd, dd}, t, "back-face"};
+  }
+
+  GeneratedCase back_side() {
+    const Vec3 n = rng.direction();
+    const double off = rng.uniform(-4, 4);
+    Vec3 d = rng.direction();
+    if (dot(d, n) < 0) d = -d;
+    return {Ray{Vec3(rng.uvec(4) - 8 * n), d}, Plane{n, off}, "back-side"};
   }
 
   GeneratedCase extremes(ShapeKind kind) {

@@ -157,75 +157,98 @@ void print_trade_markdown(const std::vector<TradeRow>& rows, std::ostream& out) 
   }
 }
 
-void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
-  // Layout: plot area with log axes; zero rates sit on a floor line labelled "0".
-  const double W = 900, H = 600, left = 90, right = 230, top = 50, bottom = 70;
-  double x_lo = INFINITY, x_hi = 0, y_min_nonzero = 1;
-  for (const TradeRow& r : rows) {
-    x_lo = std::min(x_lo, r.ns_per_test), x_hi = std::max(x_hi, r.ns_per_test);
-    if (r.tally.disagreement_rate() > 0) y_min_nonzero = std::min(y_min_nonzero, r.tally.disagreement_rate());
+namespace {
+
+// The scatter's frame: log axes of ns per test and disagreement rate; zero rates sit on a floor
+// line labelled "0", a decade below the smallest non-zero rate.
+struct TradeFrame {
+  static constexpr double W = 900, H = 600, left = 90, right = 230, top = 50, bottom = 70;
+  double lx0, lx1, ly_floor, ly0, ly1 = 0;
+
+  explicit TradeFrame(const std::vector<TradeRow>& rows) {
+    double x_lo = INFINITY, x_hi = 0, y_min_nonzero = 1;
+    for (const TradeRow& r : rows) {
+      x_lo = std::min(x_lo, r.ns_per_test), x_hi = std::max(x_hi, r.ns_per_test);
+      if (r.tally.disagreement_rate() > 0) y_min_nonzero = std::min(y_min_nonzero, r.tally.disagreement_rate());
+    }
+    if (rows.empty()) x_lo = 1, x_hi = 10;
+    lx0 = std::floor(std::log10(std::max(x_lo, 1e-3))), lx1 = std::ceil(std::log10(std::max(x_hi, 1e-3)) + 1e-9);
+    ly_floor = std::floor(std::log10(y_min_nonzero)) - 1, ly0 = ly_floor - 0.5;
   }
-  if (rows.empty()) x_lo = 1, x_hi = 10;
-  const double lx0 = std::floor(std::log10(std::max(x_lo, 1e-3))), lx1 = std::ceil(std::log10(std::max(x_hi, 1e-3)) + 1e-9);
-  const double ly1 = 0, ly_floor = std::floor(std::log10(y_min_nonzero)) - 1, ly0 = ly_floor - 0.5;
-  auto px = [&](double ns) { return left + (std::log10(std::max(ns, 1e-3)) - lx0) / std::max(1.0, lx1 - lx0) * (W - left - right); };
-  auto py = [&](double rate) {
+  double x(double ns) const {
+    return left + (std::log10(std::max(ns, 1e-3)) - lx0) / std::max(1.0, lx1 - lx0) * (W - left - right);
+  }
+  double y(double rate) const {
     const double l = rate > 0 ? std::log10(rate) : ly_floor;
     return top + (ly1 - l) / (ly1 - ly0) * (H - top - bottom);
-  };
-  svg::begin(out, W, H, 12);
-  out << svg::text(left, 28, "Speed against accuracy: every variant on every family (lower left is better)",
-                   "font-size='16'") << "\n";
-  for (int e = static_cast<int>(lx0); e <= static_cast<int>(lx1); ++e) {  // x grid
-    const double x = px(std::pow(10, e));
-    out << svg::line(x, top, x, H - bottom, "stroke='#ddd'")
-        << svg::text(x, H - bottom + 18, svg::format("%g", std::pow(10, e)), "text-anchor='middle'") << "\n";
   }
-  for (int e = static_cast<int>(ly_floor) + 1; e <= 0; ++e) {  // y grid
-    const double y = py(std::pow(10, e));
-    out << svg::line(left, y, W - right, y, "stroke='#ddd'")
-        << svg::text(left - 6, y + 4, svg::format("%g%%", 100 * std::pow(10, e)), "text-anchor='end'") << "\n";
+
+  void draw(std::ostream& out) const {
+    out << svg::text(left, 28, "Speed against accuracy: every variant on every family (lower left is better)",
+                     "font-size='16'") << "\n";
+    for (int e = static_cast<int>(lx0); e <= static_cast<int>(lx1); ++e) {  // x grid
+      const double gx = x(std::pow(10, e));
+      out << svg::line(gx, top, gx, H - bottom, "stroke='#ddd'")
+          << svg::text(gx, H - bottom + 18, svg::format("%g", std::pow(10, e)), "text-anchor='middle'") << "\n";
+    }
+    for (int e = static_cast<int>(ly_floor) + 1; e <= 0; ++e) {  // y grid
+      const double gy = y(std::pow(10, e));
+      out << svg::line(left, gy, W - right, gy, "stroke='#ddd'")
+          << svg::text(left - 6, gy + 4, svg::format("%g%%", 100 * std::pow(10, e)), "text-anchor='end'") << "\n";
+    }
+    out << svg::line(left, y(0), W - right, y(0), "stroke='#999' stroke-dasharray='4 3'")
+        << svg::text(left - 6, y(0) + 4, "0", "text-anchor='end'") << "\n"
+        << svg::text((left + W - right) / 2, H - 25, "ns per test (log)", "text-anchor='middle'")
+        << svg::format("<text transform='translate(22 %.1f) rotate(-90)' text-anchor='middle'>", (top + H - bottom) / 2)
+        << "class disagreement rate (log)</text>\n";
   }
-  out << svg::line(left, py(0), W - right, py(0), "stroke='#999' stroke-dasharray='4 3'")
-      << svg::text(left - 6, py(0) + 4, "0", "text-anchor='end'") << "\n"
-      << svg::text((left + W - right) / 2, H - 25, "ns per test (log)", "text-anchor='middle'")
-      << svg::format("<text transform='translate(22 %.1f) rotate(-90)' text-anchor='middle'>", (top + H - bottom) / 2)
-      << "class disagreement rate (log)</text>\n";
-  // One colour per variant, one marker per family.
+};
+
+// One marker shape per family (cycling), filled with the variant's colour.
+std::string trade_marker(double x, double y, size_t family, const char* colour) {
+  switch (family % 4) {
+    case 0: return svg::format("<circle cx='%.1f' cy='%.1f' r='5' fill='%s'/>", x, y, colour);
+    case 1: return svg::rect(x - 4.5, y - 4.5, 9, 9, colour);
+    case 2: return svg::format("<path d='M%.1f %.1f l5 9 l-10 0 z' fill='%s'/>", x, y - 5.5, colour);
+    default:
+      return svg::format("<path d='M%.1f %.1f l5 5 l-5 5 l-5 -5 z' fill='none' stroke='%s' stroke-width='2'/>", x, y - 5,
+                         colour);
+  }
+}
+
+template <class T>
+size_t index_in(std::vector<T>& seen, const T& value) {
+  const auto it = std::find(seen.begin(), seen.end(), value);
+  if (it != seen.end()) return static_cast<size_t>(it - seen.begin());
+  seen.push_back(value);
+  return seen.size() - 1;
+}
+
+}  // namespace
+
+void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
   static const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e",
                                   "#8c564b", "#e377c2", "#17becf", "#7f7f7f", "#bcbd22"};
-  std::vector<std::string> variants;
+  const TradeFrame frame(rows);
+  svg::begin(out, TradeFrame::W, TradeFrame::H, 12);
+  frame.draw(out);
+  std::vector<std::string> variants;  // one colour per variant, one marker per family
   std::vector<Family> families;
   for (const TradeRow& r : rows) {
-    if (std::find(variants.begin(), variants.end(), r.variant) == variants.end()) variants.push_back(r.variant);
-    if (std::find(families.begin(), families.end(), r.family) == families.end()) families.push_back(r.family);
-  }
-  auto marker = [&](double x, double y, size_t family, const char* colour) {
-    switch (family % 4) {
-      case 0: return svg::format("<circle cx='%.1f' cy='%.1f' r='5' fill='%s'/>", x, y, colour);
-      case 1: return svg::rect(x - 4.5, y - 4.5, 9, 9, colour);
-      case 2: return svg::format("<path d='M%.1f %.1f l5 9 l-10 0 z' fill='%s'/>", x, y - 5.5, colour);
-      default:
-        return svg::format("<path d='M%.1f %.1f l5 5 l-5 5 l-5 -5 z' fill='none' stroke='%s' stroke-width='2'/>", x,
-                           y - 5, colour);
-    }
-  };
-  for (const TradeRow& r : rows) {
-    const size_t vi = std::find(variants.begin(), variants.end(), r.variant) - variants.begin();
-    const size_t fi = std::find(families.begin(), families.end(), r.family) - families.begin();
+    const size_t vi = index_in(variants, r.variant), fi = index_in(families, r.family);
     const double rate = r.tally.disagreement_rate();
     out << "<g><title>"
         << svg::escape(r.variant + " / " + std::string(to_string(r.shape)) + " / " + std::string(to_string(r.family)) +
                        svg::format(": %g ns, rate %g", r.ns_per_test, rate))
-        << "</title>" << marker(px(r.ns_per_test), py(rate), fi, colours[vi % 10]) << "</g>\n";
+        << "</title>" << trade_marker(frame.x(r.ns_per_test), frame.y(rate), fi, colours[vi % 10]) << "</g>\n";
   }
-  double ly = top + 10;
+  const double lx = TradeFrame::W - TradeFrame::right;
+  double ly = TradeFrame::top + 10;
   for (size_t i = 0; i < variants.size(); ++i, ly += 18)
-    out << svg::rect(W - right + 20, ly - 10, 12, 12, colours[i % 10]) << svg::text(W - right + 38, ly, variants[i])
-        << "\n";
+    out << svg::rect(lx + 20, ly - 10, 12, 12, colours[i % 10]) << svg::text(lx + 38, ly, variants[i]) << "\n";
   ly += 10;
   for (size_t i = 0; i < families.size(); ++i, ly += 18)
-    out << marker(W - right + 26, ly - 4, i, "#444") << svg::text(W - right + 38, ly, to_string(families[i])) << "\n";
+    out << trade_marker(lx + 26, ly - 4, i, "#444") << svg::text(lx + 38, ly, to_string(families[i])) << "\n";
   svg::end(out);
 }
 
