@@ -244,9 +244,11 @@ Verdict coplanar_triangle(const Ray& ray, const Triangle& tri, RoundingStats& ro
   int drop = 0;
   for (int i = 1; i < 3; ++i)
     if (abs(n[i]) > abs(n[drop])) drop = i;
+  // (ax, ay, drop) is a cyclic permutation of (x, y, z), so cross2(a, b) = (a × b)[drop] exactly
+  // and the triangle's 2D orientation is sign(n[drop]) whatever the axis dropped.
   const int ax = (drop + 1) % 3, ay = (drop + 2) % 3;
   auto cross2 = [&](const V<Exact>& a, const V<Exact>& b) { return Exact(a[ax] * b[ay] - a[ay] * b[ax]); };
-  const int orient = sgn(n[drop]) * (drop == 1 ? -1 : 1) > 0 ? 1 : -1;  // sign of cross2(e1, e2)
+  const int orient = sgn(n[drop]);  // sign of cross2(e1, e2) = n[drop], non-zero as |n[drop]| is the largest
   bool inside_closed = true, moves_inside = true;
   for (int i = 0; i < 3; ++i) {
     const V<Exact> e = v[(i + 1) % 3] - v[i];
