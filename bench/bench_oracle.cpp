@@ -23,9 +23,26 @@ void BM_Oracle(benchmark::State& state, ShapeKind kind, std::string family, bool
   const OracleStats& s = oracle.stats(kind);
   const double queries = std::max<std::uint64_t>(1, s.queries);
   state.counters["per_test"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["class_interval_pct"] = 100.0 * s.class_interval / queries;
   state.counters["class_expansion_pct"] = 100.0 * s.class_expansion / queries;
   state.counters["class_rational_pct"] = 100.0 * s.class_exact / queries;
+  state.counters["t_expansion_pct"] = 100.0 * s.rounding.expansion / std::max<std::uint64_t>(1, s.rounding.rounded);
   state.counters["t_rational_pct"] = 100.0 * s.rounding.rational / std::max<std::uint64_t>(1, s.rounding.rounded);
+}
+
+// The exact class alone (a predicate, no t): the semi-static filter's cost.
+void BM_OracleClass(benchmark::State& state, ShapeKind kind, std::string family) {
+  const auto& qs = inputs(kind, family);
+  Oracle oracle;
+  size_t i = 0;
+  for (auto _ : state) {
+    const Query& q = qs[i++ % qs.size()];
+    benchmark::DoNotOptimize(oracle.classify(q.ray, q.shape));
+  }
+  const OracleStats& s = oracle.stats(kind);
+  const double queries = std::max<std::uint64_t>(1, s.queries);
+  state.counters["per_test"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["class_beyond_static_pct"] = 100.0 * (s.class_interval + s.class_expansion + s.class_exact) / queries;
 }
 
 // CGAL Epick's exact do_intersect(Ray_3, Triangle_3): a predicate only (no t), the yardstick a
@@ -53,6 +70,7 @@ const bool registered = [] {
       const std::string base = "oracle/" + std::string(to_string(k)) + "/" + family;
       benchmark::RegisterBenchmark((base + "/filtered").c_str(), BM_Oracle, k, family, true);
       benchmark::RegisterBenchmark((base + "/exact").c_str(), BM_Oracle, k, family, false);
+      benchmark::RegisterBenchmark((base + "/class").c_str(), BM_OracleClass, k, family);
     }
     benchmark::RegisterBenchmark(("cgal-epick-do-intersect/triangle/" + family).c_str(), BM_CgalEpickTriangle, family);
   }

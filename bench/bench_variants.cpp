@@ -3,6 +3,7 @@
 
 #include "inputs.h"
 #include "rayproof/core/variants.h"
+#include "rayproof/verify/certified.h"
 #include "rayproof/studies/trade.h"
 
 namespace rayproof::bench {
@@ -35,6 +36,7 @@ void BM_Batched(benchmark::State& state, const studies::Contender* c, std::strin
 }
 
 const bool registered = [] {
+  register_certified_variants();
   static const std::vector<studies::Contender> batched = studies::batched_contenders();
   for (const std::string& family : bench_families()) {
     for (const Variant& v : all_variants())

@@ -2,8 +2,10 @@
 #include <iostream>
 
 #include "commands.h"
+#include "rayproof/verify/certified.h"
 
 int main(int argc, char** argv) {
+  rayproof::register_certified_variants();
   CLI::App app{"rayproof: exact audits, fuzzing and benchmarks of ray intersection code"};
   app.require_subcommand(1);
   int exit_code = 0;

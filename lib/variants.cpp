@@ -9,6 +9,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace rayproof {
@@ -267,17 +269,37 @@ constexpr Variant kVariants[] = {
 };
 }  // namespace
 
-std::span<const Variant> all_variants() { return kVariants; }
+// The built-ins first, then variants registered at run time by higher layers. Capacity is
+// reserved once, so the pointers find_variant hands out never move.
+constexpr size_t kRegistryCapacity = 256;
+std::vector<Variant>& registry() {
+  static std::vector<Variant> all = [] {
+    std::vector<Variant> v;
+    v.reserve(kRegistryCapacity);
+    v.assign(std::begin(kVariants), std::end(kVariants));
+    return v;
+  }();
+  return all;
+}
+
+std::span<const Variant> all_variants() { return registry(); }
+
+const Variant& register_variant(const Variant& v) {
+  if (find_variant(v.name)) throw std::runtime_error("a variant named '" + std::string(v.name) + "' exists already");
+  if (registry().size() == kRegistryCapacity) throw std::runtime_error("too many variants");
+  registry().push_back(v);
+  return registry().back();
+}
 
 const Variant* find_variant(std::string_view name) {
-  for (const Variant& v : kVariants)
+  for (const Variant& v : registry())
     if (v.name == name) return &v;
   return nullptr;
 }
 
 std::vector<const Variant*> variants_for(ShapeKind shape) {
   std::vector<const Variant*> out;
-  for (const Variant& v : kVariants)
+  for (const Variant& v : registry())
     if (v.shape == shape) out.push_back(&v);
   return out;
 }

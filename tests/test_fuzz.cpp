@@ -299,7 +299,7 @@ TEST(StabilityCli, CsvAndOneHeatmapPerVariant) {
   const auto csv = lines_of(dir + "/stability.csv");
   ASSERT_FALSE(csv.empty());
   EXPECT_EQ(csv[0], "variant,log2_scale,log2_size,cases,disagreement_rate,ulp_p99");
-  EXPECT_EQ(csv.size(), 1 + 4 * 25u);  // four sphere variants × 5 × 5 cells
+  EXPECT_EQ(csv.size(), 1 + 5 * 25u);  // four sphere formulas and certified-sphere × 5 × 5 cells
   for (const char* v : {"textbook", "stable", "stable-fma", "hearn-baker"}) {
     const std::string svg = read(dir + "/" + v + ".svg");
     EXPECT_NE(svg.find("log2 of the distance"), std::string::npos) << v;
@@ -318,6 +318,9 @@ TEST(StabilityCli, CsvAndOneHeatmapPerVariant) {
   EXPECT_GT(rate("textbook", 60, 0), 0.5);
   EXPECT_EQ(rate("hearn-baker", 60, 0), 0.0);
   EXPECT_EQ(rate("textbook", 0, 0), 0.0);
+  // The certified variant is the oracle's own front end: no cell may show a disagreement.
+  for (int scale = -60; scale <= 60; scale += 30)
+    for (int size = -60; size <= 60; size += 30) EXPECT_EQ(rate("certified-sphere", scale, size), 0.0) << scale << " " << size;
   EXPECT_NE(run("stability --shape sphere --variant watertight -o " + dir), 0);
   EXPECT_NE(run("stability --from 10 --to -10 -o " + dir), 0);
 }

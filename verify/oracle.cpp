@@ -3,6 +3,7 @@
 #include "rayproof/verify/oracle.h"
 
 #include "rayproof/verify/expansion.h"
+#include "rayproof/verify/filtered.h"
 
 #include <CGAL/Exact_rational.h>
 #include <CGAL/Interval_nt.h>
@@ -11,6 +12,7 @@
 #include <cfloat>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <type_traits>
 
 namespace rayproof {
@@ -22,25 +24,26 @@ static_assert(std::is_same_v<Exact, mpq_class>, "build with CGAL_USE_GMPXX: Exac
 
 // ---------------------------------------------------------------------------------------------
 // Vectors over a number type: the same expressions are evaluated in intervals and in rationals.
+// Forced inline: the filter stages are a few dozen flops whose cost is call overhead otherwise.
 template <class NT>
 struct V {
   NT x, y, z;
-  NT operator[](int i) const { return i == 0 ? x : i == 1 ? y : z; }
+  const NT& operator[](int i) const { return i == 0 ? x : i == 1 ? y : z; }
 };
 template <class NT>
-V<NT> lift(const Vec3& v) {
+[[gnu::always_inline]] inline V<NT> lift(const Vec3& v) {
   return {NT(v.x()), NT(v.y()), NT(v.z())};
 }
 template <class NT>
-V<NT> operator-(const V<NT>& a, const V<NT>& b) {
+[[gnu::always_inline]] inline V<NT> operator-(const V<NT>& a, const V<NT>& b) {
   return {NT(a.x - b.x), NT(a.y - b.y), NT(a.z - b.z)};
 }
 template <class NT>
-NT dot(const V<NT>& a, const V<NT>& b) {
+[[gnu::always_inline]] inline NT dot(const V<NT>& a, const V<NT>& b) {
   return NT(a.x * b.x + a.y * b.y + a.z * b.z);
 }
 template <class NT>
-V<NT> cross(const V<NT>& a, const V<NT>& b) {
+[[gnu::always_inline]] inline V<NT> cross(const V<NT>& a, const V<NT>& b) {
   return {NT(a.y * b.z - a.z * b.y), NT(a.z * b.x - a.x * b.z), NT(a.x * b.y - a.y * b.x)};
 }
 
@@ -65,10 +68,12 @@ struct Decision {
   std::optional<Source> source;
 };
 
-// num/den as a parameter with a positive denominator.
+// num/den as a parameter with a positive denominator (where the number type can tell den's
+// sign; round_fast refuses a parameter whose q is not certainly positive).
 template <class NT>
 ParameterOf<NT> ratio_parameter(const NT& num, const NT& den) {
-  if (sgn(den) < 0) return {NT(-num), NT(0), NT(-den), 0};
+  const auto sign = sign_of(den);
+  if (sign && *sign < 0) return {NT(-num), NT(0), NT(-den), 0};
   return {num, NT(0), den, 0};
 }
 
@@ -81,6 +86,8 @@ ParameterOf<NT> ratio_parameter(const NT& num, const NT& den) {
 //   special_case(...)     a verdict the terms alone cannot give (nullopt nearly always).
 // The driver below (decide_filtered, judge_with) layers the stages over any policy.
 struct NoSpecialCase {
+  template <class Decision>
+  static bool special_case_needed(const Decision&) { return false; }
   template <class... Any>
   static std::optional<Verdict> special_case(const Any&...) { return std::nullopt; }
 };
@@ -111,7 +118,7 @@ struct SpherePolicy : NoSpecialCase {
   }
 
   template <class NT>
-  static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
+  [[gnu::always_inline]] static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
     const auto sd = sign_of(t.disc);
     if (!sd) return std::nullopt;
     if (*sd < 0) return Decision<Source>{};
@@ -159,7 +166,7 @@ struct PlanePolicy : NoSpecialCase {
   }
 
   template <class NT>
-  static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
+  [[gnu::always_inline]] static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
     const auto sd = sign_of(t.den), sn = sign_of(t.num);
     if (!sd || !sn) return std::nullopt;
     if (*sd == 0) return *sn == 0 ? Decision<Source>{HitClass::tangent} : Decision<Source>{};
@@ -204,7 +211,7 @@ struct TrianglePolicy {
   }
 
   template <class NT>
-  static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
+  [[gnu::always_inline]] static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
     const auto sd = sign_of(t.den), sn = sign_of(t.num);
     if (!sd || !sn) return std::nullopt;
     if (*sd == 0) return *sn == 0 ? Decision<Source>{HitClass::tangent, false, Source::coplanar} : Decision<Source>{};
@@ -227,6 +234,7 @@ struct TrianglePolicy {
   }
 
   // A coplanar ray is a 2D problem the 3D terms cannot settle.
+  static bool special_case_needed(const Decision<Source>& d) { return d.source == Source::coplanar; }
   static std::optional<Verdict> special_case(const Ray& ray, const Triangle& tri, const Decision<Source>& d,
                                              RoundingStats& rounding) {
     if (d.source != Source::coplanar) return std::nullopt;
@@ -280,7 +288,9 @@ Verdict coplanar_triangle(const Ray& ray, const Triangle& tri, RoundingStats& ro
 // ---------------------------------------------------------------------------------------------
 // Box: the line's parameter interval [t_min, t_max] inside the closed box (slabs of the axes
 // where d ≠ 0; an axis with d = 0 keeps the line or loses it). The open interior is met iff
-// t_min < t_max and every d = 0 axis has its origin strictly between the planes.
+// t_min < t_max and every d = 0 axis has its origin strictly between the planes. Each slab
+// parameter is a ratio num/den with den = |d_i| > 0 an input double, so comparisons cross-multiply
+// and every stage (filters, expansions, rationals) evaluates polynomials only.
 struct BoxPolicy : NoSpecialCase {
   using ShapeType = Box;
   // t is where the ray crosses the near or far plane of slab `slab` (slabs count the axes with d ≠ 0).
@@ -291,14 +301,11 @@ struct BoxPolicy : NoSpecialCase {
   template <class NT>
   struct Terms {
     int axes = 0;
-    int axis[3];
-    NT near[3], far[3];
-    bool outside = false;    // some d = 0 axis has the origin outside its slab
-    bool on_a_face = false;  // some d = 0 axis has the origin on one of its planes
+    NT near[3], far[3], den[3];  // slab k: near/far parameters near[k]/den[k], far[k]/den[k]
+    bool outside = false;        // some d = 0 axis has the origin outside its slab
+    bool on_a_face = false;      // some d = 0 axis has the origin on one of its planes
   };
-  // The terms divide, which expansions cannot hold: the class goes from intervals to rationals,
-  // and t's expansion form comes from fast_parameter instead.
-  static constexpr bool kExpansionTerms = false;
+  static constexpr bool kExpansionTerms = true;
 
   template <class NT>
   static Terms<NT> terms(const Ray& ray, const Box& b) {
@@ -310,29 +317,35 @@ struct BoxPolicy : NoSpecialCase {
         t.on_a_face = t.on_a_face || o == b.min[i] || o == b.max[i];
         continue;
       }
-      const NT lo = NT(NT(b.min[i]) - NT(o)) / NT(d), hi = NT(NT(b.max[i]) - NT(o)) / NT(d);
-      t.axis[t.axes] = i;
-      t.near[t.axes] = d > 0 ? lo : hi;
-      t.far[t.axes] = d > 0 ? hi : lo;
+      // (plane − o)/d = (s·(plane − o))/|d| with s = sign(d): negation is exact in every number type.
+      const NT lo = NT(b.min[i]) - NT(o), hi = NT(b.max[i]) - NT(o);
+      t.near[t.axes] = d > 0 ? lo : -hi;
+      t.far[t.axes] = d > 0 ? hi : -lo;
+      t.den[t.axes] = NT(std::abs(d));
       ++t.axes;
     }
     return t;
   }
 
+  // sign(a/da − b/db) for positive denominators.
   template <class NT>
-  static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
+  [[gnu::always_inline]] static std::optional<int> compare_ratios(const NT& a, const NT& da, const NT& b, const NT& db) {
+    return sign_of(NT(a * db - b * da));
+  }
+
+  template <class NT>
+  [[gnu::always_inline]] static std::optional<Decision<Source>> decide(const Terms<NT>& t) {
     if (t.outside) return Decision<Source>{};
     int enter_k = 0, leave_k = 0;  // slabs giving t_min (largest near) and t_max (smallest far)
     for (int k = 1; k < t.axes; ++k) {
-      const auto sn = sign_of(NT(t.near[k] - t.near[enter_k]));
-      const auto sf = sign_of(NT(t.far[k] - t.far[leave_k]));
+      const auto sn = compare_ratios(t.near[k], t.den[k], t.near[enter_k], t.den[enter_k]);
+      const auto sf = compare_ratios(t.far[k], t.den[k], t.far[leave_k], t.den[leave_k]);
       if (!sn || !sf) return std::nullopt;
       if (*sn > 0) enter_k = k;
       if (*sf < 0) leave_k = k;
     }
-    const NT& t_min = t.near[enter_k];
-    const NT& t_max = t.far[leave_k];
-    const auto order = sign_of(NT(t_min - t_max)), s_max = sign_of(t_max), s_min = sign_of(t_min);
+    const auto order = compare_ratios(t.near[enter_k], t.den[enter_k], t.far[leave_k], t.den[leave_k]);
+    const auto s_max = sign_of(t.far[leave_k]), s_min = sign_of(t.near[enter_k]);
     if (!order || !s_max || !s_min) return std::nullopt;
     if (*order > 0 || *s_max <= 0) return Decision<Source>{};
     const Source entry{false, enter_k}, leaving{true, leave_k};
@@ -345,55 +358,52 @@ struct BoxPolicy : NoSpecialCase {
     return Decision<Source>{HitClass::tangent};
   }
 
-  static ExactParameter parameter(const Terms<Exact>& t, Source source) {
-    return {source.far ? t.far[source.slab] : t.near[source.slab], 0, 1, 0};
-  }
-
-  // The same parameter as (plane − o_i)/d_i in expansions, without division.
-  static ParameterOf<Expansion> fast_parameter(const Ray& ray, const Box& b, Source source) {
-    int axis = -1;
-    for (int i = 0, k = 0; i < 3; ++i)
-      if (ray.direction[i] != 0 && k++ == source.slab) axis = i;
-    const double d = ray.direction[axis];
-    const double plane = (d > 0) == !source.far ? b.min[axis] : b.max[axis];
-    return ratio_parameter(Expansion(Expansion(plane) - Expansion(ray.origin[axis])), Expansion(d));
+  template <class NT>
+  static ParameterOf<NT> parameter(const Terms<NT>& t, Source source) {
+    return {source.far ? t.far[source.slab] : t.near[source.slab], NT(0), t.den[source.slab], 0};
   }
 };
 
 // ---------------------------------------------------------------------------------------------
-// The one driver, for every policy: decide with interval terms when every sign is certain; else
-// with exact floating-point expansions when the terms are polynomial and no product under- or
-// overflowed; else with GMP rationals. Each stage evaluates the same terms and decision.
+// The one driver, for every policy, CGAL's Filtered_predicate generalised to four stages: the
+// semi-static double filter (FilteredDouble) when every sign is certain; else intervals; else
+// exact floating-point expansions when no product under- or overflowed; else GMP rationals. Each
+// stage evaluates the same terms and the same decision.
+// The terms of the deciding exact stage are kept for t (on the heap: an expansion's fixed
+// capacity makes them kilobytes, which the filtered stages must not pay to return).
 template <class P>
 struct Decided {
   Decision<typename P::Source> decision;
-  std::optional<typename P::template Terms<Expansion>> expansion;  // set when expansions decided
-  std::optional<typename P::template Terms<Exact>> exact;          // set when rationals decided
+  std::unique_ptr<typename P::template Terms<Expansion>> expansion;  // set when expansions decided
+  std::unique_ptr<typename P::template Terms<Exact>> exact;          // set when rationals decided
 };
 
 template <class P>
 Decided<P> decide_filtered(const Ray& ray, const typename P::ShapeType& shape, const Oracle::Options& options,
                            OracleStats& stats) {
   if (options.filter) {
+    if (options.static_filter)
+      if (const auto d = P::decide(P::template terms<FilteredDouble>(ray, shape))) return {*d, nullptr, nullptr};
     std::optional<Decision<typename P::Source>> d;
     {
       CGAL::Protect_FPU_rounding<true> upward;
       d = P::decide(P::template terms<Interval>(ray, shape));
     }
-    if (d) return {*d, std::nullopt, std::nullopt};
-    if constexpr (P::kExpansionTerms) {
-      if (options.expansions) {
-        auto terms = P::template terms<Expansion>(ray, shape);
-        if (const auto e = P::decide(terms)) {
-          ++stats.class_expansion;
-          return {*e, std::move(terms), std::nullopt};
-        }
+    if (d) {
+      ++stats.class_interval;
+      return {*d, nullptr, nullptr};
+    }
+    if (options.expansions) {
+      auto terms = std::make_unique<typename P::template Terms<Expansion>>(P::template terms<Expansion>(ray, shape));
+      if (const auto e = P::decide(*terms)) {
+        ++stats.class_expansion;
+        return {*e, std::move(terms), nullptr};
       }
     }
   }
   ++stats.class_exact;
-  auto exact = P::template terms<Exact>(ray, shape);
-  return {*P::decide(exact), std::nullopt, std::move(exact)};
+  auto exact = std::make_unique<typename P::template Terms<Exact>>(P::template terms<Exact>(ray, shape));
+  return {*P::decide(*exact), nullptr, std::move(exact)};
 }
 
 }  // namespace
@@ -403,7 +413,7 @@ namespace {
 
 // sign(R + s·√D) for exact R, D ≥ 0: opposite signs are settled by comparing R² with D.
 template <class NT>
-std::optional<int> sign_plus_root(const NT& r, int s, const NT& radicand) {
+[[gnu::always_inline]] inline std::optional<int> sign_plus_root(const NT& r, int s, const NT& radicand) {
   const auto sr = sign_of(r), sd = sign_of(radicand);
   if (!sr || !sd) return std::nullopt;
   if (s == 0 || *sd == 0) return *sr;
@@ -426,11 +436,29 @@ std::optional<int> twice_t_minus(const ExactParameter& t, double a, double b) {
   const mpq_class sum = mpq_class(a) + (std::isinf(b) ? two_to_1024() : mpq_class(b));
   return sign_plus_root(mpq_class(2 * t.p - sum * t.q), t.s, mpq_class(4 * t.radicand));
 }
-std::optional<int> twice_t_minus(const ParameterOf<Expansion>& t, double a, double b) {
+template <class NT>
+[[gnu::always_inline]] inline std::optional<int> twice_t_minus(const ParameterOf<NT>& t, double a, double b) {
   if (std::isinf(b)) return std::nullopt;
-  const Expansion r = (t.p + t.p) - t.q * Expansion(a) - t.q * Expansion(b);
-  const Expansion four_d = t.radicand * Expansion(4.0);
-  return sign_plus_root(r, t.s, four_d);
+  const NT r = (t.p + t.p) - t.q * (NT(a) + NT(b));  // a + b is exact in both number types
+  return sign_plus_root(r, t.s, NT(t.radicand * NT(4.0)));
+}
+
+// The neighbouring doubles of x, by the bits for positive finite x (the fast paths' case).
+[[gnu::always_inline]] inline double next_down(double x) {
+  if (!(x > 0) || std::isinf(x)) return std::nextafter(x, -INFINITY);
+  std::uint64_t bits;
+  std::memcpy(&bits, &x, sizeof bits);
+  --bits;
+  std::memcpy(&x, &bits, sizeof bits);
+  return x;
+}
+[[gnu::always_inline]] inline double next_up(double x) {
+  if (!(x > 0) || std::isinf(x)) return std::nextafter(x, INFINITY);
+  std::uint64_t bits;
+  std::memcpy(&bits, &x, sizeof bits);
+  ++bits;
+  std::memcpy(&x, &bits, sizeof bits);
+  return x;
 }
 
 double even_of(double a, double b) {
@@ -452,7 +480,7 @@ std::optional<double> walk_to_nearest(const Parameter& t, double x, int max_step
       x = DBL_MAX;
       continue;
     }
-    const double below = std::nextafter(x, -INFINITY), above = std::nextafter(x, INFINITY);
+    const double below = next_down(x), above = next_up(x);
     const auto low = twice_t_minus(t, below, x);
     if (!low) return std::nullopt;
     if (*low < 0) { x = below; continue; }
@@ -466,18 +494,27 @@ std::optional<double> walk_to_nearest(const Parameter& t, double x, int max_step
   return std::nullopt;
 }
 
-// The fast exact path: a double estimate of t from the expansions (cancellation-free form),
-// then exact midpoint tests in expansions. Leaves extreme magnitudes to the rational path.
-std::optional<double> round_with_expansions(const ParameterOf<Expansion>& t) {
-  if (!t.p.valid() || !t.q.valid() || !t.radicand.valid()) return std::nullopt;
-  const double p = t.p.estimate(), q = t.q.estimate(), root = std::sqrt(t.radicand.estimate());
+// The fast paths (double-double with error bounds, then exact expansions): a double estimate of
+// t in a cancellation-free form, then midpoint tests in the same number type. nullopt when a
+// sign is uncertain (FilteredDD) or a product left the exact range (expansions); the rational
+// path then decides. Leaves extreme magnitudes to it too.
+template <class NT>
+std::optional<double> round_fast(const ParameterOf<NT>& t) {
+  if (!t.p.valid() || !t.q.valid() || !t.radicand.valid() || sign_of(t.q) != 1) return std::nullopt;
+  const auto sign_radicand = sign_of(t.radicand), sign_p = sign_of(t.p);
+  if (!sign_radicand || !sign_p) return std::nullopt;
+  const double p = t.p.estimate(), q = t.q.estimate(), root = std::sqrt(std::max(0.0, t.radicand.estimate()));
   double estimate;
-  if (t.s == 0 || t.radicand.sign() == 0) {
+  if (t.s == 0 || *sign_radicand == 0) {
     estimate = p / q;
-  } else if (t.p.sign() == 0 || t.p.sign() == t.s) {
+    // One Newton-like correction with the exact-ish residual p − estimate·q (in NT) lands on
+    // the nearest double nearly always, so the walk below takes a single step.
+    const NT residual = t.p - t.q * NT(estimate);
+    if (residual.valid()) estimate += residual.estimate() / q;
+  } else if (*sign_p == 0 || *sign_p == t.s) {
     estimate = (p + t.s * root) / q;
   } else {  // (p + s√D)/q = (p² − D) / (q·(p − s√D)), no cancellation
-    const Expansion num = t.p * t.p - t.radicand;
+    const NT num = t.p * t.p - t.radicand;
     if (!num.valid()) return std::nullopt;
     estimate = num.estimate() / (q * (p - t.s * root));
   }
@@ -559,7 +596,7 @@ Verdict apply_rule(Verdict v, HitRule rule) {
   return v;
 }
 
-// t from the fastest exact representation at hand: expansions, else rationals.
+// t from the fastest stage that proves its rounding: double-double, expansions, rationals.
 template <class P>
 Verdict judge_with(const Ray& ray, const typename P::ShapeType& shape, const Oracle::Options& options,
                    OracleStats& stats) {
@@ -571,14 +608,12 @@ Verdict judge_with(const Ray& ray, const typename P::ShapeType& shape, const Ora
   if (!r.decision.source) return v;
   const auto source = *r.decision.source;
   auto exact_parameter = [&] { return P::parameter(r.exact ? *r.exact : P::template terms<Exact>(ray, shape), source); };
-  auto fast_parameter = [&] {
-    if constexpr (P::kExpansionTerms)
-      return P::parameter(r.expansion ? *r.expansion : P::template terms<Expansion>(ray, shape), source);
-    else
-      return P::fast_parameter(ray, shape, source);
-  };
   std::optional<double> t;
-  if (options.filter && options.expansions) t = round_with_expansions(fast_parameter());
+  if (options.filter && options.double_double) t = round_fast(P::parameter(P::template terms<FilteredDD>(ray, shape), source));
+  if (!t && options.filter && options.expansions) {
+    t = round_fast(P::parameter(r.expansion ? *r.expansion : P::template terms<Expansion>(ray, shape), source));
+    if (t) ++stats.rounding.expansion;
+  }
   if (t) {
     ++stats.rounding.rounded;
   } else {
@@ -588,6 +623,22 @@ Verdict judge_with(const Ray& ray, const typename P::ShapeType& shape, const Ora
   v.t = t;
   if (options.keep_exact_parameter && !v.exact_t) v.exact_t = exact_parameter();
   return v;
+}
+
+// The class alone: the same stages, no t (the coplanar triangle's refinement included), and the
+// enter-only rule (which needs the side).
+template <class P>
+HitClass classify_with(const Ray& ray, const typename P::ShapeType& shape, HitRule rule, const Oracle::Options& options,
+                       OracleStats& stats) {
+  const Decided<P> r = decide_filtered<P>(ray, shape, options, stats);
+  if (P::special_case_needed(r.decision)) {
+    Verdict v = *P::special_case(ray, shape, r.decision, stats.rounding);
+    return apply_rule(std::move(v), rule).cls;
+  }
+  const HitClass cls = r.decision.cls;
+  if (rule == HitRule::enter_only && !(cls == HitClass::enter || (cls == HitClass::boundary && r.decision.front)))
+    return HitClass::miss;
+  return cls;
 }
 
 template <class S> struct PolicyOf;
@@ -607,10 +658,22 @@ Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
   return apply_rule(std::move(v), rule);
 }
 
+HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
+  OracleStats& stats = stats_[shape.index()];
+  ++stats.queries;
+  return std::visit(
+      [&](const auto& s) {
+        return classify_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(ray, s, rule, options_, stats);
+      },
+      shape);
+}
+
 void Oracle::merge_stats(const Oracle& other) {
   for (size_t i = 0; i < stats_.size(); ++i) {
     stats_[i].queries += other.stats_[i].queries;
+    stats_[i].class_interval += other.stats_[i].class_interval;
     stats_[i].class_expansion += other.stats_[i].class_expansion;
+    stats_[i].rounding.expansion += other.stats_[i].rounding.expansion;
     stats_[i].class_exact += other.stats_[i].class_exact;
     stats_[i].rounding.rational += other.stats_[i].rounding.rational;
     stats_[i].rounding.rounded += other.stats_[i].rounding.rounded;

@@ -31,7 +31,11 @@ struct Variant {
   Hit (*intersect)(const Ray&, const Shape&, HitRule);  // type-erased entry point
 };
 
+// Every variant: the built-ins above, then those registered at run time.
 std::span<const Variant> all_variants();
+// Adds a variant from a higher layer (the oracle's certified front ends, plugins) before any
+// command starts; `name`, `source` must outlive the process. Throws on a duplicate name.
+const Variant& register_variant(const Variant& v);
 const Variant* find_variant(std::string_view name);
 std::vector<const Variant*> variants_for(ShapeKind shape);
 // The variant the renderer uses for a shape unless told otherwise.

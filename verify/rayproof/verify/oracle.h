@@ -4,11 +4,12 @@
 //
 // Filtered, then exact (CGAL's Filtered_predicate pattern): each shape's meaning is fixed once,
 // as a policy — its terms over any number type, one decision over their signs, and the contact
-// parameter the decision names — and one driver layers three stages over it: CGAL::Interval_nt
-// (answers only when every sign is certain), exact floating-point expansions (while no product
-// under- or overflows), then GMP rationals. The correctly rounded t comes from exact midpoint
-// tests in expansions, else from a 128-bit MPFR enclosure with exact midpoint tests where the
-// enclosure straddles a rounding boundary. Each fallback is counted.
+// parameter the decision names — and one driver layers four stages over it: a semi-static
+// double filter with a proved error bound (verify/filtered.h), CGAL::Interval_nt, exact
+// floating-point expansions (while no product under- or overflows), then GMP rationals; each
+// answers only when every sign is certain. The correctly rounded t comes from midpoint tests in
+// double-double with error bounds, else in expansions, else from a 128-bit MPFR enclosure with
+// exact midpoint tests where it straddles a rounding boundary. Each fallback is counted.
 #pragma once
 
 #include <gmpxx.h>
@@ -37,6 +38,7 @@ int compare(const ExactParameter& t, const mpq_class& m);
 
 struct RoundingStats {
   std::uint64_t rounded = 0;          // correctly rounded t values produced
+  std::uint64_t expansion = 0;        // ... that needed expansions (double-double could not)
   std::uint64_t rational = 0;         // ... that needed GMP rationals (expansions could not)
   std::uint64_t exact_fallbacks = 0;  // ... of those, where the MPFR enclosure straddled a midpoint
 };
@@ -54,7 +56,8 @@ struct Verdict {
 };
 
 struct OracleStats {
-  std::uint64_t queries = 0;
+  std::uint64_t queries = 0;          // the static filter decided the rest
+  std::uint64_t class_interval = 0;   // the static filter failed; intervals decided
   std::uint64_t class_expansion = 0;  // the interval filter failed; exact expansions decided
   std::uint64_t class_exact = 0;      // ... and GMP rationals had to (expansions under/overflowed)
   RoundingStats rounding;
@@ -63,14 +66,18 @@ struct OracleStats {
 class Oracle {
  public:
   struct Options {
-    bool filter = true;       // false: every class and t decided in GMP rationals (tests, benchmarks)
-    bool expansions = true;   // the exact floating-point expansion stage between interval and GMP
+    bool filter = true;         // false: every class and t decided in GMP rationals (tests, benchmarks)
+    bool expansions = true;     // the exact floating-point expansion stage between interval and GMP
+    bool static_filter = true;  // the semi-static double filter in front of the intervals
+    bool double_double = true;  // t's midpoint tests in double-double before expansions
     bool keep_exact_parameter = false;  // fill Verdict::exact_t (in rationals) for audits and tests
   };
   Oracle() = default;
   explicit Oracle(Options options) : options_(options) {}
 
   Verdict judge(const Ray& ray, const Shape& shape, HitRule rule = HitRule::nearest_contact);
+  // The exact class alone (no t): what a predicate costs.
+  HitClass classify(const Ray& ray, const Shape& shape, HitRule rule = HitRule::nearest_contact);
   const OracleStats& stats(ShapeKind kind) const { return stats_[static_cast<int>(kind)]; }
   void merge_stats(const Oracle& other);
 

@@ -1,0 +1,190 @@
+// The oracle's two fast filter stages, as number types for its templated terms: each evaluates
+// the same expression as the exact stages, in floating point, and carries a proved bound on its
+// error, so a sign is reported only when the bound makes it certain (otherwise nullopt, and the
+// next stage decides).
+//
+//   FilteredDouble   plain doubles: the semi-static filter in front of the intervals. No
+//                    rounding-mode switches; the bound comes from the operands' magnitudes.
+//   FilteredDD       double-double values (~106 bits): enclosures of t tight enough to prove
+//                    the correct rounding by midpoint tests before expansions are needed.
+//
+// The bound (Higham, "Accuracy and Stability of Numerical Algorithms", Lemmas 3.1 and 3.3; the
+// idea of CGAL's Static_filters). An expression of +, − and × over exact doubles, evaluated with
+// rounding that obeys fl(x ∘ y) = (x ∘ y)(1 + δ), |δ| ≤ ε, expands into monomials each carrying
+// at most k factors (1 + δ_i), where k counts the roundings on its deepest path (a sum: one more
+// than its deeper operand; a product: the sum of both operands' counts plus one). Hence
+//     |computed − exact| ≤ γ_ε(k) · M,   γ_ε(k) = kε / (1 − kε),
+// with M the same expression over |leaves| with every − read as +, evaluated exactly. We carry m,
+// M evaluated in doubles alongside; its own roundings (k of them, u = 2^-53) give m ≥ M (1 − γ(k)),
+// so M ≤ m / (1 − γ(k)). The bound used, fl(γ_ε(k + 2) · m), exceeds γ_ε(k) / (1 − γ(k)) · m even
+// after its own rounding down by (1 − u), for every k < 2^40: the two spare roundings pay for it.
+//
+// Where the model holds: sums of doubles are exact when their result is subnormal, so only
+// products can underflow, and only overflow can break sums. A product whose magnitude m_a·m_b
+// is non-zero and outside [2^-800, 2^+800] (FilteredDD) or fp.h's safe range [2^-900, 2^+900]
+// (FilteredDouble) marks the value invalid. Inside it, an underflowing product (possible when
+// its value cancels far below its magnitude) adds at most a few times 2^-1075 absolutely, below
+// 2^-170 · ε · m_a·m_b: the spare roundings absorb it. A value with m = 0 is exactly zero; a
+// final m that is not finite, or below the safe minimum, gives no sign.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <optional>
+
+#include "rayproof/core/fp.h"
+
+namespace rayproof {
+
+namespace filter_detail {
+// γ_ε(k + 2) for k = 0 … 63, ε = u (doubles) or 2^-100 (double-double).
+template <int kLog2Epsilon>
+constexpr std::array<double, 64> gamma_table() {
+  std::array<double, 64> g{};
+  const double eps = kLog2Epsilon == -53 ? kUnitRoundoff : 0x1p-100;
+  for (int k = 0; k < 64; ++k) g[k] = ((k + 2) * eps) / (1 - (k + 2) * eps);
+  return g;
+}
+inline constexpr auto kGammaDouble = gamma_table<-53>();
+inline constexpr auto kGammaDD = gamma_table<-100>();
+
+// Whether a product of magnitudes ma·mb = m keeps the model valid: a zero factor makes it exactly
+// zero; otherwise m must lie in [lo, hi] (an underflow to 0 must not pass for an exact zero).
+inline bool product_in_range(double ma, double mb, double m, double lo, double hi) {
+  return ma == 0 || mb == 0 || (m >= lo && m <= hi);
+}
+}  // namespace filter_detail
+
+// A value, its magnitude m and round count k. Invalid (outside the model's range) is m = +inf or
+// NaN, which every later operation keeps and sign() refuses: no flag to carry.
+class FilteredDouble {
+ public:
+  FilteredDouble() = default;
+  FilteredDouble(double x) : v_(x), m_(std::isfinite(x) ? std::abs(x) : INFINITY), k_(0) {}  // NOLINT: terms lift doubles
+
+  [[gnu::always_inline]] friend FilteredDouble operator+(const FilteredDouble& a, const FilteredDouble& b) {
+    return {a.v_ + b.v_, a.m_ + b.m_, (a.k_ > b.k_ ? a.k_ : b.k_) + 1};
+  }
+  [[gnu::always_inline]] friend FilteredDouble operator-(const FilteredDouble& a, const FilteredDouble& b) {
+    return {a.v_ - b.v_, a.m_ + b.m_, (a.k_ > b.k_ ? a.k_ : b.k_) + 1};
+  }
+  [[gnu::always_inline]] FilteredDouble operator-() const { return {-v_, m_, k_}; }
+  [[gnu::always_inline]] friend FilteredDouble operator*(const FilteredDouble& a, const FilteredDouble& b) {
+    const double m = a.m_ * b.m_;
+    const bool in_model = filter_detail::product_in_range(a.m_, b.m_, m, kSafeMagnitudeMin, kSafeMagnitudeMax);
+    return {a.v_ * b.v_, in_model ? m : INFINITY, a.k_ + b.k_ + 1};
+  }
+
+  // The sign of the exact value, when the bound makes it certain.
+  [[gnu::always_inline]] std::optional<int> sign() const {
+    if (!(m_ <= kSafeMagnitudeMax) || k_ >= 64) return std::nullopt;  // also NaN: invalid
+    if (m_ == 0) return 0;
+    if (m_ < kSafeMagnitudeMin) return std::nullopt;
+    const double bound = filter_detail::kGammaDouble[k_] * m_;
+    if (v_ > bound) return 1;
+    if (v_ < -bound) return -1;
+    return std::nullopt;
+  }
+
+ private:
+  FilteredDouble(double v, double m, int k) : v_(v), m_(m), k_(k) {}
+  // Left uninitialised by the default constructor, as a double is: terms fill what they use, and
+  // zeroing unused slots (a box's missing axes) would cost more than the filter itself.
+  double v_, m_;
+  int k_;
+};
+
+// Double-double arithmetic with the accurate algorithms of Joldes, Muller & Popescu, "Tight and
+// Rigorous Error Bounds for Basic Building Blocks of Double-Word Arithmetic", ACM TOMS 44(2),
+// 2017: AccurateDWPlusDW (Algorithm 6, relative error ≤ 3u² + 13u³) and DWTimesDW1 (Algorithm 10,
+// ≤ 7u²), with Dekker's TwoProduct (Veltkamp splitting, no FMA: the library call would cost more
+// than the arithmetic); ε = 2^-100 = 64u² covers both with room. Splitting cannot overflow below
+// the 2^800 magnitude cap; an underflowing partial product adds a few 2^-1075, which the
+// argument above absorbs.
+class FilteredDD {
+ public:
+  FilteredDD() = default;
+  FilteredDD(double x) : hi_(x), lo_(0), m_(std::abs(x)), k_(0), valid_(std::isfinite(x)) {}  // NOLINT: terms lift doubles
+
+  [[gnu::always_inline]] friend FilteredDD operator+(const FilteredDD& a, const FilteredDD& b) {
+    return sum(a, b.hi_, b.lo_, b);
+  }
+  [[gnu::always_inline]] friend FilteredDD operator-(const FilteredDD& a, const FilteredDD& b) {
+    return sum(a, -b.hi_, -b.lo_, b);
+  }
+  [[gnu::always_inline]] FilteredDD operator-() const {
+    FilteredDD r = *this;
+    r.hi_ = -hi_, r.lo_ = -lo_;
+    return r;
+  }
+  [[gnu::always_inline]] friend FilteredDD operator*(const FilteredDD& a, const FilteredDD& b) {
+    FilteredDD r;
+    double ch, cl1;
+    two_prod(a.hi_, b.hi_, ch, cl1);
+    const double cl2 = a.hi_ * b.lo_ + a.lo_ * b.hi_;  // RN(RN(xh·yl) + RN(xl·yh))
+    fast_two_sum(ch, cl1 + cl2, r.hi_, r.lo_);
+    r.m_ = a.m_ * b.m_;
+    r.k_ = a.k_ + b.k_ + 1;
+    r.valid_ = a.valid_ && b.valid_ && std::isfinite(r.hi_) &&
+               filter_detail::product_in_range(a.m_, b.m_, r.m_, 0x1p-800, 0x1p+800);
+    return r;
+  }
+
+  bool valid() const { return valid_ && m_ <= 0x1p+800 && k_ < 64; }
+  double estimate() const { return hi_ + lo_; }
+  [[gnu::always_inline]] std::optional<int> sign() const {
+    if (!valid()) return std::nullopt;
+    if (m_ == 0) return 0;
+    if (m_ < 0x1p-800) return std::nullopt;
+    const double bound = filter_detail::kGammaDD[k_] * m_;
+    // |lo| ≤ ulp(hi)/2, so |hi + lo| ≥ |hi|·(1 − 2^-52).
+    if (std::abs(hi_) * (1 - 0x1p-52) > bound) return hi_ > 0 ? 1 : -1;
+    return std::nullopt;
+  }
+
+ private:
+  [[gnu::always_inline]] static void two_sum(double a, double b, double& s, double& e) {
+    s = a + b;
+    const double bb = s - a;
+    e = (a - (s - bb)) + (b - bb);
+  }
+  [[gnu::always_inline]] static void fast_two_sum(double a, double b, double& s, double& e) {
+    const double t = a + b;
+    e = b - (t - a);
+    s = t;
+  }
+  // Dekker's TwoProduct: a·b = p + e exactly (Veltkamp's split into 26-bit halves).
+  [[gnu::always_inline]] static void split(double a, double& high, double& low) {
+    const double c = 134217729.0 * a;  // 2^27 + 1
+    high = c - (c - a);
+    low = a - high;
+  }
+  [[gnu::always_inline]] static void two_prod(double a, double b, double& p, double& e) {
+    p = a * b;
+    double ah, al, bh, bl;
+    split(a, ah, al);
+    split(b, bh, bl);
+    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+  }
+  // a + (bh + bl), with b's magnitude and round count.
+  [[gnu::always_inline]] static FilteredDD sum(const FilteredDD& a, double bh, double bl, const FilteredDD& b) {
+    FilteredDD r;
+    double sh, sl, th, tl, vh, vl;
+    two_sum(a.hi_, bh, sh, sl);
+    two_sum(a.lo_, bl, th, tl);
+    fast_two_sum(sh, sl + th, vh, vl);
+    fast_two_sum(vh, tl + vl, r.hi_, r.lo_);
+    r.m_ = a.m_ + b.m_;
+    r.k_ = std::max(a.k_, b.k_) + 1;
+    r.valid_ = a.valid_ && b.valid_ && std::isfinite(r.hi_);
+    return r;
+  }
+  double hi_, lo_, m_;  // uninitialised by default, as a double is (see FilteredDouble)
+  int k_;
+  bool valid_;
+};
+
+[[gnu::always_inline]] inline std::optional<int> sign_of(const FilteredDouble& x) { return x.sign(); }
+[[gnu::always_inline]] inline std::optional<int> sign_of(const FilteredDD& x) { return x.sign(); }
+
+}  // namespace rayproof
