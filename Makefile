@@ -22,6 +22,7 @@ bench: build
 	@$(BUILD)/bench/rayproof_bench --benchmark_min_time=$(BENCH_MIN_TIME) \
 	  --benchmark_out=$(BUILD)/bench.json --benchmark_out_format=json
 	@python3 scripts/bench-goals.py $(BUILD)/bench.json
+	@python3 scripts/exactness-table.py $(BUILD)/bench.json
 	@echo "benchmark results: $(BUILD)/bench.json"
 
 # libFuzzer harnesses under ASan + UBSan, each run for FUZZ_SECONDS (not part of `make test`).

@@ -65,9 +65,11 @@ void print_oracle_stats(std::ostream& out, const Oracle& oracle) {
   for (ShapeKind k : kAllShapeKinds) {
     const OracleStats& s = oracle.stats(k);
     if (s.queries == 0) continue;
-    out << (first ? "" : "\n        ") << to_string(k) << ": " << s.queries << " queries; class beyond the interval filter "
-        << s.class_expansion + s.class_exact << " (rationals " << s.class_exact << "); t rounded " << s.rounding.rounded
-        << " (rationals " << s.rounding.rational << ", exact midpoint test " << s.rounding.exact_fallbacks << ")";
+    const std::uint64_t beyond_static = s.class_interval + s.class_expansion + s.class_exact;
+    out << (first ? "" : "\n        ") << to_string(k) << ": " << s.queries << " queries; class beyond the static filter "
+        << beyond_static << " (intervals " << s.class_interval << ", expansions " << s.class_expansion << ", rationals "
+        << s.class_exact << "); t rounded " << s.rounding.rounded << " (expansions " << s.rounding.expansion
+        << ", rationals " << s.rounding.rational << ", exact midpoint test " << s.rounding.exact_fallbacks << ")";
     first = false;
   }
   out << "\n";
@@ -78,14 +80,17 @@ json oracle_stats_json(const Oracle& oracle) {
   for (ShapeKind k : kAllShapeKinds) {
     const OracleStats& s = oracle.stats(k);
     j[std::string(to_string(k))] = {{"queries", s.queries},
+                                    {"class_interval", s.class_interval},
                                     {"class_expansion", s.class_expansion},
                                     {"class_exact", s.class_exact},
                                     {"t_rounded", s.rounding.rounded},
+                                    {"t_expansion", s.rounding.expansion},
                                     {"t_rational", s.rounding.rational},
                                     {"t_exact_fallbacks", s.rounding.exact_fallbacks}};
   }
   return j;
 }
+
 
 struct CheckOptions {
   std::vector<std::string> files, variants, shapes;

@@ -36,7 +36,9 @@ def main(path):
     ratio("embree packet8 (per ray) / moller-trumbore", "peer/embree/one-triangle/packet8", "variant/moller-trumbore/one-triangle")
     ratio("embree single / stable, one sphere", "peer/embree/one-sphere/single", "variant/stable/one-sphere")
     for shape, base in [("sphere", "stable"), ("triangle", "moller-trumbore"), ("box", "robust-slab"), ("plane", "direct")]:
-        ratio(f"oracle filtered / {base} ({shape}, random-hit)", f"oracle/{shape}/random-hit/filtered", f"variant/{base}/random-hit")
+        ratio(f"oracle class / {base} ({shape}, random-hit, goal <= 2)", f"oracle/{shape}/random-hit/class", f"variant/{base}/random-hit", lambda x: x <= 2)
+        ratio(f"oracle filtered / {base} ({shape}, random-hit, goal <= 8)", f"oracle/{shape}/random-hit/filtered", f"variant/{base}/random-hit", lambda x: x <= 8)
+        ratio(f"certified-{shape} / {base} ({shape}, random-hit, goal <= 8)", f"variant/certified-{shape}/random-hit", f"variant/{base}/random-hit", lambda x: x <= 8)
         ratio(f"oracle exact / filtered ({shape}, random-hit)", f"oracle/{shape}/random-hit/exact", f"oracle/{shape}/random-hit/filtered")
 
 
