@@ -9,8 +9,10 @@
 #include <CGAL/Interval_nt.h>
 #include <mpfr.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <type_traits>
@@ -649,23 +651,110 @@ template <> struct PolicyOf<Box> { using type = BoxPolicy; };
 
 }  // namespace
 
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Extreme magnitudes: positions (origin and shape) scaled by 2^-a, the direction by 2^-b, a
+// plane's normal and offset by 2^-c, so that the largest of each is near 1 and the filters'
+// ranges hold. Positive scalings keep every sign the classification reads (class, side, rule),
+// and t = t'·2^(a−b) exactly while both are normal. Applied only when some magnitude is beyond
+// 2^±60 and every scaled number stays exact (no new subnormal).
+struct Normalized {
+  Ray ray;
+  Shape shape;
+  int t_exponent;  // t = t'·2^t_exponent
+};
+
+int exponent_of(double largest) {  // ⌊log2 x⌋ for x > 0 finite, from the bits (normal x)
+  std::uint64_t bits;
+  std::memcpy(&bits, &largest, sizeof bits);
+  return static_cast<int>((bits >> 52) & 0x7ff) - 1023;
+}
+
+struct Scaler {
+  bool exact = true;
+  double operator()(double x, int e) {
+    const double y = std::ldexp(x, -e);
+    exact = exact && std::ldexp(y, e) == x && (y == 0 || std::abs(y) >= DBL_MIN);
+    return y;
+  }
+  Vec3 operator()(const Vec3& v, int e) { return Vec3((*this)(v.x(), e), (*this)(v.y(), e), (*this)(v.z(), e)); }
+};
+
+std::optional<Normalized> normalized(const Ray& ray, const Shape& shape) {
+  double pos = max_abs(ray.origin), normal = 0;
+  std::visit([&](const auto& s) {
+    using S = std::decay_t<decltype(s)>;
+    if constexpr (std::is_same_v<S, Sphere>) pos = std::max({pos, max_abs(s.center), std::abs(s.radius)});
+    if constexpr (std::is_same_v<S, Plane>) pos = std::max(pos, std::abs(s.offset) / max_abs(s.normal)), normal = max_abs(s.normal);
+    if constexpr (std::is_same_v<S, Triangle>) pos = std::max({pos, max_abs(s.v[0]), max_abs(s.v[1]), max_abs(s.v[2])});
+    if constexpr (std::is_same_v<S, Box>) pos = std::max({pos, max_abs(s.min), max_abs(s.max)});
+  }, shape);
+  const double dir = max_abs(ray.direction);
+  auto comfortable = [](double x) { return x == 0 || (x >= 0x1p-60 && x <= 0x1p+60); };
+  if (!(pos >= DBL_MIN && dir >= DBL_MIN && pos <= DBL_MAX) || (comfortable(pos) && comfortable(dir) && comfortable(normal)))
+    return std::nullopt;
+  const int a = exponent_of(pos), b = exponent_of(dir), c = normal > 0 && normal >= DBL_MIN ? exponent_of(normal) : 0;
+  Scaler scale;
+  Normalized n{Ray{scale(ray.origin, a), scale(ray.direction, b)}, shape, a - b};
+  std::visit([&](const auto& s) {
+    using S = std::decay_t<decltype(s)>;
+    if constexpr (std::is_same_v<S, Sphere>) n.shape = Sphere{scale(s.center, a), scale(s.radius, a)};
+    if constexpr (std::is_same_v<S, Plane>) n.shape = Plane{scale(s.normal, c), scale(s.offset, a + c)};
+    if constexpr (std::is_same_v<S, Triangle>) n.shape = Triangle{{scale(s.v[0], a), scale(s.v[1], a), scale(s.v[2], a)}};
+    if constexpr (std::is_same_v<S, Box>) n.shape = Box{scale(s.min, a), scale(s.max, a)};
+  }, shape);
+  if (!scale.exact) return std::nullopt;
+  return n;
+}
+
+// t' scaled back; nullopt where t' or t leaves the normal range (rounding would differ there).
+std::optional<double> scaled_back(double t_prime, int e) {
+  if (!(t_prime >= DBL_MIN && t_prime <= DBL_MAX)) return std::nullopt;
+  const double t = std::ldexp(t_prime, e);
+  if (!(t >= DBL_MIN && t <= DBL_MAX)) return std::nullopt;
+  return t;
+}
+
+}  // namespace
+
 Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
   OracleStats& stats = stats_[shape.index()];
   ++stats.queries;
-  Verdict v = std::visit(
+  // (Audits that keep the exact parameter want it for the query as given: no scaling then.)
+  if (options_.filter && !options_.keep_exact_parameter) {
+    if (const auto n = normalized(ray, shape)) {
+      Verdict v = std::visit(
+          [&](const auto& s) { return judge_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(n->ray, s, options_, stats); },
+          n->shape);
+      const std::optional<double> t = v.t ? scaled_back(*v.t, n->t_exponent) : std::nullopt;
+      if (!v.t || t) {  // else t is subnormal or overflows: judged again as given (counted twice)
+        v.t = t;
+        v.exact_t.reset();  // it belonged to the scaled query
+        return apply_rule(std::move(v), rule);
+      }
+    }
+  }
+  return apply_rule(judge_unnormalized(ray, shape), rule);
+}
+
+Verdict Oracle::judge_unnormalized(const Ray& ray, const Shape& shape) {
+  OracleStats& stats = stats_[shape.index()];
+  return std::visit(
       [&](const auto& s) { return judge_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(ray, s, options_, stats); },
       shape);
-  return apply_rule(std::move(v), rule);
 }
 
 HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
   OracleStats& stats = stats_[shape.index()];
   ++stats.queries;
+  const auto n = options_.filter ? normalized(ray, shape) : std::nullopt;
+  const Ray& r = n ? n->ray : ray;
   return std::visit(
       [&](const auto& s) {
-        return classify_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(ray, s, rule, options_, stats);
+        return classify_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(r, s, rule, options_, stats);
       },
-      shape);
+      n ? n->shape : shape);
 }
 
 void Oracle::merge_stats(const Oracle& other) {

@@ -82,6 +82,7 @@ class Oracle {
   void merge_stats(const Oracle& other);
 
  private:
+  Verdict judge_unnormalized(const Ray& ray, const Shape& shape);
   Options options_{};
   std::array<OracleStats, 4> stats_{};
 };
