@@ -8,6 +8,7 @@
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/verify/compare.h"
+#include "rayproof/verify/report.h"
 #include "rayproof/verify/tally.h"
 
 namespace rayproof::cli {
@@ -25,20 +26,10 @@ void add_to_summary(CheckSummary& summary, const Verdict& exact, const std::vect
   }
 }
 
-void print_summary_table(const CheckSummary& summary, std::ostream& out) {
-  out << std::left << std::setw(17) << "variant" << std::setw(10) << "shape" << std::right << std::setw(9) << "cases"
-      << std::setw(9) << "agree" << std::setw(9) << "wrong" << std::setw(13) << "cannot-tell" << std::setw(12)
-      << "ulp-median" << std::setw(21) << "ulp-p99" << std::setw(21) << "ulp-max"
-      << "  disagreements (exact->variant)\n";
-  for (const auto& [name, entry] : summary) {
-    const auto& [shape, t] = entry;
-    std::string kinds;
-    for (const auto& [k, n] : t.confusion) kinds += (kinds.empty() ? "" : ", ") + k + " " + std::to_string(n);
-    out << std::left << std::setw(17) << name << std::setw(10) << to_string(shape) << std::right << std::setw(9)
-        << t.cases << std::setw(9) << t.agree << std::setw(9) << t.wrong << std::setw(13) << t.cannot_tell
-        << std::setw(12) << t.ulps.quantile(0.5) << std::setw(21) << t.ulps.quantile(0.99) << std::setw(21)
-        << t.ulps.max() << "  " << (kinds.empty() ? "-" : kinds) << "\n";
-  }
+void print_summary_table(const CheckSummary& summary, TableFormat format, std::ostream& out) {
+  std::vector<TallyRow> rows;
+  for (const auto& [name, entry] : summary) rows.push_back({"", name, entry.first, entry.second});
+  write_tally_table(std::move(rows), format, out);
 }
 
 json summary_json(const CheckSummary& summary) {
@@ -54,7 +45,8 @@ json summary_json(const CheckSummary& summary) {
                {"ulp", {{"count", t.ulps.count()},
                         {"median", t.ulps.quantile(0.5)},
                         {"p99", t.ulps.quantile(0.99)},
-                        {"max", t.ulps.max()}}}};
+                        {"max", t.ulps.max()}}},
+               {"bits", bits_json(t)}};
   }
   return j;
 }
@@ -94,7 +86,7 @@ json oracle_stats_json(const Oracle& oracle) {
 
 struct CheckOptions {
   std::vector<std::string> files, variants, shapes;
-  std::string rule = "nearest", summary, output;
+  std::string rule = "nearest", summary, output, format = "table";
   bool exact_only = false;
 };
 
@@ -151,7 +143,7 @@ int run_check(const CheckOptions& opts) {
   progress.finish();
   if (file) file->commit();
   else std::cout.flush();
-  print_summary_table(run.summary, std::cerr);
+  print_summary_table(run.summary, *table_format_from_string(opts.format), std::cerr);
   print_oracle_stats(std::cerr, run.oracle);
   std::cerr << "rayproof check: " << run.cases << " cases, " << run.unreadable << " unreadable, " << run.contradicted
             << " expectations contradicted by the exact oracle\n";
@@ -181,6 +173,7 @@ void add_check_command(CLI::App& app, int& exit_code) {
   add_rule_flag(cmd, opts->rule);
   cmd->add_option("--summary", opts->summary, "also write the summary as JSON to this file");
   cmd->add_option("-o,--output", opts->output, "write the per-case lines here (atomically) instead of stdout");
+  add_format_flag(cmd, opts->format);
   cmd->add_flag("--exact-only", opts->exact_only, "skip the interval filter (decide every class in rationals)");
   cmd->callback([opts, &exit_code] { exit_code = run_check(*opts); });
 }

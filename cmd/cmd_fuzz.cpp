@@ -20,11 +20,11 @@ std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
 }
 
 struct FuzzOptions {
-  std::vector<std::string> families{"all"}, shapes{"all"};
-  std::string shard = "0/1", output, rule = "nearest", summary;
+  std::vector<std::string> families{"all"}, shapes{"all"}, variants;
+  std::string shard = "0/1", output, rule = "nearest", summary, format = "table", spawn_csv;
   std::uint64_t count = 100000, seed = 1, max_findings = 1000, batch = 8192;
   int threads = 0;
-  bool resume = false, no_shrink = false;
+  bool resume = false, no_shrink = false, keep_checkpoint = false;
   long crash_after = -1;
 };
 
@@ -32,11 +32,12 @@ fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
   fuzz::CampaignOptions o;
   o.families = parse_families(opts.families);
   o.shapes = parse_shapes(opts.shapes);
+  if (!opts.variants.empty()) o.variants = parse_variants(opts.variants, o.shapes);
   std::tie(o.shard, o.shards) = parse_shard(opts.shard);
   o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings, o.batch = opts.batch;
   o.threads = thread_count(opts.threads);
   o.rule = parse_rule(opts.rule);
-  o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink;
+  o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
   o.crash_after_batches = opts.crash_after;
   return o;
 }
@@ -55,14 +56,14 @@ void run_fuzz(const FuzzOptions& opts) {
   };
   const fuzz::CampaignReport report = fuzz::run_campaign(o);
   progress.finish();
-  fuzz::print_report(report, o.threads, std::cerr);
+  fuzz::print_report(report, o.threads, *table_format_from_string(opts.format), std::cerr);
   std::cerr << "rayproof fuzz: " << report.findings_written << " findings in " << o.output << "\n";
-  if (std::find(o.families.begin(), o.families.end(), fuzz::Family::near_origin) != o.families.end()) {
+  if (!opts.spawn_csv.empty()) {
     // Near-origin hits raise the question users ask most: which t_min / offset? Answer it.
     std::vector<int> scales;
     for (int k = -40; k <= 40; k += 10) scales.push_back(k);
     run_spawn_report(parse_variants({}, o.shapes), scales, std::min<std::uint64_t>(o.count, 20000), o.seed, o.threads,
-                     o.output + ".spawn.csv");
+                     opts.spawn_csv);
   }
   if (!opts.summary.empty()) {
     AtomicFile s(opts.summary);
@@ -78,6 +79,8 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   auto* cmd = app.add_subcommand("fuzz", "Hunt for disagreements between the variants and the exact oracle");
   add_families_flag(cmd, opts->families);
   add_shapes_flag(cmd, opts->shapes);
+  cmd->add_option("--variants,--variant", opts->variants,
+                  "variants to judge (default: all but the oracle's own certified-*, which always agree)");
   add_count_flag(cmd, opts->count, "cases per family and shape (before sharding)", std::uint64_t(1) << 50);
   add_seed_flag(cmd, opts->seed);
   cmd->add_option("--shard", opts->shard, "this run's share, i/n (0-based)");
@@ -85,7 +88,11 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   add_rule_flag(cmd, opts->rule);
   cmd->add_option("-o,--output", opts->output, "findings (JSON Lines, replayable by rayproof check)")->required();
   cmd->add_flag("--resume", opts->resume, "continue from OUTPUT.checkpoint after the last completed batch");
+  cmd->add_flag("--keep-checkpoint", opts->keep_checkpoint, "keep OUTPUT.checkpoint after the campaign completes");
   cmd->add_flag("--no-shrink", opts->no_shrink, "write findings as found, without shrinking");
+  cmd->add_option("--spawn-csv", opts->spawn_csv,
+                  "also run the spawn (shadow-acne) study on the chosen shapes and write its CSV here");
+  add_format_flag(cmd, opts->format);
   cmd->add_option("--max-findings", opts->max_findings, "findings written per family and shape (all are counted)");
   cmd->add_option("--batch", opts->batch, "cases per batch (the unit of checkpointing)")->check(CLI::Range(2, 1 << 24));
   cmd->add_option("--summary", opts->summary, "also write the report as JSON");

@@ -17,7 +17,7 @@ void add_trade_command(CLI::App& app, int& exit_code) {
     std::vector<std::string> families{"random,tangent,grazing,near-origin,extremes"};
     std::uint64_t count = 100000, seed = 1;
     int threads = 0;
-    std::string output, plot;
+    std::string output, plot, format = "markdown";
   };
   auto opts = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("trade", "Speed against accuracy: every variant timed and judged on the same cases");
@@ -30,6 +30,8 @@ void add_trade_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--threads", opts->threads, "threads for the oracle (timing is single-threaded)")->check(CLI::Range(0, 256));
   cmd->add_option("-o,--output", opts->output, "CSV: variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max")->required();
   cmd->add_option("--plot", opts->plot, "SVG scatter plot: ns per test against disagreement rate");
+  cmd->add_option("--format", opts->format, "stdout table: markdown (default, paste-ready), table or json")
+      ->check(CLI::IsMember({"table", "markdown", "json"}));
   cmd->callback([opts, &exit_code] {
     const std::vector<ShapeKind> shapes = parse_shapes(opts->shapes);
     const std::vector<fuzz::Family> families = parse_families(opts->families);
@@ -43,7 +45,7 @@ void add_trade_command(CLI::App& app, int& exit_code) {
     }
     const auto rows = studies::measure_trade(contenders, shapes, families, opts->count, opts->seed,
                                              thread_count(opts->threads));
-    studies::print_trade_markdown(rows, std::cout);
+    studies::write_trade_table(rows, *table_format_from_string(opts->format), std::cout);
     AtomicFile csv(opts->output);
     studies::write_trade_csv(rows, csv.stream());
     csv.commit();

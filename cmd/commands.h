@@ -35,6 +35,8 @@ void add_families_flag(CLI::App* cmd, std::vector<std::string>& names);
 void add_rule_flag(CLI::App* cmd, std::string& rule);
 void add_threads_flag(CLI::App* cmd, int& threads);
 void add_seed_flag(CLI::App* cmd, std::uint64_t& seed);
+// --format table|markdown|json: how summaries print (table: aligned text for a terminal).
+void add_format_flag(CLI::App* cmd, std::string& format);
 void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what, std::uint64_t most);
 
 // Comma-separated option values, flattened ("a,b" "c" → a, b, c); empty items dropped.

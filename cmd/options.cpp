@@ -33,6 +33,10 @@ void add_threads_flag(CLI::App* cmd, int& threads) {
 void add_seed_flag(CLI::App* cmd, std::uint64_t& seed) {
   cmd->add_option("--seed", seed, "seed: the same seed and count give the same cases on any machine");
 }
+void add_format_flag(CLI::App* cmd, std::string& format) {
+  cmd->add_option("--format", format, "summary format: table (aligned text), markdown (paste-ready) or json")
+      ->check(CLI::IsMember({"table", "markdown", "json"}));
+}
 void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what, std::uint64_t most) {
   cmd->add_option("--count", count, what)->check(CLI::Range(std::uint64_t(1), most));
 }

@@ -41,7 +41,11 @@ std::map<ReportKey, Value> keyed_from_json(const json& j, FromJson from_json) {
 
 json CampaignReport::to_json() const {
   auto plain = [](const auto& v) { return json(v); };
-  return {{"tallies", keyed_to_json(tallies, [](const Tally& t) { return t.to_json(); })},
+  return {{"tallies", keyed_to_json(tallies, [](const Tally& t) {
+             json j = t.to_json();
+             j["bits"] = bits_json(t);  // t error in bits beside the ULP histogram
+             return j;
+           })},
           {"seconds", keyed_to_json(seconds, plain)},
           {"cases", keyed_to_json(cases, plain)},
           {"findings_written", findings_written}};
@@ -63,7 +67,9 @@ json fingerprint(const CampaignOptions& o) {
   json f = json::array(), s = json::array();
   for (Family x : o.families) f.push_back(std::string(to_string(x)));
   for (ShapeKind x : o.shapes) s.push_back(std::string(to_string(x)));
-  return {{"families", f}, {"shapes", s}, {"count", o.count}, {"seed", o.seed}, {"shard", o.shard},
+  json v = json::array();
+  for (const Variant* x : o.variants) v.push_back(std::string(x->name));
+  return {{"families", f}, {"shapes", s}, {"variants", v}, {"count", o.count}, {"seed", o.seed}, {"shard", o.shard},
           {"shards", o.shards}, {"rule", std::string(to_string(o.rule))}, {"shrink", o.shrink},
           {"max_findings", o.max_findings}, {"batch", o.batch}};
 }
@@ -284,7 +290,10 @@ CampaignReport run_campaign(const CampaignOptions& o) {
   long batches_done = 0;
   for (; cp.pair < pairs.size(); ++cp.pair, cp.pair_started = false, cp.findings_in_pair = 0) {
     const auto [family, shape] = pairs[cp.pair];
-    const auto variants = variants_for(shape);
+    std::vector<const Variant*> variants = variants_for(shape);
+    std::erase_if(variants, [&](const Variant* v) {
+      return o.variants.empty() ? v->is_oracle : std::find(o.variants.begin(), o.variants.end(), v) == o.variants.end();
+    });
     const ReportKey pair_key{std::string(to_string(family)), std::string(to_string(shape))};
     if (!cp.pair_started) cp.next = lo, cp.pair_started = true;
     for (std::uint64_t start = cp.next; start < hi; start += batch) {
@@ -311,29 +320,21 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       if (o.progress) o.progress(family, shape, b.end - lo, hi - lo);
     }
   }
-  save(checkpoint_path, o, cp);
+  if (o.keep_checkpoint) save(checkpoint_path, o, cp);
+  else std::filesystem::remove(checkpoint_path);  // complete: nothing to resume
   return cp.report;
 }
 
-void print_report(const CampaignReport& r, int threads, std::ostream& out) {
-  out << std::left << std::setw(12) << "family" << std::setw(17) << "variant" << std::right << std::setw(10) << "cases"
-      << std::setw(11) << "disagree%" << std::setw(9) << "wrong" << std::setw(13) << "cannot-tell" << std::setw(18)
-      << "ulp-p50" << std::setw(21) << "ulp-p99" << std::setw(21) << "ulp-max" << std::setw(7) << "holes"
-      << "  disagreements (exact->variant)\n";
+void print_report(const CampaignReport& r, int threads, TableFormat format, std::ostream& out) {
+  std::vector<TallyRow> rows;
   for (const auto& [k, t] : r.tallies) {
-    std::string kinds;
-    std::vector<std::pair<std::uint64_t, std::string>> sorted;
-    for (const auto& [c, n] : t.confusion) sorted.push_back({n, c});
-    std::sort(sorted.rbegin(), sorted.rend());
-    for (size_t i = 0; i < sorted.size() && i < 4; ++i)
-      kinds += (i ? ", " : "") + sorted[i].second + " " + std::to_string(sorted[i].first);
-    char rate[32];
-    std::snprintf(rate, sizeof rate, "%.4f", t.cases ? 100.0 * t.disagreements() / t.cases : 0.0);
-    out << std::left << std::setw(12) << k.family << std::setw(17) << k.name << std::right << std::setw(10) << t.cases
-        << std::setw(11) << rate << std::setw(9) << t.wrong << std::setw(13) << t.cannot_tell << std::setw(18)
-        << t.ulps.quantile(0.5) << std::setw(21) << t.ulps.quantile(0.99) << std::setw(21) << t.ulps.max()
-        << std::setw(7) << t.shared_edge_holes << "  " << (kinds.empty() ? "-" : kinds) << "\n";
+    const Variant* v = find_variant(k.name);
+    rows.push_back({k.family, k.name, v ? v->shape : ShapeKind::sphere, t});
   }
+  std::vector<std::string> families;
+  for (Family f : kAllFamilies) families.push_back(std::string(to_string(f)));
+  write_tally_table(std::move(rows), format, out, families);
+  if (format == TableFormat::json) return;
   for (const auto& [k, seconds] : r.seconds) {
     const std::uint64_t n = r.cases.at(k);
     out << "throughput " << k.family << "/" << k.name << ": " << n << " cases checked in " << std::fixed

@@ -14,7 +14,7 @@ if "$rp" check --help > /dev/null 2>&1 && [ -d scenes/cases ]; then
 fi
 echo "rayproof fuzz: a short campaign, every family and shape (shrunk findings, replayable by check):"
 "$rp" fuzz --count 20000 --max-findings 10 --seed 1 -o "$out/fuzz-findings.jsonl" --summary "$out/fuzz-summary.json" \
-  2>&1 | grep -E "^(family|tangent +textbook|grazing +(moller-trumbore|watertight)|extremes +(textbook|hearn-baker))|findings in" || true
+  2>&1 | grep -E "^(family|tangent +textbook|grazing +(moller-trumbore|watertight)|extremes +(textbook|hearn-baker))|^t error|findings in" || true
 echo
 echo "rayproof demo: results are in $(cd "$out" && pwd)/"
 ls -1 "$out" | sed 's/^/  /'

@@ -143,18 +143,36 @@ void write_trade_csv(const std::vector<TradeRow>& rows, std::ostream& out) {
   }
 }
 
-void print_trade_markdown(const std::vector<TradeRow>& rows, std::ostream& out) {
-  out << "| shape | family | variant | ns/test | disagreement rate | ULP p99 | ULP max | Pareto |\n"
-      << "|---|---|---|---:|---:|---:|---:|:---:|\n";
-  char buf[256];
-  for (const TradeRow& r : rows) {
-    std::snprintf(buf, sizeof buf, "| %s | %s | %s | %.2f | %.3g%% | %llu | %llu | %s |\n",
-                  std::string(to_string(r.shape)).c_str(), std::string(to_string(r.family)).c_str(), r.variant.c_str(),
-                  r.ns_per_test, 100 * r.tally.disagreement_rate(),
-                  static_cast<unsigned long long>(r.tally.ulps.quantile(0.99)),
-                  static_cast<unsigned long long>(r.tally.ulps.max()), r.pareto ? "★" : "");
-    out << buf;
+void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, std::ostream& out) {
+  if (format == TableFormat::json) {
+    json j = json::array();
+    for (const TradeRow& r : rows)
+      j.push_back({{"variant", r.variant}, {"shape", std::string(to_string(r.shape))},
+                   {"family", std::string(to_string(r.family))}, {"ns_per_test", r.ns_per_test},
+                   {"cases", r.tally.cases}, {"disagreements", r.tally.disagreements()},
+                   {"disagreement_rate", r.tally.disagreement_rate()}, {"ulp_p99", r.tally.ulps.quantile(0.99)},
+                   {"ulp_max", r.tally.ulps.max()}, {"bits", bits_json(r.tally)}, {"pareto", r.pareto}});
+    out << j.dump(2) << "\n";
+    return;
   }
+  const bool md = format == TableFormat::markdown;
+  const char* row_format = md ? "| %s | %s | %s | %.2f | %.3g%% | %s | %llu | %llu | %s |\n"
+                              : "%-9s %-12s %-22s %9.2f %10.3g%% %9s %20llu %20llu  %s\n";
+  if (md)
+    out << "| shape | family | variant | ns/test | disagreement rate | t error bits p99 | ULP p99 | ULP max | Pareto |\n"
+        << "|---|---|---|---:|---:|---:|---:|---:|:---:|\n";
+  else
+    out << svg::format("%-9s %-12s %-22s %9s %11s %9s %20s %20s  %s\n", "shape", "family", "variant", "ns/test",
+                       "disagree", "bits-p99", "ulp-p99", "ulp-max", "pareto");
+  for (const TradeRow& r : rows) {
+    const std::string bits = r.tally.ulps.count() ? svg::format("%.1f", bits_of_error(r.tally.ulps.quantile(0.99))) : "-";
+    out << svg::format(row_format, std::string(to_string(r.shape)).c_str(), std::string(to_string(r.family)).c_str(),
+                       r.variant.c_str(), r.ns_per_test, 100 * r.tally.disagreement_rate(), bits.c_str(),
+                       static_cast<unsigned long long>(r.tally.ulps.quantile(0.99)),
+                       static_cast<unsigned long long>(r.tally.ulps.max()), r.pareto ? "★" : "");
+  }
+  out << (md ? "\n" : "") << "Disagreement: the class differs from the exact one; t error (ULPs, bits = log2(ulps + 1)) "
+      << "over the cases whose class agrees; ★ Pareto-optimal on its shape and family.\n";
 }
 
 namespace {

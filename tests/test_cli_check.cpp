@@ -60,7 +60,7 @@ TEST(CheckCli, ResultLineFollowsTheSpecFieldForField) {
   const json summary = json::parse(s);
   EXPECT_EQ(summary["cases"], 1);
   EXPECT_EQ(summary["variants"]["stable"]["cases"], 1);
-  EXPECT_NE(r.err.find("ulp-p99"), std::string::npos);  // the table on stderr
+  EXPECT_NE(r.err.find("bits-p99"), std::string::npos);  // the table on stderr
 }
 
 TEST(CheckCli, NonTangentVariantIsCountedAsCannotTell) {

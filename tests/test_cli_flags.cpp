@@ -63,6 +63,31 @@ TEST(Flags, AllMeansEveryOneAnywhereInTheList) {
   EXPECT_NE(run("fuzz --shapes cube -o '" + d + "/x.jsonl'", d), 0);
 }
 
+TEST(Flags, FuzzJudgesTheNamedVariantsAndLeavesTheOraclesOwnOutByDefault) {
+  const std::string d = test_dir();
+  ASSERT_EQ(run("fuzz --families tangent,extremes --shapes sphere --count 2000 --format json -o '" + d + "/a.jsonl'", d), 0);
+  const std::string table = read(d + "/stderr");
+  EXPECT_NE(table.find("\"textbook\""), std::string::npos);
+  EXPECT_EQ(table.find("certified-sphere"), std::string::npos);
+  ASSERT_EQ(run("fuzz --families tangent,extremes --shapes sphere --variants certified-sphere,textbook --count 2000 "
+                "--summary '" + d + "/s.json' -o '" + d + "/b.jsonl'", d),
+            0);
+  std::ifstream in(d + "/s.json");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string summary = ss.str();
+  EXPECT_NE(summary.find("\"tangent\\tcertified-sphere\""), std::string::npos);
+  EXPECT_EQ(summary.find("stable-fma"), std::string::npos);
+  // The certified variant is the oracle's front end: on the hardest families it never disagrees.
+  for (const char* family : {"tangent", "extremes"}) {
+    const std::string key = std::string("\"") + family + "\\tcertified-sphere\": {";
+    const size_t at = summary.find(key);
+    ASSERT_NE(at, std::string::npos) << family;
+    const size_t agree = summary.find("\"agree\": ", at), cases = summary.find("\"cases\": ", at);
+    EXPECT_EQ(std::stoul(summary.substr(agree + 9)), std::stoul(summary.substr(cases + 9))) << family;
+  }
+}
+
 TEST(Flags, TradeAndStabilityTakeTheSameFlags) {
   const std::string d = test_dir();
   ASSERT_EQ(run("trade --variants stable --shapes sphere --families random --count 300 -o '" + d + "/t.csv'", d), 0);

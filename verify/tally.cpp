@@ -58,7 +58,7 @@ void Tally::add(HitClass exact, const VariantOutcome& o) {
   }
   if (o.agreement != Agreement::agrees)
     ++confusion[std::string(to_string(exact)) + "->" + std::string(to_string(o.hit.cls))];
-  if (o.ulp) ulps.add(*o.ulp);
+  if (o.ulp && o.agreement == Agreement::agrees) ulps.add(*o.ulp);  // a wrong class's t says nothing of accuracy
 }
 
 void Tally::merge(const Tally& o) {

@@ -13,6 +13,7 @@
 #include "rayproof/core/json_fields.h"
 #include "rayproof/core/variants.h"
 #include "rayproof/fuzz/generators.h"
+#include "rayproof/verify/report.h"
 #include "rayproof/verify/tally.h"
 
 namespace rayproof::fuzz {
@@ -20,6 +21,8 @@ namespace rayproof::fuzz {
 struct CampaignOptions {
   std::vector<Family> families;
   std::vector<ShapeKind> shapes;
+  // Variants judged (those of each shape); empty: every variant but the oracle's own (certified-*).
+  std::vector<const Variant*> variants;
   std::uint64_t count = 10000;  // cases per family × shape (before sharding)
   std::uint64_t seed = 1;
   unsigned shard = 0, shards = 1;
@@ -27,6 +30,7 @@ struct CampaignOptions {
   HitRule rule = HitRule::nearest_contact;
   std::string output;           // findings, JSON Lines; a checkpoint goes to output + ".checkpoint"
   bool resume = false;
+  bool keep_checkpoint = false;  // a completed campaign removes its checkpoint unless asked to keep it
   bool shrink = true;
   std::uint64_t max_findings = 1000;  // written per family × shape; all are still counted
   std::uint64_t batch = 8192;
@@ -56,6 +60,7 @@ struct CampaignReport {
 // or a checkpoint that belongs to other options.
 CampaignReport run_campaign(const CampaignOptions& options);
 
-void print_report(const CampaignReport& report, int threads, std::ostream& out);
+// The tally table (verify/report.h) in `format`, then throughput lines (not for json).
+void print_report(const CampaignReport& report, int threads, TableFormat format, std::ostream& out);
 
 }  // namespace rayproof::fuzz

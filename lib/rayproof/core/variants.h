@@ -29,6 +29,7 @@ struct Variant {
   ShapeKind shape;
   std::string_view source;  // paper or formula it follows
   Hit (*intersect)(const Ray&, const Shape&, HitRule);  // type-erased entry point
+  bool is_oracle = false;  // the exact oracle's own answer (certified-*): campaigns skip it unless named
 };
 
 // Every variant: the built-ins above, then those registered at run time.

@@ -12,6 +12,7 @@
 #include "rayproof/core/hit.h"
 #include "rayproof/core/query.h"
 #include "rayproof/fuzz/generators.h"
+#include "rayproof/verify/report.h"
 #include "rayproof/verify/tally.h"
 
 namespace rayproof::studies {
@@ -55,7 +56,8 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
 
 // CSV with exactly: variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max
 void write_trade_csv(const std::vector<TradeRow>& rows, std::ostream& out);
-void print_trade_markdown(const std::vector<TradeRow>& rows, std::ostream& out);
+// The table: aligned text, markdown (Pareto-optimal contenders marked ★) or JSON.
+void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, std::ostream& out);
 // Scatter plot: x ns per test (log), y disagreement rate (log), one mark per row.
 void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out);
 

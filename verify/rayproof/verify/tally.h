@@ -38,7 +38,7 @@ struct Tally {
   std::uint64_t shared_edge_holes = 0;  // see crosses_shared_edge (verify/compare.h)
   std::uint64_t crashes = 0;            // answers the intersector failed to give (serialised when > 0)
   std::map<std::string, std::uint64_t> confusion;  // "exact->reported", disagreements only
-  UlpHistogram ulps;                               // wherever both t exist
+  UlpHistogram ulps;  // t error, where the class agrees and both t exist (a wrong class's t is no error of t)
 
   void add(HitClass exact, const VariantOutcome& outcome);
   std::uint64_t disagreements() const { return wrong + cannot_tell; }

@@ -1,0 +1,47 @@
+#!/usr/bin/env python3
+"""README's fuzzing tables from a campaign summary (rayproof fuzz --summary FILE).
+
+Percent of cases wrong / cannot tell per variant and family (holes on grazing triangles), then
+cases checked per second per core per shape and family.
+Usage: scripts/fuzz-table.py SUMMARY.json [THREADS]
+"""
+import json
+import sys
+
+FAMILIES = ["random", "tangent", "grazing", "near-origin", "exit-entry", "extremes"]
+VARIANTS = ["textbook", "stable", "stable-fma", "hearn-baker", "certified-sphere", "direct", "certified-plane",
+            "moller-trumbore", "watertight", "certified-triangle", "slab", "robust-slab", "certified-box"]
+SHAPES = ["sphere", "plane", "triangle", "box"]
+
+
+def main(path, threads):
+    s = json.load(open(path))
+    tallies = s["tallies"]
+    print("| variant | " + " | ".join(FAMILIES) + " |")
+    print("|---|" + "---|" * len(FAMILIES))
+    for v in VARIANTS:
+        cells = []
+        for f in FAMILIES:
+            t = tallies.get(f"{f}\t{v}")
+            if not t:
+                cells.append("-")
+                continue
+            cell = f"{100 * t['wrong'] / t['cases']:.3f} / {100 * t['cannot_tell'] / t['cases']:.3f}"
+            if f == "grazing" and v in ("moller-trumbore", "watertight", "certified-triangle"):
+                cell += f" · {t['shared_edge_holes']} holes"
+            cells.append(cell)
+        print(f"| `{v}` | " + " | ".join(cells) + " |")
+    print()
+    print("| cases/s per core | " + " | ".join(FAMILIES) + " |")
+    print("|---|" + "---|" * len(FAMILIES))
+    for shape in SHAPES:
+        cells = []
+        for f in FAMILIES:
+            key = f"{f}\t{shape}"
+            seconds, cases = s["seconds"].get(key), s["cases"].get(key)
+            cells.append("-" if not seconds else f"{cases / seconds / threads / 1000:.0f}k")
+        print(f"| {shape} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 2)

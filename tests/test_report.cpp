@@ -1,0 +1,101 @@
+// Reports a person can read: t error only where the class agrees, bits of error, tables in
+// three formats, and no files nobody asked for.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "rayproof/verify/report.h"
+
+namespace rayproof {
+namespace {
+
+VariantOutcome answer(HitClass cls, double t, HitClass exact_cls, double exact_t) {
+  Verdict exact;
+  exact.cls = exact_cls;
+  exact.t = exact_t;
+  return judge_answer(exact, Hit{cls, t});
+}
+
+TEST(Report, TErrorCountsOnlyCasesWhoseClassAgrees) {
+  Tally t;
+  t.add(HitClass::enter, answer(HitClass::enter, std::nextafter(2.0, 3.0), HitClass::enter, 2.0));  // 1 ulp
+  t.add(HitClass::enter, answer(HitClass::exit, 1e300, HitClass::enter, 2.0));                    // wrong class
+  t.add(HitClass::tangent, answer(HitClass::enter, 7.0, HitClass::tangent, 2.0));                 // cannot tell
+  EXPECT_EQ(t.cases, 3u);
+  EXPECT_EQ(t.agree, 1u);
+  EXPECT_EQ(t.wrong, 1u);
+  EXPECT_EQ(t.cannot_tell, 1u);
+  EXPECT_EQ(t.ulps.count(), 1u);
+  EXPECT_EQ(t.ulps.max(), 1u);  // the wrong class's 10^300 is not a t error
+}
+
+TEST(Report, BitsOfError) {
+  EXPECT_EQ(bits_of_error(0), 0.0);
+  EXPECT_EQ(bits_of_error(1), 1.0);
+  EXPECT_NEAR(bits_of_error((std::uint64_t(1) << 53) - 1), 53.0, 1e-12);
+  Tally t;
+  t.add(HitClass::enter, answer(HitClass::enter, 2.0, HitClass::enter, 2.0));
+  EXPECT_EQ(bits_json(t)["max"], 0.0);
+}
+
+TEST(Report, DisagreementKindsShowTheTopThreeAndHowManyMore) {
+  Tally t;
+  t.confusion = {{"a->b", 5}, {"c->d", 9}, {"e->f", 1}, {"g->h", 3}, {"i->j", 2}};
+  EXPECT_EQ(disagreement_kinds(t), "c->d 9, a->b 5, g->h 3, +2 more");
+  EXPECT_EQ(disagreement_kinds(Tally{}), "-");
+}
+
+TEST(Report, MarkdownTableHasAHeaderRuleAndOneRowPerVariantSortedByShape) {
+  Tally a, b;
+  a.add(HitClass::miss, answer(HitClass::miss, NAN, HitClass::miss, NAN));
+  b.add(HitClass::enter, answer(HitClass::miss, NAN, HitClass::enter, 1.0));
+  std::ostringstream out;
+  write_tally_table({{"", "watertight", ShapeKind::triangle, a}, {"", "textbook", ShapeKind::sphere, b}},
+                    TableFormat::markdown, out);
+  std::stringstream lines(out.str());
+  std::string header, rule, first, second;
+  std::getline(lines, header), std::getline(lines, rule), std::getline(lines, first), std::getline(lines, second);
+  auto squeeze = [](std::string x) {  // markdown cells are padded for the eye; compare without spaces
+    std::erase(x, ' ');
+    return x;
+  };
+  EXPECT_EQ(squeeze(header).rfind("|variant|shape|cases|agree|wrong|cannot-tell|holes|bits-p50|", 0), 0u) << header;
+  EXPECT_EQ(rule.rfind("|---|---|---:|", 0), 0u) << rule;
+  EXPECT_EQ(first.rfind("| textbook ", 0), 0u) << first;  // sphere before triangle
+  EXPECT_NE(first.find("enter->miss 1"), std::string::npos);
+  EXPECT_EQ(second.rfind("| watertight ", 0), 0u) << second;
+  std::ostringstream js;
+  write_tally_table({{"grazing", "watertight", ShapeKind::triangle, a}}, TableFormat::json, js);
+  const json j = json::parse(js.str());
+  EXPECT_EQ(j[0]["family"], "grazing");
+  EXPECT_EQ(j[0]["cases"], 1);
+}
+
+std::string test_dir() {
+  const std::string dir = testing::TempDir() + "/report-" + testing::UnitTest::GetInstance()->current_test_info()->name();
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+TEST(Report, ACompletedCampaignLeavesOnlyTheFilesAskedFor) {
+  const std::string d = test_dir();
+  const std::string cli = RAYPROOF_CLI;
+  ASSERT_EQ(std::system((cli + " fuzz --families near-origin --shapes sphere --count 300 -o '" + d + "/f.jsonl' 2>/dev/null").c_str()), 0);
+  std::vector<std::string> files;
+  for (const auto& e : std::filesystem::directory_iterator(d)) files.push_back(e.path().filename().string());
+  EXPECT_EQ(files, std::vector<std::string>{"f.jsonl"});
+  ASSERT_EQ(std::system((cli + " fuzz --families near-origin --shapes sphere --count 300 --keep-checkpoint --spawn-csv '" + d +
+                         "/spawn.csv' -o '" + d + "/g.jsonl' 2>/dev/null").c_str()),
+            0);
+  EXPECT_TRUE(std::filesystem::exists(d + "/g.jsonl.checkpoint"));
+  EXPECT_TRUE(std::filesystem::exists(d + "/spawn.csv"));
+  EXPECT_FALSE(std::filesystem::exists(d + "/g.jsonl.spawn.csv"));
+}
+
+}  // namespace
+}  // namespace rayproof

@@ -1,0 +1,118 @@
+#include "rayproof/verify/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace rayproof {
+
+std::optional<TableFormat> table_format_from_string(std::string_view s) {
+  if (s == "table") return TableFormat::table;
+  if (s == "markdown") return TableFormat::markdown;
+  if (s == "json") return TableFormat::json;
+  return std::nullopt;
+}
+
+double bits_of_error(std::uint64_t ulps) { return std::log2(static_cast<double>(ulps) + 1); }
+
+json bits_json(const Tally& t) {
+  auto round1 = [](double x) { return std::round(x * 10) / 10; };
+  return {{"p50", round1(bits_of_error(t.ulps.quantile(0.5)))},
+          {"p99", round1(bits_of_error(t.ulps.quantile(0.99)))},
+          {"max", round1(bits_of_error(t.ulps.max()))}};
+}
+
+std::string disagreement_kinds(const Tally& t, size_t top) {
+  std::vector<std::pair<std::uint64_t, std::string>> kinds;
+  for (const auto& [kind, n] : t.confusion) kinds.push_back({n, kind});
+  std::stable_sort(kinds.begin(), kinds.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::string out;
+  for (size_t i = 0; i < kinds.size() && i < top; ++i)
+    out += (i ? ", " : "") + kinds[i].second + " " + std::to_string(kinds[i].first);
+  if (kinds.size() > top) out += ", +" + std::to_string(kinds.size() - top) + " more";
+  return out.empty() ? "-" : out;
+}
+
+namespace {
+
+std::string bits_cell(const Tally& t, double q) {
+  if (t.ulps.count() == 0) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", bits_of_error(q >= 1 ? t.ulps.max() : t.ulps.quantile(q)));
+  return buf;
+}
+
+std::vector<std::string> cells_of(const TallyRow& r) {
+  const Tally& t = r.tally;
+  std::vector<std::string> c;
+  if (!r.family.empty()) c.push_back(r.family);
+  for (const std::string& x :
+       {r.variant, std::string(to_string(r.shape)), std::to_string(t.cases), std::to_string(t.agree), std::to_string(t.wrong),
+        std::to_string(t.cannot_tell), std::to_string(t.shared_edge_holes), bits_cell(t, 0.5), bits_cell(t, 0.99),
+        bits_cell(t, 1.0), disagreement_kinds(t)})
+    c.push_back(x);
+  return c;
+}
+
+void write_text(const std::vector<std::vector<std::string>>& lines, bool markdown, std::ostream& out) {
+  std::vector<size_t> width(lines[0].size(), 0);
+  for (const auto& l : lines)
+    for (size_t i = 0; i < l.size(); ++i) width[i] = std::max(width[i], l[i].size());
+  const size_t text_columns = lines[0][0] == "family" ? 3 : 2;  // left-aligned; numbers right-aligned
+  for (size_t n = 0; n < lines.size(); ++n) {
+    std::string row = markdown ? "|" : "";
+    for (size_t i = 0; i < lines[n].size(); ++i) {
+      const bool last = i + 1 == lines[n].size(), left = i < text_columns || last;
+      const std::string pad(last && !markdown ? 0 : width[i] - lines[n][i].size(), ' ');
+      row += (markdown ? " " : (i ? "  " : "")) + (left ? lines[n][i] + pad : pad + lines[n][i]) + (markdown ? " |" : "");
+    }
+    out << row << "\n";
+    if (markdown && n == 0) {
+      out << "|";
+      for (size_t i = 0; i < width.size(); ++i)
+        out << (i < text_columns || i + 1 == width.size() ? "---|" : "---:|");
+      out << "\n";
+    }
+  }
+}
+
+}  // namespace
+
+void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostream& out,
+                       const std::vector<std::string>& families) {
+  auto family_rank = [&](const std::string& f) {
+    return std::find(families.begin(), families.end(), f) - families.begin();
+  };
+  std::stable_sort(rows.begin(), rows.end(), [&](const TallyRow& a, const TallyRow& b) {
+    if (a.shape != b.shape) return a.shape < b.shape;
+    if (a.variant != b.variant) return a.variant < b.variant;
+    return family_rank(a.family) < family_rank(b.family);
+  });
+  if (format == TableFormat::json) {
+    json j = json::array();
+    for (const TallyRow& r : rows) {
+      json row = r.tally.to_json();
+      row.erase("ulp");
+      row["ulp"] = {{"count", r.tally.ulps.count()}, {"p50", r.tally.ulps.quantile(0.5)},
+                    {"p99", r.tally.ulps.quantile(0.99)}, {"max", r.tally.ulps.max()}};
+      if (!r.family.empty()) row["family"] = r.family;
+      row["variant"] = r.variant;
+      row["shape"] = std::string(to_string(r.shape));
+      j.push_back(row);
+    }
+    out << j.dump(2) << "\n";
+    return;
+  }
+  const bool with_family = !rows.empty() && !rows[0].family.empty();
+  std::vector<std::vector<std::string>> lines;
+  std::vector<std::string> header = {"variant", "shape", "cases", "agree", "wrong", "cannot-tell", "holes",
+                                     "bits-p50", "bits-p99", "bits-max", "commonest disagreements (exact->variant)"};
+  if (with_family) header.insert(header.begin(), "family");
+  lines.push_back(header);
+  for (const TallyRow& r : rows) lines.push_back(cells_of(r));
+  write_text(lines, format == TableFormat::markdown, out);
+  const std::string legend = "t error in bits, log2(ulps + 1), over the cases whose class agrees (0: correctly rounded)";
+  out << (format == TableFormat::markdown ? "\n" + legend + ".\n" : legend + "\n");
+}
+
+}  // namespace rayproof
