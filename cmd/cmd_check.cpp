@@ -96,6 +96,7 @@ struct CheckRun {
   Oracle oracle;
   CheckSummary summary;
   long cases = 0, unreadable = 0, contradicted = 0;  // contradicted: an `expect` the oracle refutes
+  long unopened = 0;                                 // files that could not be read at all
 };
 
 // One file's cases: a result line each on `out`, tallied; bad lines and refuted expectations
@@ -103,7 +104,7 @@ struct CheckRun {
 void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progress& progress) {
   long in_file = 0;
   const long errors_before = run.unreadable;
-  read_case_file(
+  const bool opened = read_case_file(
       path,
       [&](const Case& c, long line) {
         ++run.cases, ++in_file;
@@ -117,7 +118,7 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
           const std::string why = expectation_mismatch(*c.expect, exact);
           if (!why.empty()) {
             ++run.contradicted;
-            std::cerr << "rayproof: " << path << ":" << line << ": case '" << c.id << "': " << why << "\n";
+            std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id) << "': " << why << "\n";
           }
         }
         progress.update(run.cases, 0);
@@ -126,17 +127,21 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
         ++run.unreadable;
         std::cerr << "rayproof: " << e.to_string() << "\n";
       });
-  if (in_file == 0 && run.unreadable == errors_before) {
+  if (!opened) ++run.unopened;
+  if (opened && in_file == 0 && run.unreadable == errors_before) {
     ++run.unreadable;
-    std::cerr << "rayproof: " << path << ": no cases in file\n";
+    std::cerr << "rayproof: " << printable(path) << ": no cases in file\n";
   }
 }
 
 int run_check(const CheckOptions& opts) {
   CheckRun run{parse_variants(opts.variants, parse_shapes(opts.shapes)), parse_rule(opts.rule),
                Oracle(Oracle::Options{!opts.exact_only})};
-  std::unique_ptr<AtomicFile> file;
+  refuse_output_over_input(opts.output, opts.files);
+  refuse_output_over_input(opts.summary, opts.files);
+  std::unique_ptr<AtomicFile> file, summary_file;  // opened before the work, so a bad path fails first
   if (!opts.output.empty()) file = std::make_unique<AtomicFile>(opts.output);
+  if (!opts.summary.empty()) summary_file = std::make_unique<AtomicFile>(opts.summary);
   std::ostream& out = file ? file->stream() : std::cout;
   Progress progress("check");
   for (const std::string& path : opts.files) check_file(path, run, out, progress);
@@ -147,8 +152,8 @@ int run_check(const CheckOptions& opts) {
   print_oracle_stats(std::cerr, run.oracle);
   std::cerr << "rayproof check: " << run.cases << " cases, " << run.unreadable << " unreadable, " << run.contradicted
             << " expectations contradicted by the exact oracle\n";
-  if (!opts.summary.empty()) {
-    AtomicFile s(opts.summary);
+  if (summary_file) {
+    AtomicFile& s = *summary_file;
     s.stream() << json{{"cases", run.cases},
                        {"unreadable", run.unreadable},
                        {"expect_disagreements", run.contradicted},
@@ -159,6 +164,7 @@ int run_check(const CheckOptions& opts) {
                << "\n";
     s.commit();
   }
+  if (run.unopened > 0) return 2;
   return (run.unreadable > 0 || run.contradicted > 0) ? 1 : 0;
 }
 

@@ -1,5 +1,6 @@
 // rayproof fuzz: every variant against the oracle on generated families; findings replayable.
 #include <algorithm>
+#include <memory>
 #include <iostream>
 #include <sstream>
 
@@ -44,6 +45,8 @@ fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
 
 void run_fuzz(const FuzzOptions& opts) {
   fuzz::CampaignOptions o = campaign_options(opts);
+  std::unique_ptr<AtomicFile> summary;  // before the work: a path that cannot be written fails now
+  if (!opts.summary.empty()) summary = std::make_unique<AtomicFile>(opts.summary);
   Progress progress("fuzz");
   std::optional<std::pair<fuzz::Family, ShapeKind>> current;
   o.progress = [&](fuzz::Family family, ShapeKind shape, std::uint64_t done, std::uint64_t total) {
@@ -65,10 +68,9 @@ void run_fuzz(const FuzzOptions& opts) {
     run_spawn_report(parse_variants({}, o.shapes), scales, std::min<std::uint64_t>(o.count, 20000), o.seed, o.threads,
                      opts.spawn_csv);
   }
-  if (!opts.summary.empty()) {
-    AtomicFile s(opts.summary);
-    s.stream() << report.to_json().dump(2) << "\n";
-    s.commit();
+  if (summary) {
+    summary->stream() << report.to_json().dump(2) << "\n";
+    summary->commit();
   }
 }
 

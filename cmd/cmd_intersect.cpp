@@ -20,10 +20,10 @@ void add_intersect_command(CLI::App& app, int& exit_code) {
   cmd->callback([opts, &exit_code] {
     const auto variants = parse_variants(opts->variants, parse_shapes(opts->shapes));
     const HitRule rule = parse_rule(opts->rule);
-    long errors = 0, cases = 0;
+    long errors = 0, cases = 0, unopened = 0;
     for (const std::string& file : opts->files) {
-      long in_file = 0;
-      read_case_file(
+      long in_file = 0, errors_before = errors;
+      const bool opened = read_case_file(
           file,
           [&](const Case& c, long) {
             ++cases, ++in_file;
@@ -41,14 +41,15 @@ void add_intersect_command(CLI::App& app, int& exit_code) {
             ++errors;
             std::cerr << "rayproof: " << e.to_string() << "\n";
           });
-      if (in_file == 0 && errors == 0) {
+      if (!opened) ++unopened;
+      if (opened && in_file == 0 && errors == errors_before) {
         ++errors;
-        std::cerr << "rayproof: " << file << ": no cases in file\n";
+        std::cerr << "rayproof: " << printable(file) << ": no cases in file\n";
       }
     }
     std::cout.flush();
     std::cerr << "rayproof intersect: " << cases << " cases, " << errors << " unreadable\n";
-    exit_code = errors > 0 ? 1 : 0;
+    exit_code = unopened > 0 ? 2 : errors > 0 ? 1 : 0;
   });
 }
 

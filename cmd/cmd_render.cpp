@@ -40,6 +40,8 @@ void add_render_command(CLI::App& app, int& exit_code) {
     ro.intersectors.rule = parse_rule(opts->rule);
     ro.threads = opts->threads;
     const Scene scene = load_scene(opts->scene);
+    refuse_output_over_input(opts->output, {opts->scene});
+    AtomicFile output(opts->output);  // before the work: a path that cannot be written fails now
     Progress progress("render " + opts->scene);
     std::mutex mutex;
     ro.progress = [&](int done, int total) {
@@ -50,7 +52,7 @@ void add_render_command(CLI::App& app, int& exit_code) {
     const Image image = render(scene, ro);
     progress.finish();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    write_image(image, opts->output);
+    write_image(image, output);
     std::cerr << "rayproof render: " << opts->output << " (" << image.width << "x" << image.height << ", "
               << seconds << " s)\n";
     exit_code = 0;

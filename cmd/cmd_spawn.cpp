@@ -35,10 +35,10 @@ std::vector<int> parse_scales(const std::string& spec) {
 void run_spawn_report(const std::vector<const Variant*>& variants, const std::vector<int>& scales, std::uint64_t count,
                       std::uint64_t seed, int threads, const std::string& csv_path) {
   using namespace studies;
+  AtomicFile csv(csv_path);  // before the work: a path that cannot be written fails now
   const std::vector<SpawnStrategy> strategies(std::begin(kAllSpawnStrategies), std::end(kAllSpawnStrategies));
   const auto cells = spawn_study(variants, strategies, scales, count, seed, threads);
   print_spawn_table(cells, std::cerr);
-  AtomicFile csv(csv_path);
   write_spawn_csv(cells, csv.stream());
   csv.commit();
   std::cerr << "rayproof spawn: " << csv_path << "\n";

@@ -1,5 +1,7 @@
 // rayproof stability: where each formula breaks, as one heatmap per variant.
 #include <filesystem>
+#include <map>
+#include <memory>
 #include <iostream>
 
 #include "commands.h"
@@ -9,25 +11,31 @@
 namespace rayproof::cli {
 
 namespace {
-// stability.csv and one SVG per variant of one shape, in `dir`.
-void write_stability(const std::string& dir, ShapeKind shape, const std::string& rule,
-                     const std::map<std::string, std::vector<studies::StabilityCell>>& cells,
-                     const studies::StabilityGrid& grid) {
-  std::filesystem::create_directories(dir);
-  AtomicFile csv(dir + "/stability.csv");
-  studies::write_stability_csv(cells, csv.stream());
-  csv.commit();
-  for (const auto& [name, list] : cells) {
-    const std::string path = dir + "/" + name + ".svg";
-    AtomicFile svg(path);
-    studies::write_stability_svg(
-        name + " (" + std::string(to_string(shape)) + ", rule " + rule + "): class disagreement rate", list, grid,
-        svg.stream());
-    svg.commit();
-    std::cerr << "rayproof stability: " << path << "\n";
+// stability.csv and one SVG per variant of one shape, in `dir`: opened before the study (a path
+// that cannot be written fails first), written after it.
+struct StabilityOutputs {
+  std::unique_ptr<AtomicFile> csv;
+  std::map<std::string, std::unique_ptr<AtomicFile>> svgs;
+  StabilityOutputs(const std::string& dir, const std::vector<const Variant*>& variants) {
+    std::filesystem::create_directories(dir);
+    csv = std::make_unique<AtomicFile>(dir + "/stability.csv");
+    for (const Variant* v : variants) svgs[std::string(v->name)] = std::make_unique<AtomicFile>(dir + "/" + std::string(v->name) + ".svg");
   }
-  std::cerr << "rayproof stability: " << dir << "/stability.csv\n";
-}
+  void write(ShapeKind shape, const std::string& rule, const std::map<std::string, std::vector<studies::StabilityCell>>& cells,
+             const studies::StabilityGrid& grid) {
+    studies::write_stability_csv(cells, csv->stream());
+    csv->commit();
+    for (const auto& [name, list] : cells) {
+      AtomicFile& svg = *svgs.at(name);
+      studies::write_stability_svg(
+          name + " (" + std::string(to_string(shape)) + ", rule " + rule + "): class disagreement rate", list, grid,
+          svg.stream());
+      svg.commit();
+      std::cerr << "rayproof stability: " << svg.path() << "\n";
+    }
+    std::cerr << "rayproof stability: " << csv->path() << "\n";
+  }
+};
 }  // namespace
 
 void add_stability_command(CLI::App& app, int& exit_code) {
@@ -63,9 +71,10 @@ void add_stability_command(CLI::App& app, int& exit_code) {
     for (ShapeKind shape : shapes) {
       const std::vector<const Variant*> variants = parse_variants(opts->variants, {shape});
       if (variants.empty()) continue;
+      StabilityOutputs outputs(shapes.size() == 1 ? opts->output : opts->output + "/" + std::string(to_string(shape)),
+                               variants);
       const auto cells = studies::stability_study(shape, variants, rule, grid, thread_count(opts->threads));
-      write_stability(shapes.size() == 1 ? opts->output : opts->output + "/" + std::string(to_string(shape)), shape,
-                      opts->rule, cells, grid);
+      outputs.write(shape, opts->rule, cells, grid);
     }
     exit_code = 0;
   });

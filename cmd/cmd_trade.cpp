@@ -1,5 +1,6 @@
 // rayproof trade: ns per test against accuracy per family, for every contender, in one run.
 #include <algorithm>
+#include <memory>
 #include <iostream>
 
 #include "commands.h"
@@ -43,16 +44,17 @@ void add_trade_command(CLI::App& app, int& exit_code) {
           throw CLI::ValidationError("--variants", "unknown contender '" + n + "' (see rayproof variants)");
       std::erase_if(contenders, [&](const auto& c) { return std::find(names.begin(), names.end(), c.name) == names.end(); });
     }
+    AtomicFile csv(opts->output);  // before the work: a path that cannot be written fails now
+    std::unique_ptr<AtomicFile> svg;
+    if (!opts->plot.empty()) svg = std::make_unique<AtomicFile>(opts->plot);
     const auto rows = studies::measure_trade(contenders, shapes, families, opts->count, opts->seed,
                                              thread_count(opts->threads));
     studies::write_trade_table(rows, *table_format_from_string(opts->format), std::cout);
-    AtomicFile csv(opts->output);
     studies::write_trade_csv(rows, csv.stream());
     csv.commit();
-    if (!opts->plot.empty()) {
-      AtomicFile svg(opts->plot);
-      studies::write_trade_svg(rows, svg.stream());
-      svg.commit();
+    if (svg) {
+      studies::write_trade_svg(rows, svg->stream());
+      svg->commit();
     }
 #ifdef RAYPROOF_HAVE_EMBREE
     const bool embree_chosen = names.empty() || std::find(names.begin(), names.end(), "all") != names.end() ||

@@ -2,6 +2,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <sstream>
 
@@ -31,14 +33,38 @@ void add_threads_flag(CLI::App* cmd, int& threads) {
   cmd->add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::Range(0, 256));
 }
 void add_seed_flag(CLI::App* cmd, std::uint64_t& seed) {
-  cmd->add_option("--seed", seed, "seed: the same seed and count give the same cases on any machine");
+  cmd->add_option("--seed", seed, "seed: the same seed and count give the same cases on any machine")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            return text.find_first_not_of("0123456789") == std::string::npos && !text.empty()
+                       ? std::string()
+                       : "expected a whole number from 0 to 18446744073709551615, got '" + text + "'";
+          },
+          "UINT64"));
 }
+
+namespace {
+// Whole numbers written plainly or in scientific notation ("100000", "1e5"), rewritten as digits.
+CLI::Validator whole_number(std::uint64_t most) {
+  return CLI::Validator(
+      [most](std::string& text) {
+        const std::string bad = "expected a whole number from 1 to " + std::to_string(most) + " (e.g. 100000 or 1e5), got '" + text + "'";
+        if (text.empty() || text.find_first_not_of("0123456789.eE+") != std::string::npos) return bad;
+        char* end = nullptr;
+        const double value = std::strtod(text.c_str(), &end);
+        if (*end != '\0' || !(value >= 1) || value > static_cast<double>(most) || value != std::floor(value)) return bad;
+        text = std::to_string(static_cast<std::uint64_t>(value));
+        return std::string();
+      },
+      "COUNT");
+}
+}  // namespace
 void add_format_flag(CLI::App* cmd, std::string& format) {
   cmd->add_option("--format", format, "summary format: table (aligned text), markdown (paste-ready) or json")
       ->check(CLI::IsMember({"table", "markdown", "json"}));
 }
 void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what, std::uint64_t most) {
-  cmd->add_option("--count", count, what)->check(CLI::Range(std::uint64_t(1), most));
+  cmd->add_option("--count", count, what)->transform(whole_number(most));
 }
 
 std::vector<std::string> split_list(const std::vector<std::string>& lists) {
@@ -59,6 +85,7 @@ std::vector<T> parse_named(const std::vector<std::string>& names, const std::vec
                            const std::string& known = "") {
   std::vector<T> out;
   const auto items = split_list(names);
+  if (!names.empty() && items.empty()) throw CLI::ValidationError(flag, "an empty list names no " + what);
   for (const std::string& name : items) {
     if (name == "all") {
       for (const T& v : all_values)

@@ -1,5 +1,9 @@
 #include "rayproof/fuzz/campaign.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -7,6 +11,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <sstream>
+#include <cstring>
 
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/casefile.h"
@@ -74,6 +80,15 @@ json fingerprint(const CampaignOptions& o) {
           {"max_findings", o.max_findings}, {"batch", o.batch}};
 }
 
+// FNV-1a over the findings bytes written, so a resume can tell that the file on disk is the one
+// its checkpoint describes.
+struct FindingsHash {
+  std::uint64_t value = 0xcbf29ce484222325ull;
+  void add(std::string_view bytes) {
+    for (unsigned char c : bytes) value = (value ^ c) * 0x100000001b3ull;
+  }
+};
+
 // Where the campaign stands after the last completed batch.
 struct Checkpoint {
   size_t pair = 0;
@@ -81,6 +96,7 @@ struct Checkpoint {
   bool pair_started = false;
   std::uint64_t findings_in_pair = 0;
   std::uintmax_t findings_bytes = 0;
+  FindingsHash findings_hash;  // of those bytes
   CampaignReport report;
 };
 
@@ -88,41 +104,87 @@ void save(const std::string& path, const CampaignOptions& o, const Checkpoint& c
   AtomicFile f(path);
   f.stream() << json{{"fingerprint", fingerprint(o)}, {"pair", c.pair}, {"next", c.next},
                      {"pair_started", c.pair_started}, {"findings_in_pair", c.findings_in_pair},
-                     {"findings_bytes", c.findings_bytes}, {"report", c.report.to_json()}}
+                     {"findings_bytes", c.findings_bytes}, {"findings_hash", c.findings_hash.value},
+                     {"report", c.report.to_json()}}
                     .dump()
              << "\n";
   f.commit();
 }
 
 Checkpoint load(const std::string& path, const CampaignOptions& o) {
-  std::ifstream in(path);
-  json j;
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
   try {
-    j = json::parse(in);
+    const json j = parse_json_text(text.str());
+    if (j.at("fingerprint") != fingerprint(o))
+      throw std::runtime_error(path + ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
+    Checkpoint c;
+    c.pair = j.at("pair"), c.next = j.at("next"), c.pair_started = j.at("pair_started");
+    c.findings_in_pair = j.at("findings_in_pair"), c.findings_bytes = j.at("findings_bytes");
+    c.findings_hash.value = j.at("findings_hash");
+    c.report = CampaignReport::from_json(j.at("report"));
+    return c;
   } catch (const json::exception& e) {
     throw std::runtime_error(path + ": unreadable checkpoint: " + e.what());
+  } catch (const FieldError& e) {
+    throw std::runtime_error(path + ": unreadable checkpoint: " + std::string(e.what()));
   }
-  if (j.at("fingerprint") != fingerprint(o))
-    throw std::runtime_error(path + ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
-  Checkpoint c;
-  c.pair = j.at("pair"), c.next = j.at("next"), c.pair_started = j.at("pair_started");
-  c.findings_in_pair = j.at("findings_in_pair"), c.findings_bytes = j.at("findings_bytes");
-  c.report = CampaignReport::from_json(j.at("report"));
-  return c;
 }
 
-// Opens the findings file: truncated for a fresh run; for --resume cut back to what the
-// checkpoint covers (a batch written after it is dropped and done again).
+// The findings file, locked for the campaign (flock: a second campaign on the same output is
+// refused instead of interleaving with this one).
+class FindingsLock {
+ public:
+  explicit FindingsLock(const std::string& path) {
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw std::runtime_error(path + ": cannot write: " + std::strerror(errno));
+    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0)
+      throw std::runtime_error(path + ": another rayproof campaign is writing it; wait for it or choose another -o");
+  }
+  ~FindingsLock() { ::close(fd_); }
+  FindingsLock(const FindingsLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+// Whether the first `bytes` bytes of the file hash to `expected`.
+bool prefix_matches(const std::string& path, std::uintmax_t bytes, const FindingsHash& expected) {
+  std::ifstream in(path, std::ios::binary);
+  FindingsHash h;
+  std::vector<char> buffer(1 << 16);
+  while (bytes > 0 && in) {
+    in.read(buffer.data(), static_cast<std::streamsize>(std::min<std::uintmax_t>(bytes, buffer.size())));
+    h.add(std::string_view(buffer.data(), static_cast<size_t>(in.gcount())));
+    bytes -= static_cast<std::uintmax_t>(in.gcount());
+  }
+  return bytes == 0 && h.value == expected.value;
+}
+
+// Opens the (locked) findings file: a fresh run first removes any old checkpoint, then empties
+// the file; --resume checks that file and checkpoint belong together (options, size, hash of
+// the bytes written) and cuts the file back to what the checkpoint covers (a batch written
+// after it is dropped and done again).
 Checkpoint open_findings(const CampaignOptions& o, const std::string& checkpoint_path, std::ofstream& out) {
   Checkpoint cp;
-  if (o.resume && std::filesystem::exists(checkpoint_path)) {
+  const bool has_checkpoint = std::filesystem::exists(checkpoint_path);
+  if (o.resume && has_checkpoint) {
     cp = load(checkpoint_path, o);
-    if (!std::filesystem::exists(o.output)) throw std::runtime_error(o.output + ": findings file missing, cannot resume");
+    const std::uintmax_t size = std::filesystem::file_size(o.output);
+    if (size < cp.findings_bytes)
+      throw std::runtime_error(o.output + ": " + std::to_string(size) + " bytes, shorter than the " +
+                               std::to_string(cp.findings_bytes) + " its checkpoint records: not the file " +
+                               checkpoint_path + " belongs to; refusing to resume");
+    if (!prefix_matches(o.output, cp.findings_bytes, cp.findings_hash))
+      throw std::runtime_error(o.output + ": its first " + std::to_string(cp.findings_bytes) +
+                               " bytes are not the findings " + checkpoint_path + " records; refusing to resume");
     std::filesystem::resize_file(o.output, cp.findings_bytes);
   } else {
-    if (o.resume && std::filesystem::exists(o.output))
+    if (o.resume && std::filesystem::file_size(o.output) > 0)
       throw std::runtime_error(checkpoint_path + ": no checkpoint to resume from");
-    std::ofstream(o.output, std::ios::trunc);
+    if (has_checkpoint) std::filesystem::remove(checkpoint_path);  // a fresh run supersedes it first
+    std::filesystem::resize_file(o.output, 0);
   }
   out.open(o.output, std::ios::app | std::ios::binary);
   if (!out) throw std::runtime_error(o.output + ": cannot write");
@@ -244,7 +306,9 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
   c.shape = f.generated.shape;
   const Case original = c;
   if (o.shrink) c = shrink(c, *f.first_disagreeing, oracle, o.rule);
-  const Verdict exact = oracle.judge(c.ray, c.shape, o.rule);
+  // `expect` keeps the case format's meaning, the nearest contact, whatever rule found the case
+  // (found.rule says which): the finding replays green under `check`.
+  const Verdict exact = oracle.judge(c.ray, c.shape, HitRule::nearest_contact);
   c.expect = Expectation{exact.cls, exact.t};
   c.found = {{"family", std::string(to_string(b.family))},
              {"seed", o.seed},
@@ -284,6 +348,7 @@ CampaignReport run_campaign(const CampaignOptions& o) {
     for (ShapeKind s : o.shapes) pairs.push_back({f, s});
   const auto [lo, hi] = shard_range(o);
   const std::uint64_t batch = std::max<std::uint64_t>(2, o.batch & ~std::uint64_t(1));
+  const FindingsLock lock(o.output);
   std::ofstream out;
   Checkpoint cp = open_findings(o, checkpoint_path, out);
   std::vector<Worker> workers(std::max(1, o.threads));
@@ -306,7 +371,10 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       const std::uint64_t room = o.max_findings > cp.findings_in_pair ? o.max_findings - cp.findings_in_pair : 0;
       if (judged.findings.size() > room) judged.findings.resize(room);
       // Step 4: append the findings whole, then checkpoint what they complete.
-      for (const std::string& line : shrink_and_format(b, judged.findings, variants, o, workers)) out << line;
+      for (const std::string& line : shrink_and_format(b, judged.findings, variants, o, workers)) {
+        out << line;
+        cp.findings_hash.add(line);
+      }
       out.flush();
       if (!out) throw std::runtime_error(o.output + ": write failed");
       cp.findings_in_pair += judged.findings.size();

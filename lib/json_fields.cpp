@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 namespace rayproof {
 
@@ -55,32 +56,142 @@ json exact_json_number(double x) {
 }
 
 namespace {
-constexpr std::string_view kOverflowMarker = "\x01overflow:";
-}
+
+// Builds the DOM from nlohmann's SAX events (iteratively: no recursion a hostile file could
+// exhaust), enforcing what json::parse would not: a nesting limit, unique keys, and numbers
+// beyond the double range kept (as a binary value, which JSON text cannot produce) so that
+// read_number reports them under their own field.
+class DomBuilder {
+ public:
+  json root;
+
+  bool null() { return add(nullptr); }
+  bool boolean(bool v) { return add(v); }
+  bool number_integer(json::number_integer_t v) { return add(v); }
+  bool number_unsigned(json::number_unsigned_t v) { return add(v); }
+  // Numbers beyond the double range reach the builder as strings the parser's first attempt
+  // planted (see parse_json_text), marked by a prefix that does not occur in the input.
+  explicit DomBuilder(std::string overflow_marker) : marker_(std::move(overflow_marker)) {}
+  bool number_float(json::number_float_t v, const std::string&) { return add(v); }
+  bool string(std::string& v) {
+    if (!v.starts_with(marker_)) return add(std::move(v));
+    return add(json::binary(json::binary_t::container_type(v.begin() + marker_.size(), v.end())));
+  }
+  bool binary(json::binary_t& v) { return add(std::move(v)); }
+  bool start_object(std::size_t) { return open(json::object()); }
+  bool start_array(std::size_t) { return open(json::array()); }
+  bool end_object() { return close(); }
+  bool end_array() { return close(); }
+  bool key(std::string& k) {
+    json& object = *stack_.back().value;
+    if (object.contains(k)) throw FieldError(path(k), "duplicate key \"" + k + "\"");
+    element_ = &object[k];
+    key_ = k;
+    return true;
+  }
+  // A number beyond the double range stops nlohmann's parser (out_of_range 406) at the byte
+  // after it: parse_json_text replaces exactly that token and parses again.
+  struct Overflow {
+    std::size_t end;
+    std::string token;
+  };
+  bool parse_error(std::size_t position, const std::string& token, const nlohmann::detail::exception& e) {
+    if (const auto* p = dynamic_cast<const json::parse_error*>(&e)) throw *p;
+    if (e.id == 406) throw Overflow{position, token};
+    throw FieldError("", std::string("malformed JSON: ") + e.what());
+  }
+
+ private:
+  struct Open {
+    json* value;
+    std::string field;  // its path, e.g. "shape.vertices[1]"
+  };
+  std::string path(const std::string& key) const {
+    const std::string base = stack_.empty() ? std::string() : stack_.back().field;
+    return base.empty() ? key : base + "." + key;
+  }
+  std::string child_field() const {
+    if (stack_.empty()) return "";
+    const Open& parent = stack_.back();
+    if (parent.value->is_array()) return parent.field + "[" + std::to_string(parent.value->size()) + "]";
+    return path(key_);
+  }
+  template <class V>
+  json* place(V&& v) {
+    if (stack_.empty()) {
+      root = json(std::forward<V>(v));
+      return &root;
+    }
+    json& parent = *stack_.back().value;
+    if (parent.is_array()) {
+      parent.push_back(json(std::forward<V>(v)));
+      return &parent.back();
+    }
+    *element_ = json(std::forward<V>(v));
+    return element_;
+  }
+  template <class V>
+  bool add(V&& v) {
+    place(std::forward<V>(v));
+    return true;
+  }
+  bool open(json container) {
+    const std::string field = child_field();
+    if (stack_.size() >= kMaxJsonDepth)
+      throw FieldError(field, "nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    json* j = place(std::move(container));
+    stack_.push_back({j, field});
+    return true;
+  }
+  bool close() {
+    stack_.pop_back();
+    return true;
+  }
+  std::vector<Open> stack_;
+  json* element_ = nullptr;
+  std::string key_;
+  std::string marker_;
+};
+
+}  // namespace
 
 json parse_json_text(const std::string& text) {
+  // A marker no string of this input contains (a counter until one is absent).
+  std::string marker = "rayproof-overflow:";
+  for (unsigned n = 0; text.find(marker) != std::string::npos; ++n) marker = "rayproof-overflow-" + std::to_string(n) + ":";
   std::string patched = text;
-  for (int attempt = 0; attempt < 64; ++attempt) {
+  for (;;) {
+    DomBuilder builder(marker);
     try {
-      return json::parse(patched);
-    } catch (const json::out_of_range& e) {
-      // "number overflow parsing '1e999'": quote that token as a marker string and retry.
-      const std::string what = e.what();
-      const size_t open = what.find('\''), close = what.rfind('\'');
-      if (e.id != 406 || open == std::string::npos || close <= open) throw;
-      const std::string token = what.substr(open + 1, close - open - 1);
-      const size_t at = patched.find(token);
-      if (at == std::string::npos) throw;
-      patched.replace(at, token.size(), "\"\\u0001overflow:" + token + "\"");  // JSON escape of the marker
+      json::sax_parse(patched, &builder);
+      return std::move(builder.root);
+    } catch (const DomBuilder::Overflow& o) {
+      const size_t start = o.end - o.token.size();
+      if (o.end > patched.size() || o.token.empty() || patched.compare(start, o.token.size(), o.token) != 0)
+        throw FieldError("", "malformed JSON: number overflow parsing '" + o.token + "'");
+      patched.replace(start, o.token.size(), "\"" + marker + o.token + "\"");
     }
   }
-  return json::parse(patched);
+}
+
+std::string printable(std::string_view text) {
+  std::string out;
+  for (unsigned char c : text) {
+    if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out;
 }
 
 double read_number(const json& j, const std::string& field) {
   double x;
-  if (j.is_string() && j.get_ref<const std::string&>().starts_with(kOverflowMarker))
-    throw FieldError(field, "value " + j.get<std::string>().substr(kOverflowMarker.size()) +
+  if (j.is_binary())  // DomBuilder's mark for a number beyond the double range
+    throw FieldError(field, "value " + std::string(j.get_binary().begin(), j.get_binary().end()) +
                                 " overflows the double range");
   if (j.is_number()) {
     x = j.get<double>();

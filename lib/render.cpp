@@ -148,10 +148,16 @@ bool is_image_path(const std::string& path) {
 }
 
 void write_image(const Image& image, const std::string& path) {
-  const std::string ext = std::filesystem::path(path).extension().string();
-  if (!is_image_path(path)) throw std::runtime_error(path + ": unknown image type '" + ext + "' (use .png or .ppm)");
+  if (!is_image_path(path))
+    throw std::runtime_error(path + ": unknown image type '" + std::filesystem::path(path).extension().string() +
+                             "' (use .png or .ppm)");
   AtomicFile file(path);
-  if (ext == ".png") {
+  write_image(image, file);
+}
+
+void write_image(const Image& image, AtomicFile& file) {
+  const std::string ext = std::filesystem::path(file.path()).extension().string();
+  if (ext != ".ppm") {
     write_png(image, file.stream());
   } else {
     file.stream() << "P6\n" << image.width << " " << image.height << "\n255\n";

@@ -149,15 +149,11 @@ long line_of(const std::string& text, size_t byte) {
 }  // namespace
 
 Scene parse_scene(const std::string& text, const std::string& file_name) {
-  json j;
+  const std::string file = printable(file_name);
   try {
-    j = parse_json_text(text);
+    return read_scene(parse_json_text(text));
   } catch (const json::parse_error& e) {
-    throw std::runtime_error(file_name + ":" + std::to_string(line_of(text, e.byte)) +
-                             ": malformed JSON: " + e.what());
-  }
-  try {
-    return read_scene(j);
+    throw std::runtime_error(file + ":" + std::to_string(line_of(text, e.byte)) + ": malformed JSON: " + e.what());
   } catch (const FieldError& e) {
     // Name the line too when the field's key occurs exactly once in the file (JSON values
     // carry no positions, and a guess between several occurrences would mislead).
@@ -166,7 +162,7 @@ Scene parse_scene(const std::string& text, const std::string& file_name) {
     const size_t at = text.find(key);
     const bool unique = at != std::string::npos && text.find(key, at + 1) == std::string::npos;
     const std::string where = unique ? ":" + std::to_string(line_of(text, at)) : "";
-    throw std::runtime_error(file_name + where + ": field '" + e.field + "': " + e.what());
+    throw std::runtime_error(file + where + ": field '" + printable(e.field) + "': " + printable(e.what()));
   }
 }
 

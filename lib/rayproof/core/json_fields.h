@@ -28,10 +28,17 @@ std::string hex_double(double x);
 // A JSON value for x: a plain number when a short decimal names it exactly, else a hex string.
 json exact_json_number(double x);
 
-// json::parse, except that a JSON number beyond the double range (1e999) does not abort the
-// whole document: it becomes a marker that read_number reports under the field's own name.
-// Throws json::parse_error for malformed JSON.
+// Every JSON input (cases, scenes, checkpoints, summaries) is parsed here: json::parse, except
+// that nesting deeper than kMaxJsonDepth and a key repeated in one object are FieldErrors naming
+// the field, and a number beyond the double range (1e999) does not abort the document: it is
+// kept so that read_number reports it under the field's own name. Throws json::parse_error for
+// malformed JSON.
+inline constexpr size_t kMaxJsonDepth = 64;
 json parse_json_text(const std::string& text);
+
+// Text safe to print on a terminal: control characters (ESC sequences among them) as \xNN.
+std::string printable(std::string_view text);
+
 
 // A finite double from a JSON number or a hex-float string.
 double read_number(const json& j, const std::string& field);

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "rayproof/core/atomic_file.h"
 #include "rayproof/core/hit.h"
 #include "rayproof/core/scene.h"
 #include "rayproof/core/variants.h"
@@ -56,6 +57,8 @@ bool is_image_path(const std::string& path);
 // Writes PNG or PPM by the extension (.png, .ppm), atomically (temporary file, then rename).
 // Throws std::runtime_error on failure.
 void write_image(const Image& image, const std::string& path);
+// The same into an output opened before the work (PPM for a .ppm path, else PNG); commits it.
+void write_image(const Image& image, AtomicFile& file);
 // Reads a PNG written by write_image (8-bit RGB); for tests and audits.
 Image read_png(const std::string& path);
 
