@@ -2,7 +2,7 @@
 BUILD ?= build
 JOBS  ?= 2
 
-.PHONY: deps build demo test bench fuzz-smoke clean
+.PHONY: deps build demo test test-sanitize bench fuzz-smoke clean
 deps:
 	@bash scripts/install-deps.sh
 
@@ -15,6 +15,15 @@ demo: build
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
+
+# The whole test suite again under ASan + UBSan, built with clang (whose -fsanitize=undefined
+# includes float-cast-overflow, unlike GCC's), in its own build directory. .ci/run runs it.
+test-sanitize:
+	@bash scripts/install-deps.sh sanitize
+	@cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+	  -DRAYPROOF_SANITIZE=ON -DRAYPROOF_BUILD_BENCH=OFF > /dev/null
+	@cmake --build build-sanitize -j$(JOBS)
+	@cd build-sanitize && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j$(JOBS)
 
 # A short run of every benchmark (one binary, so ratios come from one run), then the goals.
 BENCH_MIN_TIME ?= 0.05
@@ -36,9 +45,10 @@ fuzz-smoke:
 	@for f in $(FUZZERS); do \
 	  mkdir -p build-fuzz/corpus/$$f; \
 	  echo "fuzz-smoke: $$f for $(FUZZ_SECONDS) s"; \
-	  build-fuzz/fuzz/libfuzzer/$$f -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
+	  dict=""; [ -f fuzz/libfuzzer/$${f%_fuzzer}.dict ] && dict="-dict=fuzz/libfuzzer/$${f%_fuzzer}.dict"; \
+	  build-fuzz/fuzz/libfuzzer/$$f -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 $$dict \
 	    build-fuzz/corpus/$$f fuzz/corpus/$$f 2>&1 | grep -E "Done|ERROR|SUMMARY|stat::number_of_executed_units" || exit 1; \
 	done
 
 clean:
-	rm -rf $(BUILD) build-fuzz
+	rm -rf $(BUILD) build-fuzz build-sanitize

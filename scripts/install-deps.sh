@@ -5,8 +5,8 @@ set -euo pipefail
 packages=(build-essential cmake pkg-config libcgal-dev libgmp-dev libmpfr-dev libeigen3-dev
           googletest libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libpng-dev
           libembree-dev python3)
-# `install-deps.sh fuzz`: also clang with libFuzzer and the sanitizer runtimes.
-if [ "${1:-}" = fuzz ]; then packages+=(clang libclang-rt-dev); fi
+# `install-deps.sh fuzz` or `sanitize`: also clang with libFuzzer and the sanitizer runtimes.
+if [ "${1:-}" = fuzz ] || [ "${1:-}" = sanitize ]; then packages+=(clang libclang-rt-dev); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -9,4 +9,5 @@ for f in sphere plane triangle box parsers; do
   cmake --build build -j"$(nproc)" --target "${f}_fuzzer"
   cp "build/fuzz/libfuzzer/${f}_fuzzer" "$OUT/"
   (cd "$SRC/rayproof/fuzz/corpus/${f}_fuzzer" && zip -q -r "$OUT/${f}_fuzzer_seed_corpus.zip" .)
+  if [ -f "$SRC/rayproof/fuzz/libfuzzer/${f}.dict" ]; then cp "$SRC/rayproof/fuzz/libfuzzer/${f}.dict" "$OUT/${f}_fuzzer.dict"; fi
 done
