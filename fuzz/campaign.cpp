@@ -185,6 +185,7 @@ Checkpoint open_findings(const CampaignOptions& o, const std::string& checkpoint
       throw std::runtime_error(checkpoint_path + ": no checkpoint to resume from");
     if (has_checkpoint) std::filesystem::remove(checkpoint_path);  // a fresh run supersedes it first
     std::filesystem::resize_file(o.output, 0);
+    save(checkpoint_path, o, cp);  // nothing done yet: a kill in the first batch resumes from zero
   }
   out.open(o.output, std::ios::app | std::ios::binary);
   if (!out) throw std::runtime_error(o.output + ": cannot write");
@@ -317,6 +318,7 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
              {"rule", std::string(to_string(o.rule))},
              {"disagreeing", disagreeing_answers(variants, oracle, c, o.rule)}};
   if (o.shrink) {
+    c.found["shrunk_for"] = std::string(f.first_disagreeing->name);
     const json now = case_to_json(c), before = case_to_json(original);
     if (now["ray"] != before["ray"]) c.found["shrunk_from"] = before["ray"];
     if (now["shape"] != before["shape"]) c.found["shrunk_from_shape"] = before["shape"];

@@ -81,6 +81,8 @@ double time_per_query(const Contender& c, const std::vector<Query>& all) {
   return best * 1e9 / std::max<size_t>(1, qs.size());
 }
 
+}  // namespace
+
 void mark_pareto(std::vector<TradeRow>& rows) {
   for (TradeRow& r : rows) {
     r.pareto = true;
@@ -93,8 +95,6 @@ void mark_pareto(std::vector<TradeRow>& rows) {
     }
   }
 }
-
-}  // namespace
 
 std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, const std::vector<ShapeKind>& shapes,
                                     const std::vector<Family>& families, std::uint64_t count, std::uint64_t seed,

@@ -1,5 +1,8 @@
 // Case files: exact number round trips, and clear per-line errors for bad input.
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "test_dir.h"
 
 #include <cfloat>
 #include <cmath>
@@ -147,7 +150,7 @@ TEST(CaseFile, BadInputNamesTheField) {
 }
 
 TEST(CaseFile, ErrorsNameFileAndLineAndTheRestIsStillRead) {
-  const std::string path = testing::TempDir() + "/mixed.jsonl";
+  const std::string path = rayproof::testing_support::test_dir() + "/mixed.jsonl";
   {
     std::ofstream out(path);
     out << R"({"id": "good1", "ray": {"origin": [0,0,0], "direction": [1,0,0]}, "shape": {"type": "sphere", "center": [5,0,0], "radius": 1}})" "\n";

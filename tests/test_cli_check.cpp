@@ -1,5 +1,8 @@
 // `rayproof check` end to end: the result lines field for field, the summary, and the exit code.
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "test_dir.h"
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -19,7 +22,7 @@ struct CliRun {
 
 CliRun run(const std::string& args) {
   // Per test: ctest runs the tests of this file in parallel processes.
-  const std::string err_path = testing::TempDir() + "/" +
+  const std::string err_path = rayproof::testing_support::test_dir() + "/" +
                                testing::UnitTest::GetInstance()->current_test_info()->name() + "-stderr.txt";
   const std::string cmd = std::string(RAYPROOF_CLI) + " " + args + " 2>" + err_path;
   FILE* p = popen(cmd.c_str(), "r");
@@ -34,7 +37,7 @@ CliRun run(const std::string& args) {
 }
 
 std::string write(const std::string& name, const std::string& text) {
-  const std::string path = testing::TempDir() + "/" + name;
+  const std::string path = rayproof::testing_support::test_dir() + "/" + name;
   std::ofstream(path) << text;
   return path;
 }
@@ -44,7 +47,7 @@ const char* kTangent =
 
 TEST(CheckCli, ResultLineFollowsTheSpecFieldForField) {
   const std::string path = write("tangent.jsonl", std::string(kTangent) + "\n");
-  const CliRun r = run("check " + path + " --variants textbook,stable --summary " + testing::TempDir() + "/sum.json");
+  const CliRun r = run("check " + path + " --variants textbook,stable --summary " + rayproof::testing_support::test_dir() + "/sum.json");
   ASSERT_EQ(r.status, 0) << r.err;
   const json line = json::parse(r.out);
   EXPECT_EQ(line["id"], "tangent-unit");
@@ -56,7 +59,7 @@ TEST(CheckCli, ResultLineFollowsTheSpecFieldForField) {
     EXPECT_TRUE(o.contains("class") && o.contains("t") && o.contains("ulp") && o.contains("agrees"));
     EXPECT_EQ(o["agrees"], o["class"] == "tangent");
   }
-  std::ifstream s(testing::TempDir() + "/sum.json");
+  std::ifstream s(rayproof::testing_support::test_dir() + "/sum.json");
   const json summary = json::parse(s);
   EXPECT_EQ(summary["cases"], 1);
   EXPECT_EQ(summary["variants"]["stable"]["cases"], 1);
@@ -92,10 +95,10 @@ TEST(CheckCli, WrongExpectationFailsWithFileAndLine) {
 
 TEST(CheckCli, BadLinesAreReportedAndTheRestChecked) {
   const std::string path = write("bad.jsonl", std::string(kTangent) + "\n{\"id\": \"x\"\n");
-  const CliRun r = run("check " + path + " -o " + testing::TempDir() + "/check-out.jsonl");
+  const CliRun r = run("check " + path + " -o " + rayproof::testing_support::test_dir() + "/check-out.jsonl");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("bad.jsonl:2:"), std::string::npos) << r.err;
-  std::ifstream out(testing::TempDir() + "/check-out.jsonl");
+  std::ifstream out(rayproof::testing_support::test_dir() + "/check-out.jsonl");
   std::string first;
   std::getline(out, first);
   EXPECT_EQ(json::parse(first)["id"], "tangent-unit");

@@ -1,6 +1,9 @@
 // The renderer checked by properties of the seed scenes, scale invariance of shadows, and the
 // command line's answers to bad input.
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "test_dir.h"
 
 #include <cmath>
 #include <cstdio>
@@ -126,7 +129,7 @@ TEST(Render, ImagesRoundTripThroughPngAndThreadsAgree) {
   many.threads = 4;
   const Image a = render(scene, one), b = render(scene, many);
   EXPECT_EQ(a.rgb, b.rgb);
-  const std::string path = testing::TempDir() + "/depth.png";
+  const std::string path = rayproof::testing_support::test_dir() + "/depth.png";
   write_image(a, path);
   const Image back = read_png(path);
   EXPECT_EQ(back.width, a.width);
@@ -167,7 +170,7 @@ CliResult run_cli(const std::string& args) {
 }
 
 std::string write_temp(const std::string& name, const std::string& text) {
-  const std::string path = testing::TempDir() + "/" + name;
+  const std::string path = rayproof::testing_support::test_dir() + "/" + name;
   std::ofstream(path) << text;
   return path;
 }
@@ -190,7 +193,7 @@ TEST(Cli, BadScenesGiveAClearErrorAndNonZeroExit) {
   int i = 0;
   for (const auto& [text, needle] : bad) {
     const std::string path = write_temp("bad-scene-" + std::to_string(i++) + ".json", text);
-    const CliResult r = run_cli("render " + path + " -o " + testing::TempDir() + "/never.png");
+    const CliResult r = run_cli("render " + path + " -o " + rayproof::testing_support::test_dir() + "/never.png");
     EXPECT_NE(r.status, 0) << text;
     EXPECT_NE(r.output.find(path), std::string::npos) << r.output;
     EXPECT_NE(r.output.find(needle), std::string::npos) << needle << " not in: " << r.output;

@@ -50,6 +50,10 @@ struct TradeRow {
   bool pareto = false;  // no other contender on this shape and family is both as fast and as accurate
 };
 
+// Marks every row that no other row of its shape and family beats on both speed and accuracy
+// (as fast or faster and as accurate or more, strictly better on one).
+void mark_pareto(std::vector<TradeRow>& rows);
+
 std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, const std::vector<ShapeKind>& shapes,
                                     const std::vector<Family>& families, std::uint64_t count, std::uint64_t seed,
                                     int threads);
