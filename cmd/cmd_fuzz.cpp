@@ -1,5 +1,6 @@
 // rayproof fuzz: every variant against the oracle on generated families; findings replayable.
 #include <algorithm>
+#include <cstdlib>
 #include <memory>
 #include <iostream>
 #include <sstream>
@@ -11,13 +12,40 @@
 namespace rayproof::cli {
 
 namespace {
+// i/n; or `auto`, from the array index and count the batch system sets: Slurm job arrays
+// (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), Kubernetes Indexed Jobs (JOB_COMPLETION_INDEX,
+// with the completion count given as auto/N since Kubernetes does not export it).
 std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
-  unsigned i = 0, n = 0;
-  char slash = 0;
-  std::stringstream ss(text);
-  if (!(ss >> i >> slash >> n) || slash != '/' || n == 0 || i >= n || !ss.eof())
-    throw CLI::ValidationError("--shard", "expected i/n with 0 <= i < n, got '" + text + "'");
-  return {i, n};
+  auto number = [](const char* value, const std::string& what) -> unsigned long {
+    if (!value || !*value) throw CLI::ValidationError("--shard", what + " is not set");
+    char* end = nullptr;
+    const unsigned long n = std::strtoul(value, &end, 10);
+    if (*end != '\0') throw CLI::ValidationError("--shard", what + " is not a whole number: '" + std::string(value) + "'");
+    return n;
+  };
+  unsigned long i = 0, n = 0;
+  if (text == "auto" || text.rfind("auto/", 0) == 0) {
+    if (text == "auto" && std::getenv("SLURM_ARRAY_TASK_ID")) {
+      i = number(std::getenv("SLURM_ARRAY_TASK_ID"), "SLURM_ARRAY_TASK_ID");
+      n = number(std::getenv("SLURM_ARRAY_TASK_COUNT"), "SLURM_ARRAY_TASK_COUNT");
+      // Slurm arrays may start at 1 (--array=1-4): shift by SLURM_ARRAY_TASK_MIN when set.
+      if (const char* min = std::getenv("SLURM_ARRAY_TASK_MIN")) i -= number(min, "SLURM_ARRAY_TASK_MIN");
+    } else if (std::getenv("JOB_COMPLETION_INDEX")) {
+      i = number(std::getenv("JOB_COMPLETION_INDEX"), "JOB_COMPLETION_INDEX");
+      if (text == "auto") throw CLI::ValidationError("--shard", "on Kubernetes give the completion count: --shard auto/N");
+      n = number(text.c_str() + 5, "the count in auto/N");
+    } else {
+      throw CLI::ValidationError("--shard", "auto: neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX is set");
+    }
+  } else {
+    char slash = 0;
+    std::stringstream ss(text);
+    if (!(ss >> i >> slash >> n) || slash != '/' || !ss.eof())
+      throw CLI::ValidationError("--shard", "expected i/n with 0 <= i < n, or auto, got '" + text + "'");
+  }
+  if (n == 0 || i >= n)
+    throw CLI::ValidationError("--shard", "shard " + std::to_string(i) + " of " + std::to_string(n) + ": need 0 <= i < n");
+  return {static_cast<unsigned>(i), static_cast<unsigned>(n)};
 }
 
 struct FuzzOptions {
@@ -85,7 +113,8 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
                   "variants to judge (default: all but the oracle's own certified-*, which always agree)");
   add_count_flag(cmd, opts->count, "cases per family and shape (before sharding)", std::uint64_t(1) << 50);
   add_seed_flag(cmd, opts->seed);
-  cmd->add_option("--shard", opts->shard, "this run's share, i/n (0-based)");
+  cmd->add_option("--shard", opts->shard,
+                  "this run's share: i/n (0-based), auto (Slurm job arrays) or auto/N (Kubernetes Indexed Jobs)");
   add_threads_flag(cmd, opts->threads);
   add_rule_flag(cmd, opts->rule);
   cmd->add_option("-o,--output", opts->output, "findings (JSON Lines, replayable by rayproof check)")->required();

@@ -7,6 +7,7 @@
 #include "test_dir.h"
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <gmpxx.h>
@@ -389,3 +390,62 @@ TEST(Spawn, NoOffsetAcnesAboutHalfAndTheErrorBoundNoneWhenTIsAccurate) {
 
 }  // namespace
 }  // namespace rayproof::studies
+
+namespace rayproof::fuzz {
+namespace {
+
+std::string tallies_of(const std::string& summary_path) {
+  const json j = json::parse(read(summary_path));
+  return json{{"tallies", j.at("tallies")}, {"cases", j.at("cases")}}.dump();
+}
+
+std::vector<std::string> sorted_lines(const std::string& path) {
+  std::vector<std::string> lines;
+  std::stringstream ss(read(path));
+  for (std::string l; std::getline(ss, l);) lines.push_back(l);
+  std::sort(lines.begin(), lines.end());
+  return lines;
+}
+
+// Four shards run as parallel processes with the environment a Slurm job array or a Kubernetes
+// Indexed Job gives them, merged: the tallies equal one unsharded campaign's, the findings too.
+TEST(Cluster, FourShardsMergeIntoTheUnshardedCampaign) {
+  const std::string dir = rayproof::testing_support::test_dir();
+  const std::string campaign = std::string(RAYPROOF_CLI) +
+                               " fuzz --families tangent,grazing --shapes sphere,triangle,box --count 4000 --seed 9 --threads 1 --max-findings 100000 --no-shrink";
+  ASSERT_EQ(std::system((campaign + " -o '" + dir + "/whole.jsonl' --summary '" + dir + "/whole.json' 2>/dev/null").c_str()), 0);
+  for (const std::string engine : {"slurm", "k8s"}) {
+    std::string script;
+    for (int i = 0; i < 4; ++i) {
+      const std::string env = engine == "slurm" ? "SLURM_ARRAY_TASK_ID=" + std::to_string(i) + " SLURM_ARRAY_TASK_COUNT=4 "
+                                                : "JOB_COMPLETION_INDEX=" + std::to_string(i) + " ";
+      const std::string shard = engine == "slurm" ? "auto" : "auto/4";
+      const std::string out = dir + "/" + engine + "-" + std::to_string(i);
+      script += env + campaign + " --shard " + shard + " -o '" + out + ".jsonl' --summary '" + out + ".json' 2>/dev/null & ";
+    }
+    ASSERT_EQ(std::system(("(" + script + "wait)").c_str()), 0) << engine;
+    std::string findings, summaries;
+    for (int i = 0; i < 4; ++i) {
+      findings += " '" + dir + "/" + engine + "-" + std::to_string(i) + ".jsonl'";
+      summaries += " '" + dir + "/" + engine + "-" + std::to_string(i) + ".json'";
+    }
+    const std::string merged = dir + "/" + engine + "-merged";
+    ASSERT_EQ(std::system((std::string(RAYPROOF_CLI) + " merge --findings" + findings + " --summaries" + summaries + " -o '" +
+                           merged + ".jsonl' --summary '" + merged + ".json' 2>/dev/null")
+                              .c_str()),
+              0)
+        << engine;
+    EXPECT_TRUE(tallies_of(merged + ".json") == tallies_of(dir + "/whole.json")) << engine;
+    const auto merged_lines = sorted_lines(merged + ".jsonl"), whole_lines = sorted_lines(dir + "/whole.jsonl");
+    EXPECT_GT(whole_lines.size(), 100u);
+    EXPECT_TRUE(merged_lines == whole_lines) << engine << ": " << merged_lines.size() << " vs " << whole_lines.size() << " findings";
+    // Each shard did a quarter of the work.
+    const json shard0 = json::parse(read(dir + "/" + engine + "-0.json"));
+    EXPECT_EQ(shard0["cases"]["tangent\tsphere"], 1000) << engine;
+  }
+  // Without the environment, auto is a usage error.
+  EXPECT_EQ(run("fuzz --shard auto -o '" + dir + "/x.jsonl'"), 2);
+}
+
+}  // namespace
+}  // namespace rayproof::fuzz

@@ -1,0 +1,113 @@
+// rayproof merge: the shards of one campaign combined into what the unsharded campaign tallies.
+#include <algorithm>
+#include <fstream>
+#include <iostream>
+#include <set>
+#include <sstream>
+
+#include "commands.h"
+#include "rayproof/core/atomic_file.h"
+#include "rayproof/core/casefile.h"
+#include "rayproof/fuzz/campaign.h"
+
+namespace rayproof::cli {
+
+namespace {
+
+struct MergeOptions {
+  std::vector<std::string> findings, summaries;
+  std::string output, summary, format = "table";
+};
+
+// A finding's place in its campaign: family and shape as the id names them, then the index.
+struct FindingKey {
+  std::string family, shape;
+  std::uint64_t index = 0;
+  auto operator<=>(const FindingKey&) const = default;
+};
+
+FindingKey key_of(const Case& c, const std::string& path, long line) {
+  // ids are "family/shape/seed/index" (fuzz/campaign.cpp)
+  std::vector<std::string> parts;
+  std::stringstream ss(c.id);
+  for (std::string p; std::getline(ss, p, '/');) parts.push_back(p);
+  if (parts.size() != 4 || parts[3].empty() || parts[3].find_first_not_of("0123456789") != std::string::npos)
+    throw std::runtime_error(path + ":" + std::to_string(line) + ": id '" + printable(c.id) + "' is not a campaign finding's");
+  return {parts[0], parts[1], std::stoull(parts[3])};
+}
+
+fuzz::CampaignReport read_summary(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    return fuzz::CampaignReport::from_json(parse_json_text(text.str()));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path + ": not a campaign summary: " + std::string(e.what()));
+  }
+}
+
+int run_merge(const MergeOptions& o) {
+  std::vector<std::string> inputs = o.findings;
+  inputs.insert(inputs.end(), o.summaries.begin(), o.summaries.end());
+  refuse_output_over_input(o.output, inputs);
+  refuse_output_over_input(o.summary, inputs);
+  std::unique_ptr<AtomicFile> out, summary_out;  // opened before the work
+  if (!o.output.empty()) out = std::make_unique<AtomicFile>(o.output);
+  if (!o.summary.empty()) summary_out = std::make_unique<AtomicFile>(o.summary);
+
+  fuzz::CampaignReport merged;
+  for (const std::string& path : o.summaries) {
+    const fuzz::CampaignReport shard = read_summary(path);
+    for (const auto& [k, t] : shard.tallies) merged.tallies[k].merge(t);
+    for (const auto& [k, s] : shard.seconds) merged.seconds[k] += s;
+    for (const auto& [k, n] : shard.cases) merged.cases[k] += n;
+  }
+  std::map<FindingKey, std::string> findings;  // deduplicated, in campaign order
+  long bad = 0;
+  for (const std::string& path : o.findings) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error(path + ": cannot open");
+    long line = 0;
+    for (std::string text; std::getline(in, text);) {
+      ++line;
+      if (text.find_first_not_of(" \t\r") == std::string::npos) continue;
+      try {
+        const Case c = parse_case(text);
+        findings.emplace(key_of(c, path, line), text);
+      } catch (const FieldError& e) {
+        ++bad;
+        std::cerr << "rayproof: " << CaseError{path, line, e.field, e.what()}.to_string() << "\n";
+      }
+    }
+  }
+  merged.findings_written = findings.size();
+  if (out) {
+    for (const auto& [k, text] : findings) out->stream() << text << "\n";
+    out->commit();
+  }
+  fuzz::print_report(merged, 1, *table_format_from_string(o.format), std::cerr);
+  if (summary_out) {
+    summary_out->stream() << merged.to_json().dump(2) << "\n";
+    summary_out->commit();
+  }
+  std::cerr << "rayproof merge: " << o.summaries.size() << " summaries, " << findings.size() << " findings from "
+            << o.findings.size() << " files\n";
+  return bad > 0 ? 1 : 0;
+}
+
+}  // namespace
+
+void add_merge_command(CLI::App& app, int& exit_code) {
+  auto opts = std::make_shared<MergeOptions>();
+  auto* cmd = app.add_subcommand("merge", "Combine the shards of a campaign: tallies summed, findings deduplicated in order");
+  cmd->add_option("--findings", opts->findings, "the shards' findings files")->expected(1, -1);
+  cmd->add_option("--summaries", opts->summaries, "the shards' --summary files")->expected(1, -1);
+  cmd->add_option("-o,--output", opts->output, "merged findings (JSON Lines)");
+  cmd->add_option("--summary", opts->summary, "merged summary (JSON)");
+  add_format_flag(cmd, opts->format);
+  cmd->callback([opts, &exit_code] { exit_code = run_merge(*opts); });
+}
+
+}  // namespace rayproof::cli
