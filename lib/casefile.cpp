@@ -82,23 +82,30 @@ json case_to_json(const Case& c) {
 
 namespace {
 
-// Ids seen so far, as 64-bit fingerprints in an open-addressing table (about 11 bytes per id at
-// its load factor, whatever the ids' length). Two different ids collide with probability about
-// n²/2^65 (3·10^-6 for ten million ids): then a unique id would be reported as a duplicate.
+// Ids seen so far, as 64-bit fingerprints in an open-addressing table that grows by half when
+// 85% full (about 10–15 bytes per id at its peak, while the old table is copied, whatever the
+// ids' length). Two different ids collide with probability about n²/2^65 (3·10^-6 for ten
+// million ids): then a unique id would be reported as a duplicate.
 class IdFingerprints {
  public:
   // False when the id (or, with that tiny probability, another with its fingerprint) was seen.
   bool insert(std::string_view id) {
     std::uint64_t h = std::hash<std::string_view>{}(id) * 0x9E3779B97F4A7C15ull;
     if (h == 0) h = 1;  // 0 marks an empty slot
-    if (3 * (count_ + 1) > 2 * slots_.size()) grow();
+    if (20 * (count_ + 1) > 17 * slots_.size()) grow(slots_.empty() ? 1024 : slots_.size() + slots_.size() / 2);
     return place(h);
+  }
+  // Sizes the table for about `ids` ids at once (no growth, so no moment with two tables).
+  void expect(std::uint64_t ids) {
+    const size_t slots = static_cast<size_t>(ids * 20 / 17) + 1024;
+    if (slots > slots_.size()) grow(slots);
   }
 
  private:
   bool place(std::uint64_t h) {
-    const size_t mask = slots_.size() - 1;
-    for (size_t i = h & mask;; i = (i + 1) & mask) {
+    // The slot from the fingerprint's high bits, scaled to any table size (Lemire's fast range).
+    size_t i = static_cast<size_t>((static_cast<unsigned __int128>(h) * slots_.size()) >> 64);
+    for (;; i = i + 1 == slots_.size() ? 0 : i + 1) {
       if (slots_[i] == h) return false;
       if (slots_[i] == 0) {
         slots_[i] = h;
@@ -107,9 +114,9 @@ class IdFingerprints {
       }
     }
   }
-  void grow() {
+  void grow(size_t slots) {
     std::vector<std::uint64_t> old = std::move(slots_);
-    slots_.assign(old.empty() ? 1024 : 2 * old.size(), 0);
+    slots_.assign(slots, 0);
     count_ = 0;
     for (std::uint64_t h : old)
       if (h) place(h);
@@ -140,8 +147,14 @@ bool read_case_file(const std::string& path,
   IdFingerprints ids;
   std::string text;
   long line = 0;
+  std::uint64_t bytes = 0;
+  std::error_code size_error;
+  const std::uintmax_t file_size = path == "-" ? 0 : std::filesystem::file_size(path, size_error);
   while (std::getline(in, text)) {
     ++line;
+    bytes += text.size() + 1;
+    // A large file's line count, estimated from its first thousand lines, sizes the id table once.
+    if (line == 1000 && file_size > bytes && !size_error) ids.expect(file_size / (bytes / 1000) * 11 / 10);
     if (text.find_first_not_of(" \t\r") == std::string::npos) continue;
     try {
       Case c = parse_case(text);
