@@ -114,3 +114,23 @@ TEST(Flags, RenderTakesOneVariantPerShape) {
 }
 
 }  // namespace
+
+namespace {
+
+// check --rule enter-only: an origin inside a sphere exits, which the rule does not count.
+TEST(Flags, CheckUnderTheEnterOnlyRule) {
+  const std::string d = test_dir();
+  std::ofstream(d + "/inside.jsonl")
+      << R"({"id": "inside", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 2}})"
+      << "\n"
+      << R"({"id": "outside", "ray": {"origin": [-5, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 2}})"
+      << "\n";
+  ASSERT_EQ(run("check '" + d + "/inside.jsonl' --rule enter-only --variants stable -o '" + d + "/eo.jsonl'", d), 0);
+  ASSERT_EQ(run("check '" + d + "/inside.jsonl' --variants stable -o '" + d + "/n.jsonl'", d), 0);
+  const std::string eo = read(d + "/eo.jsonl"), n = read(d + "/n.jsonl");
+  EXPECT_NE(eo.find(R"({"id":"inside","exact":{"class":"miss","t":null})"), std::string::npos) << eo;
+  EXPECT_NE(n.find(R"({"id":"inside","exact":{"class":"exit","t":"0x1p+1"})"), std::string::npos) << n;
+  EXPECT_NE(eo.find(R"({"id":"outside","exact":{"class":"enter","t":"0x1.8p+1"})"), std::string::npos) << eo;
+}
+
+}  // namespace

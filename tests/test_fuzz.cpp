@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <fstream>
+#include <map>
+#include <tuple>
 #include <set>
 #include <gmpxx.h>
 #include <sstream>
@@ -445,6 +447,40 @@ TEST(Cluster, FourShardsMergeIntoTheUnshardedCampaign) {
   }
   // Without the environment, auto is a usage error.
   EXPECT_EQ(run("fuzz --shard auto -o '" + dir + "/x.jsonl'"), 2);
+}
+
+}  // namespace
+}  // namespace rayproof::fuzz
+
+namespace rayproof::fuzz {
+namespace {
+
+// A batched variant is bit-identical to its scalar form, so trade must judge them identically:
+// every column but the name and the time is equal.
+TEST(TradeCli, BatchedRowsEqualTheScalarRows) {
+  const std::string dir = rayproof::testing_support::test_dir();
+  ASSERT_EQ(run("trade --count 1500 --families random,tangent,grazing --shapes sphere,triangle --variants "
+                "stable,stable-batch,moller-trumbore,moller-trumbore-batch -o '" + dir + "/t.csv'"),
+            0);
+  std::map<std::string, std::string> judged;  // "variant|shape|family" -> columns 4, 6-9
+  std::stringstream csv(read(dir + "/t.csv"));
+  std::string line;
+  std::getline(csv, line);
+  while (std::getline(csv, line)) {
+    std::vector<std::string> c;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) c.push_back(x);
+    ASSERT_EQ(c.size(), 9u) << line;
+    judged[c[0] + "|" + c[1] + "|" + c[2]] = c[3] + "," + c[5] + "," + c[6] + "," + c[7] + "," + c[8];
+  }
+  for (const char* family : {"random", "tangent", "grazing"}) {
+    for (auto [scalar, batch, shape] : {std::tuple{"stable", "stable-batch", "sphere"},
+                                        std::tuple{"moller-trumbore", "moller-trumbore-batch", "triangle"}}) {
+      const std::string a = std::string(scalar) + "|" + shape + "|" + family, b = std::string(batch) + "|" + shape + "|" + family;
+      ASSERT_TRUE(judged.count(a) && judged.count(b)) << a;
+      EXPECT_EQ(judged[a], judged[b]) << a;
+    }
+  }
 }
 
 }  // namespace

@@ -378,3 +378,32 @@ TEST(OracleCrossCheck, AgreesWithCgalDoIntersectOnHitOrMiss) {
 
 }  // namespace
 }  // namespace rayproof
+
+namespace rayproof {
+namespace {
+
+// The enter-only rule keeps a contact only where the ray enters: an entry, or an edge hit on a
+// triangle's front face (worked out from the spec's table by hand).
+TEST(OracleEnterOnly, PlanesTrianglesAndBoxes) {
+  Oracle oracle;
+  auto cls = [&](const Ray& r, const Shape& s) { return oracle.judge(r, s, HitRule::enter_only).cls; };
+  const Plane floor{Vec3(0, 0, 1), 0};
+  EXPECT_EQ(cls(R({0, 0, 2}, {0, 0, -1}), floor), HitClass::enter);   // arrives from the front
+  EXPECT_EQ(cls(R({0, 0, -2}, {0, 0, 1}), floor), HitClass::miss);    // from the back: an exit
+  EXPECT_EQ(cls(R({0, 0, 0}, {1, 0, 0}), floor), HitClass::miss);     // lying in it: a tangent
+  const Triangle tri{{Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0)}};   // front +z
+  EXPECT_EQ(cls(R({0.5, 0.5, 1}, {0, 0, -1}), tri), HitClass::enter);
+  EXPECT_EQ(cls(R({0.5, 0.5, -1}, {0, 0, 1}), tri), HitClass::miss);
+  EXPECT_EQ(cls(R({1, 0, 1}, {0, 0, -1}), tri), HitClass::boundary);  // edge hit on the front face
+  EXPECT_EQ(cls(R({1, 0, -1}, {0, 0, 1}), tri), HitClass::miss);      // edge hit from behind
+  const Box box{Vec3(0, 0, 0), Vec3(2, 2, 2)};
+  EXPECT_EQ(cls(R({-1, 1, 1}, {1, 0, 0}), box), HitClass::enter);
+  EXPECT_EQ(cls(R({1, 1, 1}, {1, 0, 0}), box), HitClass::miss);       // from inside: an exit
+  EXPECT_EQ(cls(R({-1, 0, 1}, {1, 0, 0}), box), HitClass::miss);      // along a face: a tangent
+  // classify answers the same as judge under the rule.
+  EXPECT_EQ(oracle.classify(R({1, 0, 1}, {0, 0, -1}), tri, HitRule::enter_only), HitClass::boundary);
+  EXPECT_EQ(oracle.classify(R({1, 1, 1}, {1, 0, 0}), box, HitRule::enter_only), HitClass::miss);
+}
+
+}  // namespace
+}  // namespace rayproof

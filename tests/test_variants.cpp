@@ -1,6 +1,10 @@
 // Every variant on hand-worked cases whose answers follow from the formulas by hand.
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <limits>
+#include <vector>
+
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -313,6 +317,41 @@ TEST(Batched, MollerTrumboreBatchIsBitIdenticalToTheScalarVariant) {
     boundary += h.cls == HitClass::boundary;
   }
   EXPECT_GT(boundary, 100);
+}
+
+}  // namespace
+}  // namespace rayproof
+
+namespace rayproof {
+namespace {
+
+// The sphere batch on what the kernel must not get wrong either: products overflowing to inf,
+// NaN inputs, subnormals — answered bit for bit as the scalar variant answers.
+TEST(Batched, SphereStableBatchMatchesTheScalarVariantOnOverflowAndNaN) {
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = INFINITY, tiny = 0x1p-1070;
+  const std::vector<std::pair<Ray, Sphere>> cases = {
+      {Ray{Vec3(-1e200, 0, 0), Vec3(1e200, 0, 0)}, Sphere{Vec3(0, 0, 0), 1e199}},  // b² overflows
+      {Ray{Vec3(-1e300, 1, 0), Vec3(1, 0, 0)}, Sphere{Vec3(0, 0, 0), 1e300}},      // |o−m|² overflows
+      {Ray{Vec3(nan, 0, 0), Vec3(1, 0, 0)}, Sphere{Vec3(5, 0, 0), 1}},
+      {Ray{Vec3(0, 0, 0), Vec3(nan, 1, 0)}, Sphere{Vec3(5, 0, 0), 1}},
+      {Ray{Vec3(0, 0, 0), Vec3(1, 0, 0)}, Sphere{Vec3(inf, 0, 0), 1}},
+      {Ray{Vec3(0, 0, 0), Vec3(tiny, 0, 0)}, Sphere{Vec3(5, 0, 0), 1}},            // a underflows to 0
+      {Ray{Vec3(0, 0, 0), Vec3(0, 0, 0)}, Sphere{Vec3(5, 0, 0), 1}},               // no direction at all
+      {Ray{Vec3(-2, 0, 0), Vec3(1, 0, 0)}, Sphere{Vec3(0, 0, 0), 0}},
+  };
+  RaysSoA rays;
+  SpheresSoA spheres;
+  for (const auto& [r, s] : cases) rays.push(r), spheres.push(s);
+  HitsSoA out;
+  sphere_stable_batch(rays, spheres, out);
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const Hit h = sphere_stable(cases[i].first, cases[i].second, HitRule::nearest_contact);
+    EXPECT_EQ(out.at(i).cls, h.cls) << i;
+    std::uint64_t a, b;
+    const double ta = out.at(i).t, tb = h.t;
+    std::memcpy(&a, &ta, 8), std::memcpy(&b, &tb, 8);
+    EXPECT_TRUE(a == b || (std::isnan(ta) && std::isnan(tb))) << i << ": " << ta << " vs " << tb;
+  }
 }
 
 }  // namespace
