@@ -66,19 +66,25 @@ TEST(CheckCli, ResultLineFollowsTheSpecFieldForField) {
   EXPECT_NE(r.err.find("bits-p99"), std::string::npos);  // the table on stderr
 }
 
-TEST(CheckCli, NonTangentVariantIsCountedAsCannotTell) {
-  // One ulp of the origin's y moves the ray off the exact tangent: the exact class is miss,
-  // and a case exactly tangent with a non-representable t is caught as "cannot tell" when a
-  // variant reports enter.
-  const std::string path = write("far.jsonl",
-      R"({"id": "far", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [1000000000, 0.5, 0], "radius": 1}})" "\n");
-  const CliRun r = run("check " + path + " --variants textbook,hearn-baker");
+TEST(CheckCli, APlainAnswerToATangentIsCountedAsCannotTell) {
+  // The ray lies in the plane z = 0 of the triangle and enters it at t = 1: exactly a tangent
+  // (worked by hand). Möller–Trumbore's determinant is 0 and it says miss: "cannot tell", not
+  // "wrong". A sphere whose textbook discriminant cancels (exact enter, textbook tangent) is
+  // "wrong": tangent is no plain answer.
+  const std::string path = write("cannot-tell.jsonl",
+      R"({"id": "coplanar", "ray": {"origin": [-1, 1, 0], "direction": [1, 0, 0]}, "shape": {"type": "triangle", "vertices": [[0, 0, 0], [4, 0, 0], [0, 4, 0]]}})" "\n"
+      R"({"id": "far", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [134217728, 0, 0], "radius": 1}})" "\n");
+  const std::string summary = rayproof::testing_support::test_dir() + "/cannot-tell.json";
+  const CliRun r = run("check " + path + " --variants moller-trumbore,textbook --summary " + summary);
   ASSERT_EQ(r.status, 0) << r.err;
-  const json line = json::parse(r.out);
-  EXPECT_EQ(line["exact"]["class"], "enter");
-  EXPECT_EQ(line["variants"]["textbook"]["agrees"], false);
-  EXPECT_EQ(line["variants"]["hearn-baker"]["agrees"], true);
-  EXPECT_EQ(line["variants"]["hearn-baker"]["ulp"], 0);
+  std::ifstream in(summary);
+  const json s = json::parse(in);
+  EXPECT_EQ(s["variants"]["moller-trumbore"]["cannot_tell"], 1);
+  EXPECT_EQ(s["variants"]["moller-trumbore"]["wrong"], 0);
+  EXPECT_EQ(s["variants"]["moller-trumbore"]["disagreements"]["tangent->miss"], 1);
+  EXPECT_EQ(s["variants"]["textbook"]["wrong"], 1);
+  EXPECT_EQ(s["variants"]["textbook"]["cannot_tell"], 0);
+  EXPECT_EQ(s["variants"]["textbook"]["disagreements"]["enter->tangent"], 1);
 }
 
 TEST(CheckCli, WrongExpectationFailsWithFileAndLine) {

@@ -338,7 +338,6 @@ TEST(OracleFilter, FilteredAndExactAnswersAreIdentical) {
   for (ShapeKind k : kAllShapeKinds) {
     decided_exactly += filtered.stats(k).class_exact + filtered.stats(k).class_expansion;
     queries += filtered.stats(k).queries;
-    EXPECT_EQ(exact.stats(k).class_exact, exact.stats(k).queries);
   }
   EXPECT_LT(decided_exactly, queries / 2);
   std::uint64_t by_expansions = 0, t_fast = 0, t_total = 0;
