@@ -28,7 +28,7 @@ constexpr double kMiss = 0, kEnter = 1, kExit = 2, kTangent = 3, kBoundary = 4; 
 // Same steps as sphere_stable + sphere_hit_from_roots (nearest contact), every branch turned
 // into a select so the loop vectorises. The arrays are restrict parameters: GCC's dependence
 // analysis honours restrict on parameters, not on local pointers.
-__attribute__((target_clones("avx512f", "avx2", "default"))) static void sphere_stable_kernel(
+[[gnu::always_inline]] static inline void sphere_stable_loop(
     size_t n, const double* __restrict ox, const double* __restrict oy, const double* __restrict oz,
     const double* __restrict dx, const double* __restrict dy, const double* __restrict dz,
     const double* __restrict cx, const double* __restrict cy, const double* __restrict cz,
@@ -55,14 +55,29 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) static void sphere_
   }
 }
 
-void sphere_stable_batch(const RaysSoA& rays, const SpheresSoA& s, HitsSoA& out) {
+#define RAYPROOF_SPHERE_PARAMS                                                                               \
+  size_t n, const double *__restrict ox, const double *__restrict oy, const double *__restrict oz,           \
+      const double *__restrict dx, const double *__restrict dy, const double *__restrict dz,                \
+      const double *__restrict cx, const double *__restrict cy, const double *__restrict cz,                \
+      const double *__restrict rr, std::uint8_t *__restrict cls, double *__restrict tt
+#define RAYPROOF_SPHERE_ARGS n, ox, oy, oz, dx, dy, dz, cx, cy, cz, rr, cls, tt
+__attribute__((target("avx512f"))) static void sphere_stable_avx512(RAYPROOF_SPHERE_PARAMS) {
+  sphere_stable_loop(RAYPROOF_SPHERE_ARGS);
+}
+__attribute__((target("avx2"))) static void sphere_stable_avx2(RAYPROOF_SPHERE_PARAMS) {
+  sphere_stable_loop(RAYPROOF_SPHERE_ARGS);
+}
+static void sphere_stable_sse2(RAYPROOF_SPHERE_PARAMS) { sphere_stable_loop(RAYPROOF_SPHERE_ARGS); }
+
+void sphere_stable_batch(const RaysSoA& rays, const SpheresSoA& s, HitsSoA& out, BatchIsa isa) {
   out.resize(rays.size());
-  sphere_stable_kernel(rays.size(), rays.ox.data(), rays.oy.data(), rays.oz.data(), rays.dx.data(), rays.dy.data(),
+  auto* kernel = isa == BatchIsa::avx512 ? sphere_stable_avx512 : isa == BatchIsa::avx2 ? sphere_stable_avx2 : sphere_stable_sse2;
+  kernel(rays.size(), rays.ox.data(), rays.oy.data(), rays.oz.data(), rays.dx.data(), rays.dy.data(),
                        rays.dz.data(), s.cx.data(), s.cy.data(), s.cz.data(), s.r.data(), out.cls.data(), out.t.data());
 }
 
 // Same steps as triangle_moller_trumbore (nearest contact), branch-free.
-__attribute__((target_clones("avx512f", "avx2", "default"))) static void moller_trumbore_kernel(
+[[gnu::always_inline]] static inline void moller_trumbore_loop(
     size_t n, const double* __restrict ox, const double* __restrict oy, const double* __restrict oz,
     const double* __restrict dx_, const double* __restrict dy_, const double* __restrict dz_,
     const double* __restrict x0, const double* __restrict y0, const double* __restrict z0,
@@ -92,11 +107,42 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) static void moller_
   }
 }
 
-void triangle_moller_trumbore_batch(const RaysSoA& rays, const TrianglesSoA& tr, HitsSoA& out) {
+#define RAYPROOF_TRIANGLE_PARAMS                                                                             \
+  size_t n, const double *__restrict ox, const double *__restrict oy, const double *__restrict oz,           \
+      const double *__restrict dx_, const double *__restrict dy_, const double *__restrict dz_,             \
+      const double *__restrict x0, const double *__restrict y0, const double *__restrict z0,                \
+      const double *__restrict x1, const double *__restrict y1, const double *__restrict z1,                \
+      const double *__restrict x2, const double *__restrict y2, const double *__restrict z2,                \
+      std::uint8_t *__restrict cls, double *__restrict tt
+#define RAYPROOF_TRIANGLE_ARGS n, ox, oy, oz, dx_, dy_, dz_, x0, y0, z0, x1, y1, z1, x2, y2, z2, cls, tt
+__attribute__((target("avx512f"))) static void moller_trumbore_avx512(RAYPROOF_TRIANGLE_PARAMS) {
+  moller_trumbore_loop(RAYPROOF_TRIANGLE_ARGS);
+}
+__attribute__((target("avx2"))) static void moller_trumbore_avx2(RAYPROOF_TRIANGLE_PARAMS) {
+  moller_trumbore_loop(RAYPROOF_TRIANGLE_ARGS);
+}
+static void moller_trumbore_sse2(RAYPROOF_TRIANGLE_PARAMS) { moller_trumbore_loop(RAYPROOF_TRIANGLE_ARGS); }
+
+void triangle_moller_trumbore_batch(const RaysSoA& rays, const TrianglesSoA& tr, HitsSoA& out, BatchIsa isa) {
   out.resize(rays.size());
-  moller_trumbore_kernel(rays.size(), rays.ox.data(), rays.oy.data(), rays.oz.data(), rays.dx.data(), rays.dy.data(),
+  auto* kernel = isa == BatchIsa::avx512 ? moller_trumbore_avx512 : isa == BatchIsa::avx2 ? moller_trumbore_avx2 : moller_trumbore_sse2;
+  kernel(rays.size(), rays.ox.data(), rays.oy.data(), rays.oz.data(), rays.dx.data(), rays.dy.data(),
                          rays.dz.data(), tr.x0.data(), tr.y0.data(), tr.z0.data(), tr.x1.data(), tr.y1.data(),
                          tr.z1.data(), tr.x2.data(), tr.y2.data(), tr.z2.data(), out.cls.data(), out.t.data());
+}
+
+BatchIsa best_batch_isa() {
+  static const BatchIsa best = __builtin_cpu_supports("avx512f") ? BatchIsa::avx512
+                               : __builtin_cpu_supports("avx2")  ? BatchIsa::avx2
+                                                                 : BatchIsa::sse2;
+  return best;
+}
+
+std::vector<BatchIsa> runnable_batch_isas() {
+  std::vector<BatchIsa> out = {BatchIsa::sse2};
+  if (__builtin_cpu_supports("avx2")) out.push_back(BatchIsa::avx2);
+  if (__builtin_cpu_supports("avx512f")) out.push_back(BatchIsa::avx512);
+  return out;
 }
 
 QueriesSoA::QueriesSoA(std::span<const Query> queries) {

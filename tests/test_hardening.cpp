@@ -220,12 +220,15 @@ TEST(Hardening, ResumeRefusesAFileThatIsNotTheCheckpointsOwn) {
 
 TEST(Hardening, TwoCampaignsOnOneOutputAreRefused) {
   const std::string d = test_dir();
-  const std::string first = std::string("cd '") + d + "' && " + RAYPROOF_CLI +
-                            " fuzz --families grazing --shapes triangle --count 40000000 --threads 1 -o f.jsonl 2>/dev/null & echo $! > pid";
+  // The first campaign runs in the background (stopping by itself after 60 s at the latest, and
+  // holding none of the test's output pipes); $! is its own pid, not a subshell's.
+  const std::string first = std::string("cd '") + d + "'; timeout 60 " + RAYPROOF_CLI +
+                            " fuzz --families grazing --shapes triangle --count 40000000 --threads 1 -o f.jsonl"
+                            " </dev/null >/dev/null 2>&1 & echo $! > '" + d + "/pid'";
   ASSERT_EQ(std::system(first.c_str()), 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   const CliResult second = run("fuzz --families random --shapes sphere --count 100 -o f.jsonl", d);
-  std::system(("kill $(cat '" + d + "/pid')").c_str());
+  std::system(("kill $(cat '" + d + "/pid') 2>/dev/null").c_str());
   EXPECT_EQ(second.status, 2);
   EXPECT_NE(second.err.find("another rayproof campaign is writing it"), std::string::npos) << second.err;
 }

@@ -251,6 +251,15 @@ namespace {
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
+// Every instruction-set version of the batched kernels this CPU can run; the others are named
+// in the test's output as not run here (AVX-512 on a machine without it).
+std::vector<BatchIsa> every_isa_or_skip() {
+  const std::vector<BatchIsa> isas = runnable_batch_isas();
+  if (std::find(isas.begin(), isas.end(), BatchIsa::avx512) == isas.end())
+    std::printf("note: this CPU has no AVX-512: the avx512 version of the batched kernels is not run here\n");
+  return isas;
+}
+
 TEST(Batched, SphereStableBatchIsBitIdenticalToTheScalarVariant) {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> u(-2, 2);
@@ -270,16 +279,18 @@ TEST(Batched, SphereStableBatchIsBitIdenticalToTheScalarVariant) {
     rays.push(r);
     spheres.push(s);
   }
-  HitsSoA out;
-  sphere_stable_batch(rays, spheres, out);
-  int hits = 0;
-  for (size_t i = 0; i < cases.size(); ++i) {
-    const Hit h = sphere_stable(cases[i].first, cases[i].second, HitRule::nearest_contact);
-    ASSERT_EQ(out.at(i).cls, h.cls) << i;
-    ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t))) << i;
-    hits += h.cls != HitClass::miss;
+  for (BatchIsa isa : every_isa_or_skip()) {  // every compiled version, not only the one this CPU picks
+    HitsSoA out;
+    sphere_stable_batch(rays, spheres, out, isa);
+    int hits = 0;
+    for (size_t i = 0; i < cases.size(); ++i) {
+      const Hit h = sphere_stable(cases[i].first, cases[i].second, HitRule::nearest_contact);
+      ASSERT_EQ(out.at(i).cls, h.cls) << i << " isa " << int(isa);
+      ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t))) << i << " isa " << int(isa);
+      hits += h.cls != HitClass::miss;
+    }
+    EXPECT_GT(hits, 2000);
   }
-  EXPECT_GT(hits, 2000);
 }
 
 TEST(Batched, MollerTrumboreBatchIsBitIdenticalToTheScalarVariant) {
@@ -307,16 +318,18 @@ TEST(Batched, MollerTrumboreBatchIsBitIdenticalToTheScalarVariant) {
     rays.push(r);
     tris.push(t);
   }
-  HitsSoA out;
-  triangle_moller_trumbore_batch(rays, tris, out);
-  int boundary = 0;
-  for (size_t i = 0; i < cases.size(); ++i) {
-    const Hit h = triangle_moller_trumbore(cases[i].first, cases[i].second, HitRule::nearest_contact);
-    ASSERT_EQ(out.at(i).cls, h.cls) << i;
-    ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t))) << i;
-    boundary += h.cls == HitClass::boundary;
+  for (BatchIsa isa : every_isa_or_skip()) {
+    HitsSoA out;
+    triangle_moller_trumbore_batch(rays, tris, out, isa);
+    int boundary = 0;
+    for (size_t i = 0; i < cases.size(); ++i) {
+      const Hit h = triangle_moller_trumbore(cases[i].first, cases[i].second, HitRule::nearest_contact);
+      ASSERT_EQ(out.at(i).cls, h.cls) << i << " isa " << int(isa);
+      ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t))) << i << " isa " << int(isa);
+      boundary += h.cls == HitClass::boundary;
+    }
+    EXPECT_GT(boundary, 100);
   }
-  EXPECT_GT(boundary, 100);
 }
 
 }  // namespace
@@ -342,8 +355,9 @@ TEST(Batched, SphereStableBatchMatchesTheScalarVariantOnOverflowAndNaN) {
   RaysSoA rays;
   SpheresSoA spheres;
   for (const auto& [r, s] : cases) rays.push(r), spheres.push(s);
+  for (BatchIsa isa : every_isa_or_skip()) {
   HitsSoA out;
-  sphere_stable_batch(rays, spheres, out);
+  sphere_stable_batch(rays, spheres, out, isa);
   for (size_t i = 0; i < cases.size(); ++i) {
     const Hit h = sphere_stable(cases[i].first, cases[i].second, HitRule::nearest_contact);
     EXPECT_EQ(out.at(i).cls, h.cls) << i;
@@ -351,6 +365,7 @@ TEST(Batched, SphereStableBatchMatchesTheScalarVariantOnOverflowAndNaN) {
     const double ta = out.at(i).t, tb = h.t;
     std::memcpy(&a, &ta, 8), std::memcpy(&b, &tb, 8);
     EXPECT_TRUE(a == b || (std::isnan(ta) && std::isnan(tb))) << i << ": " << ta << " vs " << tb;
+  }
   }
 }
 

@@ -1,6 +1,6 @@
 // Batched variants over structure-of-arrays inputs: the same formulas as a scalar variant,
 // written as one branch-free loop the compiler vectorises (AVX2 or AVX-512 chosen at run time
-// by GCC's target_clones, SSE2 otherwise). Answers are bit for bit those of the scalar variant
+// once from the CPU's features, SSE2 otherwise). Answers are bit for bit those of the scalar variant
 // under the nearest-contact rule: the same IEEE operations in the same order, no FMA.
 #pragma once
 
@@ -38,10 +38,17 @@ struct HitsSoA {
   Hit at(size_t i) const { return {static_cast<HitClass>(cls[i]), t[i]}; }
 };
 
+// The instruction sets each kernel is compiled for (one loop, three target attributes); the
+// best the CPU runs is chosen once, and tests run every one the CPU can.
+enum class BatchIsa { sse2, avx2, avx512 };
+BatchIsa best_batch_isa();
+std::vector<BatchIsa> runnable_batch_isas();
+
 // sphere `stable`, batched.
-void sphere_stable_batch(const RaysSoA& rays, const SpheresSoA& spheres, HitsSoA& out);
+void sphere_stable_batch(const RaysSoA& rays, const SpheresSoA& spheres, HitsSoA& out, BatchIsa isa = best_batch_isa());
 // triangle `moller-trumbore`, batched.
-void triangle_moller_trumbore_batch(const RaysSoA& rays, const TrianglesSoA& tris, HitsSoA& out);
+void triangle_moller_trumbore_batch(const RaysSoA& rays, const TrianglesSoA& tris, HitsSoA& out,
+                                    BatchIsa isa = best_batch_isa());
 
 // Queries of one shape laid out once, outside any timed loop, as every batched kernel reads them.
 struct QueriesSoA {
