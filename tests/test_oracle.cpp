@@ -191,6 +191,8 @@ TEST(OracleRounding, SphereRootsAreCorrectlyRounded) {
     if (!v.t) continue;
     ++with_t;
     ASSERT_TRUE(v.exact_t);
+    ASSERT_TRUE(v.t.has_value());
+    ASSERT_TRUE(v.exact_t.has_value());
     EXPECT_TRUE(correctly_rounded(*v.exact_t, *v.t));
   }
   std::mt19937_64 rng(5);
@@ -200,6 +202,8 @@ TEST(OracleRounding, SphereRootsAreCorrectlyRounded) {
     const Verdict v = oracle.judge(ray, s);
     if (!v.t) continue;
     ++with_t;
+    ASSERT_TRUE(v.t.has_value());
+    ASSERT_TRUE(v.exact_t.has_value());
     EXPECT_TRUE(correctly_rounded(*v.exact_t, *v.t));
   }
   EXPECT_GT(with_t, 3000);
@@ -212,17 +216,23 @@ TEST(OracleRounding, RationalTiesRoundToEven) {
   const Plane tie1{Vec3(1, 0, 0), std::ldexp(1.0, -53)};
   Verdict v = oracle.judge(R({-1, 0, 0}, {1, 0, 0}), tie1);
   ASSERT_TRUE(v.t);
+  ASSERT_TRUE(v.t.has_value());
   EXPECT_EQ(*v.t, 1.0);
   const Plane tie2{Vec3(1, 0, 0), 3 * std::ldexp(1.0, -53)};
   v = oracle.judge(R({-1, 0, 0}, {1, 0, 0}), tie2);
+  ASSERT_TRUE(v.t.has_value());
   EXPECT_EQ(*v.t, 1 + 2 * std::ldexp(1.0, -52));
+  ASSERT_TRUE(v.t.has_value());
+  ASSERT_TRUE(v.exact_t.has_value());
   EXPECT_TRUE(correctly_rounded(*v.exact_t, *v.t));
   // Beyond the double range: rounds to inf; below half the smallest subnormal: to 0.
   v = oracle.judge(R({0, 0, 0}, {DBL_TRUE_MIN, 0, 0}), Plane{Vec3(1, 0, 0), 1e300});
   ASSERT_TRUE(v.t);
+  ASSERT_TRUE(v.t.has_value());
   EXPECT_TRUE(std::isinf(*v.t));
   v = oracle.judge(R({0, 0, 0}, {1e300, 0, 0}), Plane{Vec3(1, 0, 0), DBL_TRUE_MIN});
   ASSERT_TRUE(v.t);
+  ASSERT_TRUE(v.t.has_value());
   EXPECT_EQ(*v.t, 0.0);
   EXPECT_EQ(v.cls, HitClass::exit);  // the ray leaves the plane's back side (d·n > 0)
 }
@@ -265,20 +275,26 @@ TEST(OracleExtremes, SubnormalsAndOverflowingProducts) {
   const double tiny = std::ldexp(1.0, -1070);
   Verdict v = oracle.judge(R({-std::ldexp(1.0, -1060), 0, 0}, {1, 0, 0}), Sphere{Vec3(0, 0, 0), tiny});
   EXPECT_EQ(v.cls, HitClass::enter);
+  ASSERT_TRUE(v.t.has_value());
   EXPECT_EQ(*v.t, std::ldexp(1.0, -1060) - tiny);
   // b² ≈ 1e600 and |o − m|² overflow doubles; the oracle still answers exactly.
   v = oracle.judge(R({0, 0, 0}, {1, 0, 0}), Sphere{Vec3(1e300, 0, 0), 1e299});
   EXPECT_EQ(v.cls, HitClass::enter);
   ASSERT_TRUE(v.exact_t);
+  ASSERT_TRUE(v.t.has_value());
+  ASSERT_TRUE(v.exact_t.has_value());
   EXPECT_TRUE(correctly_rounded(*v.exact_t, *v.t));
   v = oracle.judge(R({-DBL_MAX, 0, 0}, {DBL_MAX, 0, 0}), Sphere{Vec3(DBL_MAX, 0, 0), DBL_MAX});
   EXPECT_EQ(v.cls, HitClass::enter);  // through the centre; enters at x = 0, t = 1
+  ASSERT_TRUE(v.t.has_value());
   EXPECT_EQ(*v.t, 1.0);
   v = oracle.judge(R({-DBL_MAX, DBL_MAX, 0}, {DBL_MAX, 0, 0}), Sphere{Vec3(DBL_MAX, 0, 0), DBL_MAX});
   EXPECT_EQ(v.cls, HitClass::tangent);  // touches (DBL_MAX, DBL_MAX, 0) at t = 2
+  ASSERT_TRUE(v.t.has_value());
   EXPECT_EQ(*v.t, 2.0);
   v = oracle.judge(R({-0.0, 0, 0}, {1, 0, -0.0}), Sphere{Vec3(3, 0, 0), 1});
   EXPECT_EQ(v.cls, HitClass::enter);
+  ASSERT_TRUE(v.t.has_value());
   EXPECT_EQ(*v.t, 2.0);
 }
 
