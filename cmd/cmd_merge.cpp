@@ -49,6 +49,8 @@ fuzz::CampaignReport read_summary(const std::string& path) {
 }
 
 int run_merge(const MergeOptions& o) {
+  if (o.findings.empty() && o.summaries.empty())
+    throw CLI::ValidationError("merge", "name the shards: --findings FILES and/or --summaries FILES");
   std::vector<std::string> inputs = o.findings;
   inputs.insert(inputs.end(), o.summaries.begin(), o.summaries.end());
   refuse_output_over_input(o.output, inputs);
