@@ -724,9 +724,7 @@ Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
   // (Audits that keep the exact parameter want it for the query as given: no scaling then.)
   if (options_.filter && !options_.keep_exact_parameter) {
     if (const auto n = normalized(ray, shape)) {
-      Verdict v = std::visit(
-          [&](const auto& s) { return judge_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(n->ray, s, options_, stats); },
-          n->shape);
+      Verdict v = judge_as_given(n->ray, n->shape);
       const std::optional<double> t = v.t ? scaled_back(*v.t, n->t_exponent) : std::nullopt;
       if (!v.t || t) {  // else t is subnormal or overflows: judged again as given (counted twice)
         v.t = t;
@@ -735,10 +733,10 @@ Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
       }
     }
   }
-  return apply_rule(judge_unnormalized(ray, shape), rule);
+  return apply_rule(judge_as_given(ray, shape), rule);
 }
 
-Verdict Oracle::judge_unnormalized(const Ray& ray, const Shape& shape) {
+Verdict Oracle::judge_as_given(const Ray& ray, const Shape& shape) {
   OracleStats& stats = stats_[shape.index()];
   return std::visit(
       [&](const auto& s) { return judge_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(ray, s, options_, stats); },

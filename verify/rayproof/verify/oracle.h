@@ -82,7 +82,7 @@ class Oracle {
   void merge_stats(const Oracle& other);
 
  private:
-  Verdict judge_unnormalized(const Ray& ray, const Shape& shape);
+  Verdict judge_as_given(const Ray& ray, const Shape& shape);  // no scaling, no rule
   Options options_{};
   std::array<OracleStats, 4> stats_{};
 };
