@@ -7,6 +7,7 @@
 
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
+#include "rayproof/peers/external.h"
 #include "rayproof/verify/compare.h"
 #include "rayproof/verify/report.h"
 #include "rayproof/verify/tally.h"
@@ -47,6 +48,9 @@ json summary_json(const CheckSummary& summary) {
                         {"p99", t.ulps.quantile(0.99)},
                         {"max", t.ulps.max()}}},
                {"bits", bits_json(t)}};
+    const json full = t.to_json();  // failures of external code, where there were any
+    for (const char* key : {"crashes", "timeouts", "protocol_errors", "plugin_errors", "not_representable", "ulp_own"})
+      if (full.contains(key)) j[name][key] = full[key];
   }
   return j;
 }
@@ -88,6 +92,8 @@ struct CheckOptions {
   std::vector<std::string> files, variants, shapes;
   std::string rule = "nearest", summary, output, format = "table";
   bool exact_only = false;
+  ExternalFlags ext;
+  std::vector<std::string> answers;  // NAME=FILE
 };
 
 struct CheckRun {
@@ -99,34 +105,69 @@ struct CheckRun {
   long unopened = 0;                                 // files that could not be read at all
 };
 
+// A chunk of cases read but not yet judged: judged together, so each variant (external code
+// behind a process boundary above all) is asked once per chunk instead of once per case.
+struct PendingCase {
+  Case c;
+  long line;
+};
+constexpr size_t kCheckChunk = 1024;
+
+void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, CheckRun& run, std::ostream& out) {
+  std::vector<Verdict> exact;
+  for (const PendingCase& p : pending) exact.push_back(run.oracle.judge(p.c.ray, p.c.shape, run.rule));
+  std::vector<std::vector<VariantOutcome>> outcomes(pending.size());
+  for (const Variant* v : run.variants) {
+    std::vector<Query> queries;  // this variant's shape only
+    std::vector<Verdict> truth;
+    std::vector<size_t> where;
+    for (size_t i = 0; i < pending.size(); ++i)
+      if (v->handles(kind_of(pending[i].c.shape))) queries.push_back(pending[i].c), truth.push_back(exact[i]), where.push_back(i);
+    if (queries.empty()) continue;
+    std::vector<VariantOutcome> judged = judge_variant_all(run.oracle, *v, queries, truth, run.rule);
+    for (size_t k = 0; k < judged.size(); ++k) {
+      if (stops_variant(judged[k].hit.failure))
+        std::cerr << "rayproof: " << printable(path) << ":" << pending[where[k]].line << ": case '"
+                  << printable(pending[where[k]].c.id) << "': variant " << v->name << " stopped: "
+                  << to_string(judged[k].hit.failure)
+                  << (v->external ? " (" + v->external->stop_reason() + ")" : std::string()) << "\n";
+      outcomes[where[k]].push_back(std::move(judged[k]));
+    }
+  }
+  for (size_t i = 0; i < pending.size(); ++i) {
+    const Case& c = pending[i].c;
+    add_to_summary(run.summary, exact[i], outcomes[i]);
+    out << check_line(c.id, exact[i], outcomes[i]).dump() << "\n";
+    if (c.expect && run.rule == HitRule::nearest_contact) {
+      const std::string why = expectation_mismatch(*c.expect, exact[i]);
+      if (!why.empty()) {
+        ++run.contradicted;
+        std::cerr << "rayproof: " << printable(path) << ":" << pending[i].line << ": case '" << printable(c.id) << "': " << why << "\n";
+      }
+    }
+  }
+  pending.clear();
+}
+
 // One file's cases: a result line each on `out`, tallied; bad lines and refuted expectations
 // reported on stderr and counted.
 void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progress& progress) {
   long in_file = 0;
   const long errors_before = run.unreadable;
+  std::vector<PendingCase> pending;
   const bool opened = read_case_file(
       path,
       [&](const Case& c, long line) {
         ++run.cases, ++in_file;
-        const Verdict exact = run.oracle.judge(c.ray, c.shape, run.rule);
-        std::vector<VariantOutcome> outcomes;
-        for (const Variant* v : run.variants)
-          if (v->shape == kind_of(c.shape)) outcomes.push_back(compare_variant(*v, exact, c.ray, c.shape, run.rule));
-        add_to_summary(run.summary, exact, outcomes);
-        out << check_line(c.id, exact, outcomes).dump() << "\n";
-        if (c.expect && run.rule == HitRule::nearest_contact) {
-          const std::string why = expectation_mismatch(*c.expect, exact);
-          if (!why.empty()) {
-            ++run.contradicted;
-            std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id) << "': " << why << "\n";
-          }
-        }
+        pending.push_back({c, line});
+        if (pending.size() == kCheckChunk) judge_chunk(path, pending, run, out);
         progress.update(run.cases, 0);
       },
       [&](const CaseError& e) {
         ++run.unreadable;
         std::cerr << "rayproof: " << e.to_string() << "\n";
       });
+  judge_chunk(path, pending, run, out);
   if (!opened) ++run.unopened;
   if (opened && in_file == 0 && run.unreadable == errors_before) {
     ++run.unreadable;
@@ -135,9 +176,19 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
 }
 
 int run_check(const CheckOptions& opts) {
+  load_externals(opts.ext);
+  std::vector<const Variant*> answers;
+  for (const std::string& text : opts.answers) {
+    const auto [name, path] = peers::split_assignment("--answers", text);
+    answers.push_back(&peers::add_answers_variant(name, path));
+  }
   CheckRun run{parse_variants(opts.variants, parse_shapes(opts.shapes)), parse_rule(opts.rule),
                Oracle(Oracle::Options{!opts.exact_only})};
-  refuse_output_over_input(opts.output, opts.files);
+  refuse_output_over_input(opts.output, [&] {
+    std::vector<std::string> inputs = opts.files;
+    for (const std::string& a : opts.answers) inputs.push_back(peers::split_assignment("--answers", a).second);
+    return inputs;
+  }());
   refuse_output_over_input(opts.summary, opts.files);
   std::unique_ptr<AtomicFile> file, summary_file;  // opened before the work, so a bad path fails first
   if (!opts.output.empty()) file = std::make_unique<AtomicFile>(opts.output);
@@ -164,8 +215,11 @@ int run_check(const CheckOptions& opts) {
                << "\n";
     s.commit();
   }
+  long answer_problems = 0;  // after the summary, so they are the last thing a user reads
+  for (const Variant* v : answers)
+    for (const std::string& problem : peers::answers_problems(*v)) ++answer_problems, std::cerr << "rayproof: " << problem << "\n";
   if (run.unopened > 0) return 2;
-  return (run.unreadable > 0 || run.contradicted > 0) ? 1 : 0;
+  return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0) ? 1 : 0;
 }
 
 }  // namespace
@@ -177,6 +231,8 @@ void add_check_command(CLI::App& app, int& exit_code) {
   add_variants_flag(cmd, opts->variants);
   add_shapes_flag(cmd, opts->shapes);
   add_rule_flag(cmd, opts->rule);
+  add_external_flags(cmd, opts->ext);
+  cmd->add_option("--answers", opts->answers, "NAME=FILE: answers your own program wrote for the cases (plugin.md); repeatable");
   cmd->add_option("--summary", opts->summary, "also write the summary as JSON to this file");
   cmd->add_option("-o,--output", opts->output, "write the per-case lines here (atomically) instead of stdout");
   add_format_flag(cmd, opts->format);

@@ -49,6 +49,7 @@ std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
 }
 
 struct FuzzOptions {
+  ExternalFlags ext;
   std::vector<std::string> families{"all"}, shapes{"all"}, variants;
   std::string shard = "0/1", output, rule = "nearest", summary, format = "table", spawn_csv;
   std::uint64_t count = 100000, seed = 1, max_findings = 1000, batch = 8192;
@@ -111,6 +112,7 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   add_shapes_flag(cmd, opts->shapes);
   cmd->add_option("--variants,--variant", opts->variants,
                   "variants to judge (default: all but the oracle's own certified-*, which always agree)");
+  add_external_flags(cmd, opts->ext);
   add_count_flag(cmd, opts->count, "cases per family and shape (before sharding)", std::uint64_t(1) << 50);
   add_seed_flag(cmd, opts->seed);
   cmd->add_option("--shard", opts->shard,
@@ -130,6 +132,7 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--crash-after-batches", opts->crash_after, "testing: exit abruptly after writing that many batches")
       ->group("");
   cmd->callback([opts, &exit_code] {
+    load_externals(opts->ext);
     run_fuzz(*opts);
     exit_code = 0;
   });

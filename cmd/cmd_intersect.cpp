@@ -10,14 +10,17 @@ void add_intersect_command(CLI::App& app, int& exit_code) {
   struct Options {
     std::vector<std::string> files, variants, shapes;
     std::string rule = "nearest";
+    ExternalFlags ext;
   };
   auto opts = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("intersect", "Run double-precision variants on case files (JSON lines on stdout)");
   cmd->add_option("files", opts->files, "case files (JSON Lines, docs/spec/cases.md)")->required();
   add_variants_flag(cmd, opts->variants);
+  add_external_flags(cmd, opts->ext);
   add_shapes_flag(cmd, opts->shapes);
   add_rule_flag(cmd, opts->rule);
   cmd->callback([opts, &exit_code] {
+    load_externals(opts->ext);
     const auto variants = parse_variants(opts->variants, parse_shapes(opts->shapes));
     const HitRule rule = parse_rule(opts->rule);
     long errors = 0, cases = 0, unopened = 0;
@@ -29,7 +32,7 @@ void add_intersect_command(CLI::App& app, int& exit_code) {
             ++cases, ++in_file;
             json out = {{"id", c.id}, {"variants", json::object()}};
             for (const Variant* v : variants) {
-              if (v->shape != kind_of(c.shape)) continue;
+              if (!v->handles(kind_of(c.shape))) continue;
               const Hit h = v->intersect(c.ray, c.shape, rule);
               out["variants"][std::string(v->name)] = {
                   {"class", std::string(to_string(h.cls))},

@@ -13,6 +13,7 @@ void add_render_command(CLI::App& app, int& exit_code) {
     std::string scene, output, rule = "nearest";
     std::vector<std::string> variants;
     int threads = 0;
+    ExternalFlags ext;
   };
   auto opts = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("render", "Render a scene file to PNG or PPM");
@@ -21,8 +22,10 @@ void add_render_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--variants,--variant", opts->variants,
                   "one variant per shape, comma separated or repeated (default: stable, direct, watertight, robust-slab)");
   add_rule_flag(cmd, opts->rule);
+  add_external_flags(cmd, opts->ext);
   add_threads_flag(cmd, opts->threads);
   cmd->callback([opts, &exit_code] {
+    load_externals(opts->ext);
     if (!is_image_path(opts->output))
       throw CLI::ValidationError("--output", "'" + opts->output + "': the image type comes from the extension, .png or .ppm");
     RenderOptions ro;

@@ -50,10 +50,12 @@ void add_spawn_command(CLI::App& app, int& exit_code) {
     std::string scales = "-40:40:10", output;
     std::uint64_t count = 2000, seed = 1;
     int threads = 0;
+    ExternalFlags ext;
   };
   auto opts = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("spawn", "Shadow-acne study: self-intersection rate per variant, spawn strategy and scale");
   add_variants_flag(cmd, opts->variants);
+  add_external_flags(cmd, opts->ext);
   add_shapes_flag(cmd, opts->shapes);
   cmd->add_option("--scales", opts->scales, "log2 scales, lo:hi:step or a comma list");
   add_count_flag(cmd, opts->count, "primary rays per variant and scale", std::uint64_t(1) << 40);
@@ -61,6 +63,7 @@ void add_spawn_command(CLI::App& app, int& exit_code) {
   add_threads_flag(cmd, opts->threads);
   cmd->add_option("-o,--output", opts->output, "CSV: variant,shape,strategy,log2_scale,rays,self_intersections,rate")->required();
   cmd->callback([opts, &exit_code] {
+    load_externals(opts->ext);
     run_spawn_report(parse_variants(opts->variants, parse_shapes(opts->shapes)), parse_scales(opts->scales), opts->count,
                      opts->seed, thread_count(opts->threads), opts->output);
     exit_code = 0;

@@ -46,10 +46,12 @@ void add_stability_command(CLI::App& app, int& exit_code) {
     std::uint64_t cases = 200, seed = 1;
   };
   auto opts = std::make_shared<Options>();
+  auto ext = std::make_shared<ExternalFlags>();
   auto* cmd = app.add_subcommand("stability", "Stability maps: disagreement rate over position scale x size scale");
   cmd->add_option("--shapes,--shape", opts->shapes,
                   "shapes, comma separated, or all (default: sphere); several go to OUTPUT/SHAPE/");
   add_variants_flag(cmd, opts->variants);
+  add_external_flags(cmd, *ext);
   add_rule_flag(cmd, opts->rule);
   cmd->add_option("--from", opts->lo, "smallest log2 scale")->check(CLI::Range(-1000, 1000));
   cmd->add_option("--to", opts->hi, "largest log2 scale")->check(CLI::Range(-1000, 1000));
@@ -58,12 +60,13 @@ void add_stability_command(CLI::App& app, int& exit_code) {
   add_seed_flag(cmd, opts->seed);
   add_threads_flag(cmd, opts->threads);
   cmd->add_option("-o,--output", opts->output, "directory for stability.csv and one SVG heatmap per variant")->required();
-  cmd->callback([opts, &exit_code] {
+  cmd->callback([opts, ext, &exit_code] {
+    load_externals(*ext);
     if (opts->lo > opts->hi) throw CLI::ValidationError("--from", "must not exceed --to");
     const std::vector<ShapeKind> shapes = parse_shapes(opts->shapes);
     const std::vector<const Variant*> named = parse_variants(opts->variants);
     for (const Variant* v : opts->variants.empty() ? std::vector<const Variant*>{} : named)
-      if (std::find(shapes.begin(), shapes.end(), v->shape) == shapes.end())
+      if (std::none_of(shapes.begin(), shapes.end(), [v](ShapeKind k) { return v->handles(k); }))
         throw CLI::ValidationError("--variants", std::string(v->name) + " is a " + std::string(to_string(v->shape)) +
                                                      " variant; add --shapes " + std::string(to_string(v->shape)));
     const studies::StabilityGrid grid{opts->lo, opts->hi, opts->step, opts->cases, opts->seed};

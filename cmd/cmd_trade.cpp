@@ -19,6 +19,7 @@ void add_trade_command(CLI::App& app, int& exit_code) {
     std::uint64_t count = 100000, seed = 1;
     int threads = 0;
     std::string output, plot, format = "markdown";
+    ExternalFlags ext;
   };
   auto opts = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("trade", "Speed against accuracy: every variant timed and judged on the same cases");
@@ -26,6 +27,7 @@ void add_trade_command(CLI::App& app, int& exit_code) {
   add_families_flag(cmd, opts->families);
   cmd->add_option("--variants,--variant", opts->variants,
                   "contenders by name: variants, batched variants, peers (default: all)");
+  add_external_flags(cmd, opts->ext);
   add_count_flag(cmd, opts->count, "cases per shape and family", std::uint64_t(1) << 30);
   add_seed_flag(cmd, opts->seed);
   cmd->add_option("--threads", opts->threads, "threads for the oracle (timing is single-threaded)")->check(CLI::Range(0, 256));
@@ -34,6 +36,7 @@ void add_trade_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--format", opts->format, "stdout table: markdown (default, paste-ready), table or json")
       ->check(CLI::IsMember({"table", "markdown", "json"}));
   cmd->callback([opts, &exit_code] {
+    load_externals(opts->ext);
     const std::vector<ShapeKind> shapes = parse_shapes(opts->shapes);
     const std::vector<fuzz::Family> families = parse_families(opts->families);
     std::vector<studies::Contender> contenders = trade_contenders();

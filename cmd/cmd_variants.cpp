@@ -8,13 +8,21 @@ namespace rayproof::cli {
 
 void add_variants_command(CLI::App& app, int& exit_code) {
   auto shapes = std::make_shared<std::vector<std::string>>();
+  auto ext = std::make_shared<ExternalFlags>();
   auto* cmd = app.add_subcommand("variants", "List every intersection variant, its shape and its source");
   add_shapes_flag(cmd, *shapes);
-  cmd->callback([shapes, &exit_code] {
+  add_external_flags(cmd, *ext);
+  cmd->callback([shapes, ext, &exit_code] {
+    load_externals(*ext);
     const std::vector<ShapeKind> chosen = parse_shapes(*shapes);
     auto listed = [&](ShapeKind k) { return std::find(chosen.begin(), chosen.end(), k) != chosen.end(); };
-    for (const Variant& v : all_variants())
-      if (listed(v.shape)) std::cout << v.name << "\t" << to_string(v.shape) << "\t" << v.source << "\n";
+    for (const Variant& v : all_variants()) {
+      if (!std::any_of(chosen.begin(), chosen.end(), [&](ShapeKind k) { return v.handles(k); })) continue;
+      std::cout << v.name << "\t" << (v.all_shapes ? "any" : to_string(v.shape)) << "\t" << v.source;
+      if (v.origin != "built-in") std::cout << " [" << v.origin << ", " << to_string(v.precision)
+                                            << (v.fixed_rule ? ", " + std::string(to_string(*v.fixed_rule)) : std::string()) << "]";
+      std::cout << "\n";
+    }
     for (const BatchedVariant& b : batched_variants())
       if (listed(b.shape))
         std::cout << b.name << "\t" << to_string(b.shape) << "\tstructure-of-arrays form of " << b.scalar

@@ -40,13 +40,26 @@ void add_seed_flag(CLI::App* cmd, std::uint64_t& seed);
 void add_format_flag(CLI::App* cmd, std::string& format);
 void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what, std::uint64_t most);
 
+// --plugin PATH (repeatable), --exec NAME=COMMAND (repeatable), --case-timeout SECONDS,
+// --exec-precision double|float (docs/spec/plugin.md): the user's own code as variants.
+struct ExternalFlags {
+  std::vector<std::string> plugins, execs;
+  double case_timeout = 10;
+  std::string exec_precision = "double";
+};
+void add_external_flags(CLI::App* cmd, ExternalFlags& flags);
+// Loads the plugins and starts nothing yet (exec commands start on first use); call first in a
+// command's callback, before parse_variants. Loading errors are std::runtime_error (exit code 2).
+void load_externals(const ExternalFlags& flags);
+
 // Comma-separated option values, flattened ("a,b" "c" → a, b, c); empty items dropped.
 std::vector<std::string> split_list(const std::vector<std::string>& lists);
 // The chosen shapes (every shape for `all` or nothing given), or CLI::ValidationError.
 std::vector<ShapeKind> parse_shapes(const std::vector<std::string>& names);
 std::vector<fuzz::Family> parse_families(const std::vector<std::string>& names);
 // The chosen variants of the chosen shapes: named ones (every one for `all` or nothing given),
-// kept only where their shape is among `shapes`. Throws CLI::ValidationError for an unknown name.
+// kept only where their shape is among `shapes`, and every --exec variant (always judged).
+// Throws CLI::ValidationError for an unknown name.
 std::vector<const Variant*> parse_variants(const std::vector<std::string>& names,
                                            const std::vector<ShapeKind>& shapes = {kAllShapeKinds.begin(),
                                                                                    kAllShapeKinds.end()});

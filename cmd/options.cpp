@@ -9,6 +9,7 @@
 
 #include "commands.h"
 #include "rayproof/core/parallel.h"
+#include "rayproof/peers/external.h"
 #ifdef RAYPROOF_HAVE_EMBREE
 #include "rayproof/peers/embree.h"
 #endif
@@ -67,6 +68,26 @@ void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what
   cmd->add_option("--count", count, what)->transform(whole_number(most));
 }
 
+void add_external_flags(CLI::App* cmd, ExternalFlags& flags) {
+  cmd->add_option("--plugin", flags.plugins, "a shared library exporting rayproof_plugin (rayproof/plugin.h); repeatable");
+  cmd->add_option("--exec", flags.execs, "NAME=COMMAND: a command that answers cases over pipes (docs/spec/plugin.md); repeatable");
+  cmd->add_option("--case-timeout", flags.case_timeout, "seconds a plugin or exec command may take on one case (default 10)")
+      ->check(CLI::Range(0.001, 86400.0));
+  cmd->add_option("--exec-precision", flags.exec_precision, "double, or float: exec commands get float-rounded cases")
+      ->check(CLI::IsMember({"double", "float"}));
+}
+
+void load_externals(const ExternalFlags& flags) {
+  peers::ExternalOptions options;
+  options.case_timeout_seconds = flags.case_timeout;
+  options.exec_precision = flags.exec_precision == "float" ? Precision::f32 : Precision::f64;
+  for (const std::string& path : flags.plugins) peers::load_plugin(path, options);
+  for (const std::string& text : flags.execs) {
+    const auto [name, command] = peers::split_assignment("--exec", text);
+    peers::add_exec_variant(name, command, options);
+  }
+}
+
 std::vector<std::string> split_list(const std::vector<std::string>& lists) {
   std::vector<std::string> out;
   for (const std::string& l : lists) {
@@ -121,7 +142,11 @@ std::vector<const Variant*> parse_variants(const std::vector<std::string>& names
   std::string known;
   for (const Variant* v : every) known += (known.empty() ? "" : ", ") + std::string(v->name);
   std::vector<const Variant*> chosen = parse_named<const Variant*>(names, every, "--variants", "variant", lookup, known);
-  std::erase_if(chosen, [&](const Variant* v) { return std::find(shapes.begin(), shapes.end(), v->shape) == shapes.end(); });
+  for (const Variant* v : every)  // --exec variants are always judged (plugin.md, Selection)
+    if (v->all_shapes && std::find(chosen.begin(), chosen.end(), v) == chosen.end()) chosen.push_back(v);
+  std::erase_if(chosen, [&](const Variant* v) {
+    return std::none_of(shapes.begin(), shapes.end(), [&](ShapeKind k) { return v->handles(k); });
+  });
   return chosen;
 }
 

@@ -213,7 +213,8 @@ struct Batch {
 struct Finding {
   std::uint64_t index;
   GeneratedCase generated;
-  const Variant* first_disagreeing;
+  const Variant* first_disagreeing;  // or the first that failed on it (plugin.md: crash, timeout, ...)
+  HitFailure failure = HitFailure::none;
 };
 
 // What hole counting needs of one case of a grazing-triangle batch.
@@ -234,7 +235,10 @@ struct Judged {
   std::vector<EdgeEvidence> edges;  // by case, for grazing triangles only
 };
 
-// Step 1: generate and judge every case; tally per variant; keep the disagreeing cases.
+// Step 1: generate and judge every case; tally per variant; keep the disagreeing cases and the
+// cases external code failed on. Each thread asks each variant for a chunk of cases at once, so
+// code behind a process boundary (plugins, --exec) answers in round trips of a chunk.
+constexpr size_t kChunk = 512;
 Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, const CampaignOptions& o,
                    std::vector<Worker>& workers, CampaignReport& report) {
   const bool pairs_of_triangles = b.family == Family::grazing && b.shape == ShapeKind::triangle;
@@ -245,19 +249,38 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
     Worker& me = workers[w];
     me.tallies.assign(variants.size(), Tally{});
     me.findings.clear();
-    for (std::uint64_t i = b.start + b.size() * w / threads; i < b.start + b.size() * (w + 1) / threads; ++i) {
-      GeneratedCase g = generate(b.family, b.shape, o.seed, i);
-      const Verdict exact = me.oracle.judge(g.ray, g.shape, o.rule);
-      const Variant* first = nullptr;
-      EdgeEvidence* edge = pairs_of_triangles ? &judged.edges[i - b.start] : nullptr;
-      if (edge) edge->shared_edge = is_shared_edge_pair(g), edge->exact = exact, edge->variant_hit.resize(variants.size());
-      for (size_t vi = 0; vi < variants.size(); ++vi) {
-        const VariantOutcome r = compare_variant(*variants[vi], exact, g.ray, g.shape, o.rule);
-        me.tallies[vi].add(exact.cls, r);
-        if (r.agreement != Agreement::agrees && !first) first = variants[vi];
-        if (edge) edge->variant_hit[vi] = r.hit.cls != HitClass::miss;
+    const std::uint64_t lo = b.start + b.size() * w / threads, hi = b.start + b.size() * (w + 1) / threads;
+    std::vector<GeneratedCase> cases;
+    std::vector<Query> queries;
+    std::vector<Verdict> exact;
+    std::vector<const Variant*> first;  // by case in the chunk: the first variant that disagreed or failed
+    std::vector<HitFailure> failure;
+    for (std::uint64_t chunk = lo; chunk < hi; chunk += kChunk) {
+      const size_t n = static_cast<size_t>(std::min<std::uint64_t>(kChunk, hi - chunk));
+      cases.clear(), queries.clear(), exact.clear();
+      for (size_t k = 0; k < n; ++k) {
+        cases.push_back(generate(b.family, b.shape, o.seed, chunk + k));
+        queries.push_back(cases.back());
+        exact.push_back(me.oracle.judge(cases.back().ray, cases.back().shape, o.rule));
       }
-      if (first) me.findings.push_back({i, std::move(g), first});
+      first.assign(n, nullptr), failure.assign(n, HitFailure::none);
+      for (size_t k = 0; k < n && pairs_of_triangles; ++k) {
+        EdgeEvidence& edge = judged.edges[chunk + k - b.start];
+        edge.shared_edge = is_shared_edge_pair(cases[k]), edge.exact = exact[k], edge.variant_hit.resize(variants.size());
+      }
+      for (size_t vi = 0; vi < variants.size(); ++vi) {
+        const std::vector<VariantOutcome> outcomes = judge_variant_all(me.oracle, *variants[vi], queries, exact, o.rule);
+        for (size_t k = 0; k < n; ++k) {
+          const VariantOutcome& r = outcomes[k];
+          me.tallies[vi].add(exact[k].cls, r);
+          const bool finding = r.hit.failed() ? stops_variant(r.hit.failure) || is_plugin_error(r.hit.failure)
+                                              : r.agreement != Agreement::agrees;
+          if (finding && !first[k]) first[k] = variants[vi], failure[k] = r.hit.failure;
+          if (pairs_of_triangles) judged.edges[chunk + k - b.start].variant_hit[vi] = !r.hit.failed() && r.hit.cls != HitClass::miss;
+        }
+      }
+      for (size_t k = 0; k < n; ++k)
+        if (first[k]) me.findings.push_back({chunk + k, std::move(cases[k]), first[k], failure[k]});
     }
   });
   for (Worker& w : workers) {
@@ -287,7 +310,13 @@ json disagreeing_answers(const std::vector<const Variant*>& variants, Oracle& or
   const Verdict exact = oracle.judge(c.ray, c.shape, rule);
   json out = json::object();
   for (const Variant* v : variants) {
-    const VariantOutcome o = compare_variant(*v, exact, c.ray, c.shape, rule);
+    if (!v->handles(kind_of(c.shape))) continue;
+    const VariantOutcome o = compare_variant(oracle, *v, exact, c, rule);
+    if (o.hit.failed()) {
+      if (o.hit.failure != HitFailure::not_representable && o.hit.failure != HitFailure::stopped)
+        out[std::string(v->name)] = {{"error", std::string(to_string(o.hit.failure))}};
+      continue;
+    }
     if (o.agreement == Agreement::agrees) continue;
     out[std::string(v->name)] = {{"class", std::string(to_string(o.hit.cls))},
                                  {"t", o.hit.has_t() ? json(hex_double(o.hit.t)) : json(nullptr)},
@@ -306,7 +335,9 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
   c.ray = f.generated.ray;
   c.shape = f.generated.shape;
   const Case original = c;
-  if (o.shrink) c = shrink(c, *f.first_disagreeing, oracle, o.rule);
+  // A variant that stopped (crash, timeout, protocol) cannot be asked again: its case stays as found.
+  const bool shrinkable = o.shrink && !stops_variant(f.failure);
+  if (shrinkable) c = shrink(c, *f.first_disagreeing, oracle, o.rule);
   // `expect` keeps the case format's meaning, the nearest contact, whatever rule found the case
   // (found.rule says which): the finding replays green under `check`.
   const Verdict exact = oracle.judge(c.ray, c.shape, HitRule::nearest_contact);
@@ -317,7 +348,14 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
              {"detail", f.generated.detail},
              {"rule", std::string(to_string(o.rule))},
              {"disagreeing", disagreeing_answers(variants, oracle, c, o.rule)}};
-  if (o.shrink) {
+  if (f.failure != HitFailure::none) {
+    c.found["kind"] = is_plugin_error(f.failure) ? "plugin_error" : std::string(to_string(f.failure));
+    c.found["variant"] = std::string(f.first_disagreeing->name);
+    if (f.first_disagreeing->external) c.found["reason"] = f.first_disagreeing->external->stop_reason();
+    if (is_plugin_error(f.failure)) c.found["reason"] = std::string(to_string(f.failure));
+    if (stops_variant(f.failure)) c.found["disagreeing"][std::string(f.first_disagreeing->name)] = {{"error", c.found["kind"]}};
+  }
+  if (shrinkable) {
     c.found["shrunk_for"] = std::string(f.first_disagreeing->name);
     const json now = case_to_json(c), before = case_to_json(original);
     if (now["ray"] != before["ray"]) c.found["shrunk_from"] = before["ray"];

@@ -1,5 +1,7 @@
 #include "rayproof/fuzz/shrink.h"
 
+#include "rayproof/verify/compare.h"
+
 #include <cmath>
 #include <cstring>
 #include <vector>
@@ -7,7 +9,9 @@
 namespace rayproof::fuzz {
 
 bool disagrees(const Variant& v, Oracle& oracle, const Ray& ray, const Shape& shape, HitRule rule) {
-  return v.intersect(ray, shape, rule).cls != oracle.judge(ray, shape, rule).cls;
+  const Query q{ray, shape, {}};
+  const VariantOutcome o = compare_variant(oracle, v, oracle.judge(ray, shape, rule), q, rule);
+  return o.hit.failed() ? is_plugin_error(o.hit.failure) : o.agreement != Agreement::agrees;
 }
 
 int number_cost(double x) {

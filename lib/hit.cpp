@@ -9,6 +9,27 @@ std::string_view to_string(HitClass c) {
     case HitClass::exit: return "exit";
     case HitClass::tangent: return "tangent";
     case HitClass::boundary: return "boundary";
+    case HitClass::hit: return "hit";
+  }
+  return "?";
+}
+
+std::optional<HitClass> answer_class_from_string(std::string_view s) {
+  if (s == "hit") return HitClass::hit;
+  return hit_class_from_string(s);
+}
+
+std::string_view to_string(HitFailure f) {
+  switch (f) {
+    case HitFailure::none: return "none";
+    case HitFailure::bad_answer: return "answer outside 0..5";
+    case HitFailure::nan_t: return "contact with a NaN t";
+    case HitFailure::t_unwritten: return "contact with t left unwritten";
+    case HitFailure::crash: return "crash";
+    case HitFailure::timeout: return "timeout";
+    case HitFailure::protocol: return "protocol error";
+    case HitFailure::not_representable: return "not_representable";
+    case HitFailure::stopped: return "stopped";
   }
   return "?";
 }

@@ -25,7 +25,8 @@ Intersectors Intersectors::defaults() {
 bool Intersectors::use(std::string_view name) {
   const Variant* v = find_variant(name);
   if (!v) return false;
-  by_shape[static_cast<int>(v->shape)] = v;
+  for (ShapeKind k : kAllShapeKinds)  // an --exec command answers every shape
+    if (v->handles(k)) by_shape[static_cast<int>(k)] = v;
   return true;
 }
 

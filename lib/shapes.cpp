@@ -124,4 +124,34 @@ Vec3 outward_normal(const Shape& shape, const Vec3& p) {
   return std::visit(Normal{p}, shape);
 }
 
+int shape_number_count(ShapeKind k) {
+  constexpr int counts[] = {4, 4, 9, 6};
+  return counts[static_cast<int>(k)];
+}
+
+int shape_numbers(const Shape& s, double out[kMaxShapeNumbers]) {
+  auto put = [&](int at, const Vec3& v) { out[at] = v.x(), out[at + 1] = v.y(), out[at + 2] = v.z(); };
+  return std::visit(
+      [&](const auto& x) {
+        using T = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<T, Sphere>) put(0, x.center), out[3] = x.radius;
+        else if constexpr (std::is_same_v<T, Plane>) put(0, x.normal), out[3] = x.offset;
+        else if constexpr (std::is_same_v<T, Triangle>) put(0, x.v[0]), put(3, x.v[1]), put(6, x.v[2]);
+        else put(0, x.min), put(3, x.max);
+        return shape_number_count(kind_of(Shape(x)));
+      },
+      s);
+}
+
+Shape shape_from_numbers(ShapeKind k, const double* n) {
+  auto at = [&](int i) { return Vec3(n[i], n[i + 1], n[i + 2]); };
+  switch (k) {
+    case ShapeKind::sphere: return Sphere{at(0), n[3]};
+    case ShapeKind::plane: return Plane{at(0), n[3]};
+    case ShapeKind::triangle: return Triangle{{at(0), at(3), at(6)}};
+    case ShapeKind::box: break;
+  }
+  return Box{at(0), at(3)};
+}
+
 }  // namespace rayproof

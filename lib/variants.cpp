@@ -284,6 +284,21 @@ std::vector<Variant>& registry() {
 
 std::span<const Variant> all_variants() { return registry(); }
 
+std::string_view to_string(Precision p) { return p == Precision::f32 ? "float" : "double"; }
+
+Hit Variant::intersect(const Ray& ray, const Shape& shape, HitRule rule) const {
+  if (kernel) return kernel(ray, shape, rule_for(rule));
+  Hit out;
+  const Query q{ray, shape, {}};
+  external->answer_all(std::span(&q, 1), std::span(&out, 1));
+  return out;
+}
+
+void Variant::intersect_all(std::span<const Query> qs, HitRule rule, std::span<Hit> out) const {
+  if (!kernel) return external->answer_all(qs, out);
+  for (size_t i = 0; i < qs.size(); ++i) out[i] = kernel(qs[i].ray, qs[i].shape, rule_for(rule));
+}
+
 const Variant& register_variant(const Variant& v) {
   if (find_variant(v.name)) throw std::runtime_error("a variant named '" + std::string(v.name) + "' exists already");
   if (registry().size() == kRegistryCapacity) throw std::runtime_error("too many variants");
@@ -300,7 +315,7 @@ const Variant* find_variant(std::string_view name) {
 std::vector<const Variant*> variants_for(ShapeKind shape) {
   std::vector<const Variant*> out;
   for (const Variant& v : registry())
-    if (v.shape == shape) out.push_back(&v);
+    if (v.handles(shape)) out.push_back(&v);
   return out;
 }
 

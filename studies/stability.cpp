@@ -70,13 +70,18 @@ std::map<std::string, std::vector<StabilityCell>> stability_study(ShapeKind shap
     for (size_t c = w; c < coords.size(); c += threads) {
       const auto [a, b] = coords[c];
       std::vector<Tally> tallies(variants.size());
+      std::vector<Query> queries;  // the cell's cases, so each variant answers them in one call
+      std::vector<Verdict> exact;
       for (std::uint64_t i = 0; i < grid.cases_per_cell; ++i) {
         CellRng rng{grid.seed * 0x9E3779B97F4A7C15ull ^ (std::uint64_t(a + 4096) << 40) ^ (std::uint64_t(b + 4096) << 20) ^ i};
-        const Query q = cell_query(shape, a, b, rng);
+        Query q = cell_query(shape, a, b, rng);
         if (!is_valid_query(q.ray, q.shape)) continue;
-        const Verdict exact = oracle.judge(q.ray, q.shape, rule);
-        for (size_t vi = 0; vi < variants.size(); ++vi)
-          tallies[vi].add(exact.cls, compare_variant(*variants[vi], exact, q.ray, q.shape, rule));
+        exact.push_back(oracle.judge(q.ray, q.shape, rule));
+        queries.push_back(std::move(q));
+      }
+      for (size_t vi = 0; vi < variants.size(); ++vi) {
+        const std::vector<VariantOutcome> outcomes = judge_variant_all(oracle, *variants[vi], queries, exact, rule);
+        for (size_t k = 0; k < queries.size(); ++k) tallies[vi].add(exact[k].cls, outcomes[k]);
       }
       for (size_t vi = 0; vi < variants.size(); ++vi)
         out[std::string(variants[vi]->name)][c] = {a, b, std::move(tallies[vi])};

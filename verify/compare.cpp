@@ -1,9 +1,13 @@
 #include "rayproof/verify/compare.h"
 
+#include <cmath>
+#include <cstring>
+
 namespace rayproof {
 
 Agreement agreement_of(HitClass exact, HitClass reported) {
   if (reported == exact) return Agreement::agrees;
+  if (reported == HitClass::hit) return exact == HitClass::miss ? Agreement::wrong : Agreement::agrees;
   const bool exact_is_a_touch = exact == HitClass::tangent || exact == HitClass::boundary;
   const bool reported_is_plain = reported == HitClass::enter || reported == HitClass::exit || reported == HitClass::miss;
   return exact_is_a_touch && reported_is_plain ? Agreement::cannot_tell : Agreement::wrong;
@@ -17,11 +21,62 @@ VariantOutcome judge_answer(const Verdict& exact, const Hit& reported) {
   return out;
 }
 
-VariantOutcome compare_variant(const Variant& v, const Verdict& exact, const Ray& ray, const Shape& shape,
-                               HitRule rule) {
-  VariantOutcome out = judge_answer(exact, v.intersect(ray, shape, rule));
-  out.variant = &v;
+namespace {
+// The exact t rounded to the nearest float (ties to even), from its correctly rounded double d.
+// fl32(d) = fl32(t) unless d is itself a float midpoint: a midpoint m strictly between t and d
+// would be a double nearer t than d. Only then is t's side of m decided exactly, in rationals.
+float exact_t_as_float(const Query& q, HitRule rule, double d) {
+  const float f = static_cast<float>(d);
+  const double below = std::nextafter(f, -INFINITY), above = std::nextafter(f, INFINITY);
+  const double m = d < f ? (f + below) / 2 : (f + above) / 2;  // exact: floats have 24 bits, doubles 53
+  if (d != m) return f;
+  Oracle rational(Oracle::Options{.keep_exact_parameter = true});
+  const Verdict v = rational.judge(q.ray, q.shape, rule);
+  const int side = compare(*v.exact_t, mpq_class(m));
+  const float lower = static_cast<float>(d < f ? below : f), upper = static_cast<float>(d < f ? f : above);
+  if (side != 0) return side < 0 ? lower : upper;
+  std::uint32_t bits;
+  std::memcpy(&bits, &lower, sizeof bits);
+  return bits % 2 == 0 ? lower : upper;  // ties to even
+}
+}  // namespace
+
+std::vector<VariantOutcome> judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs,
+                                              std::span<const Verdict> exact, HitRule rule) {
+  const HitRule own_rule = v.rule_for(rule);
+  const bool f32 = v.precision == Precision::f32;
+  std::vector<VariantOutcome> out(qs.size());
+  std::vector<Query> rounded;  // f32: what the variant is given, and where each came from
+  std::vector<size_t> from;
+  if (f32) {
+    for (size_t i = 0; i < qs.size(); ++i) {
+      out[i].variant = &v;
+      if (auto r = rounded_to_float(qs[i])) rounded.push_back(std::move(*r)), from.push_back(i);
+      else out[i].hit = Hit::failure_of(HitFailure::not_representable);
+    }
+  }
+  const std::span<const Query> given = f32 ? std::span<const Query>(rounded) : qs;
+  std::vector<Hit> hits(given.size());
+  v.intersect_all(given, rule, hits);
+  for (size_t k = 0; k < given.size(); ++k) {
+    const size_t i = f32 ? from[k] : k;
+    if (hits[k].failed()) {
+      out[i].variant = &v, out[i].hit = hits[k];
+      continue;
+    }
+    const bool own = f32 || own_rule != rule;
+    const Verdict truth = own ? oracle.judge(given[k].ray, given[k].shape, own_rule) : exact[i];
+    out[i] = judge_answer(truth, hits[k]);
+    out[i].variant = &v;
+    if (own) out[i].own_exact = truth;
+    if (f32 && truth.t && hits[k].has_t())
+      out[i].ulp_own = ulp_distance_f32(static_cast<float>(hits[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
+  }
   return out;
+}
+
+VariantOutcome compare_variant(Oracle& oracle, const Variant& v, const Verdict& exact, const Query& q, HitRule rule) {
+  return judge_variant_all(oracle, v, std::span(&q, 1), std::span(&exact, 1), rule)[0];
 }
 
 ordered_json check_line(const std::string& id, const Verdict& exact, const std::vector<VariantOutcome>& outcomes) {
@@ -30,12 +85,26 @@ ordered_json check_line(const std::string& id, const Verdict& exact, const std::
   line["exact"] = {{"class", std::string(to_string(exact.cls))},
                    {"t", exact.t ? ordered_json(hex_double(*exact.t)) : ordered_json(nullptr)}};
   ordered_json variants = ordered_json::object();
-  for (const VariantOutcome& o : outcomes)
-    variants[std::string(o.variant->name)] = {
-        {"class", std::string(to_string(o.hit.cls))},
-        {"t", o.hit.has_t() ? ordered_json(hex_double(o.hit.t)) : ordered_json(nullptr)},
-        {"ulp", o.ulp ? ordered_json(*o.ulp) : ordered_json(nullptr)},
-        {"agrees", o.agreement == Agreement::agrees}};
+  for (const VariantOutcome& o : outcomes) {
+    ordered_json& entry = variants[std::string(o.variant->name)];
+    if (o.hit.failure == HitFailure::not_representable) {
+      entry = {{"skipped", "not_representable"}};
+      continue;
+    }
+    if (o.hit.failed()) {
+      entry = {{"error", std::string(to_string(o.hit.failure))}};
+      continue;
+    }
+    entry = {{"class", std::string(to_string(o.hit.cls))},
+             {"t", o.hit.has_t() ? ordered_json(hex_double(o.hit.t)) : ordered_json(nullptr)},
+             {"ulp", o.ulp ? ordered_json(*o.ulp) : ordered_json(nullptr)},
+             {"agrees", o.agreement == Agreement::agrees}};
+    if (o.variant->precision == Precision::f32 && o.own_exact) {
+      entry["exact"] = {{"class", std::string(to_string(o.own_exact->cls))},
+                        {"t", o.own_exact->t ? ordered_json(hex_double(*o.own_exact->t)) : ordered_json(nullptr)}};
+      entry["ulp_own"] = o.ulp_own ? ordered_json(*o.ulp_own) : ordered_json(nullptr);
+    }
+  }
   line["variants"] = std::move(variants);
   return line;
 }

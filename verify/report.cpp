@@ -42,6 +42,25 @@ std::string bits_cell(const Tally& t, double q) {
   return buf;
 }
 
+// What external code failed to answer, and a float variant's error in its own ulps, beside the
+// disagreements (plugin.md): "crashed (stopped); 4657 not representable in float; float ulps p99 3".
+std::string notes_of(const Tally& t) {
+  std::string notes = disagreement_kinds(t);
+  auto add = [&](std::uint64_t n, const std::string& what) {
+    if (n == 0) return;
+    notes = (notes == "-" ? "" : notes + "; ") + std::to_string(n) + " " + what;
+  };
+  add(t.crashes, "crash (variant stopped)");
+  add(t.timeouts, "timeout (variant stopped)");
+  add(t.protocol_errors, "protocol error (variant stopped)");
+  add(t.plugin_errors, "plugin errors");
+  add(t.not_representable, "not representable in float");
+  if (t.ulps_own.count() > 0)
+    notes = (notes == "-" ? "" : notes + "; ") + "float ulps p99 " + std::to_string(t.ulps_own.quantile(0.99)) + ", max " +
+            std::to_string(t.ulps_own.max());
+  return notes;
+}
+
 std::vector<std::string> cells_of(const TallyRow& r) {
   const Tally& t = r.tally;
   std::vector<std::string> c;
@@ -49,7 +68,7 @@ std::vector<std::string> cells_of(const TallyRow& r) {
   for (const std::string& x :
        {r.variant, std::string(to_string(r.shape)), std::to_string(t.cases), std::to_string(t.agree), std::to_string(t.wrong),
         std::to_string(t.cannot_tell), std::to_string(t.shared_edge_holes), bits_cell(t, 0.5), bits_cell(t, 0.99),
-        bits_cell(t, 1.0), disagreement_kinds(t)})
+        bits_cell(t, 1.0), notes_of(t)})
     c.push_back(x);
   return c;
 }

@@ -49,7 +49,19 @@ UlpHistogram UlpHistogram::from_json(const json& j) {
   return h;
 }
 
-void Tally::add(HitClass exact, const VariantOutcome& o) {
+void Tally::add(HitClass case_exact, const VariantOutcome& o) {
+  switch (o.hit.failure) {
+    case HitFailure::none: break;
+    case HitFailure::crash: ++crashes; return;
+    case HitFailure::timeout: ++timeouts; return;
+    case HitFailure::protocol: ++protocol_errors; return;
+    case HitFailure::not_representable: ++not_representable; return;
+    case HitFailure::stopped: return;  // counted once, as what stopped it
+    case HitFailure::bad_answer:
+    case HitFailure::nan_t:
+    case HitFailure::t_unwritten: ++plugin_errors; return;
+  }
+  const HitClass exact = o.own_exact ? o.own_exact->cls : case_exact;
   ++cases;
   switch (o.agreement) {
     case Agreement::agrees: ++agree; break;
@@ -59,19 +71,25 @@ void Tally::add(HitClass exact, const VariantOutcome& o) {
   if (o.agreement != Agreement::agrees)
     ++confusion[std::string(to_string(exact)) + "->" + std::string(to_string(o.hit.cls))];
   if (o.ulp && o.agreement == Agreement::agrees) ulps.add(*o.ulp);  // a wrong class's t says nothing of accuracy
+  if (o.ulp_own && o.agreement == Agreement::agrees) ulps_own.add(*o.ulp_own);
 }
 
 void Tally::merge(const Tally& o) {
   cases += o.cases, agree += o.agree, wrong += o.wrong, cannot_tell += o.cannot_tell;
-  shared_edge_holes += o.shared_edge_holes, crashes += o.crashes;
+  shared_edge_holes += o.shared_edge_holes, crashes += o.crashes, timeouts += o.timeouts;
+  protocol_errors += o.protocol_errors, plugin_errors += o.plugin_errors, not_representable += o.not_representable;
   for (const auto& [k, n] : o.confusion) confusion[k] += n;
   ulps.merge(o.ulps);
+  ulps_own.merge(o.ulps_own);
 }
 
 json Tally::to_json() const {
   json j = {{"cases", cases}, {"agree", agree}, {"wrong", wrong}, {"cannot_tell", cannot_tell},
             {"shared_edge_holes", shared_edge_holes}, {"disagreements", confusion}, {"ulp", ulps.to_json()}};
-  if (crashes > 0) j["crashes"] = crashes;
+  for (const auto& [key, n] : {std::pair{"crashes", crashes}, {"timeouts", timeouts}, {"protocol_errors", protocol_errors},
+                               {"plugin_errors", plugin_errors}, {"not_representable", not_representable}})
+    if (n > 0) j[key] = n;
+  if (ulps_own.count() > 0) j["ulp_own"] = ulps_own.to_json();
   return j;
 }
 
@@ -80,6 +98,11 @@ Tally Tally::from_json(const json& j) {
   t.cases = j.at("cases"), t.agree = j.at("agree"), t.wrong = j.at("wrong"), t.cannot_tell = j.at("cannot_tell");
   t.shared_edge_holes = j.at("shared_edge_holes");
   t.crashes = j.value("crashes", std::uint64_t(0));
+  t.timeouts = j.value("timeouts", std::uint64_t(0));
+  t.protocol_errors = j.value("protocol_errors", std::uint64_t(0));
+  t.plugin_errors = j.value("plugin_errors", std::uint64_t(0));
+  t.not_representable = j.value("not_representable", std::uint64_t(0));
+  if (j.contains("ulp_own")) t.ulps_own = UlpHistogram::from_json(j.at("ulp_own"));
   t.confusion = j.at("disagreements").get<std::map<std::string, std::uint64_t>>();
   t.ulps = UlpHistogram::from_json(j.at("ulp"));
   return t;

@@ -9,7 +9,8 @@
 
 namespace rayproof::fuzz {
 
-// Whether the variant's class differs from the exact class on this query.
+// Whether the variant disagrees with the exact class on this query (as it sees it: f32 code the
+// float-rounded query, under its own rule), or returns garbage (a plugin error).
 bool disagrees(const Variant& v, Oracle& oracle, const Ray& ray, const Shape& shape, HitRule rule);
 
 // A simpler query on which `v` still disagrees (the input itself when nothing simpler does).

@@ -41,6 +41,18 @@ inline std::optional<std::uint64_t> ulp_distance(double a, double b) {
   return ia > ib ? std::uint64_t(ia) - std::uint64_t(ib) : std::uint64_t(ib) - std::uint64_t(ia);
 }
 
+// The number of floats between a and b (ulp_distance on the float grid), nullopt for NaN.
+inline std::optional<std::uint64_t> ulp_distance_f32(float a, float b) {
+  if (std::isnan(a) || std::isnan(b)) return std::nullopt;
+  auto ordered = [](float x) {
+    std::int32_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    return std::int64_t(bits < 0 ? -(bits & INT32_MAX) : bits);
+  };
+  const std::int64_t ia = ordered(a), ib = ordered(b);
+  return std::uint64_t(ia > ib ? ia - ib : ib - ia);
+}
+
 // x moved by `ulps` representable doubles (negative: downwards).
 inline double nudge(double x, int ulps) {
   for (; ulps > 0; --ulps) x = std::nextafter(x, INFINITY);

@@ -43,6 +43,13 @@ inline ShapeKind kind_of(const Shape& s) { return static_cast<ShapeKind>(s.index
 std::string_view to_string(ShapeKind k);
 std::optional<ShapeKind> shape_kind_from_string(std::string_view s);
 
+// A shape's numbers in the case format's order (cases.md): sphere center[3], radius; plane
+// normal[3], offset; triangle v0[3], v1[3], v2[3]; box min[3], max[3]. Returns how many.
+inline constexpr int kMaxShapeNumbers = 9;
+int shape_numbers(const Shape& s, double out[kMaxShapeNumbers]);
+int shape_number_count(ShapeKind k);
+Shape shape_from_numbers(ShapeKind k, const double* numbers);
+
 // Why a shape is degenerate in the sense of the case format, or nullopt when it is valid.
 // Checks are exact: a triangle is collinear only when its cross product is exactly zero
 // in exact arithmetic (decided by an exact orientation test on the doubles).

@@ -3,12 +3,14 @@
 // benchmarks enumerate. Adding a variant = one function + one registry row.
 #pragma once
 
+#include <optional>
 #include <span>
 #include <string_view>
 #include <vector>
 
 #include "rayproof/core/geometry.h"
 #include "rayproof/core/hit.h"
+#include "rayproof/core/query.h"
 #include "rayproof/core/shapes.h"
 
 namespace rayproof {
@@ -24,12 +26,46 @@ Hit triangle_watertight(const Ray& ray, const Triangle& tri, HitRule rule);
 Hit box_slab(const Ray& ray, const Box& b, HitRule rule);
 Hit box_robust_slab(const Ray& ray, const Box& b, HitRule rule);
 
+// The numbers an intersector computes in. An f32 variant sees each number of a query rounded
+// to the nearest float (docs/spec/plugin.md); verify/ judges exactly those numbers.
+enum class Precision { f64, f32 };
+std::string_view to_string(Precision p);
+
+// Code rayproof did not write (a plugin in a worker process, an --exec command): it answers
+// queries in batches, because each call crosses a process boundary, and it may fail (a Hit's
+// `failure`). After a failure that stops it, it answers every later query with `stopped`.
+class ExternalIntersector {
+ public:
+  virtual ~ExternalIntersector() = default;
+  // out[i] = the answer to qs[i], in the variant's own rule. Thread-safe.
+  virtual void answer_all(std::span<const Query> qs, std::span<Hit> out) = 0;
+  // Seconds the code itself spent on the last answer_all on this thread, measured where it
+  // ran (no transport), or a negative number when only the round trip can be timed.
+  virtual double inner_seconds() const { return -1; }
+  // One line: why it stopped (signal, exit status, the unreadable line), empty while it runs.
+  virtual std::string stop_reason() const { return {}; }
+};
+
 struct Variant {
   std::string_view name;    // unique over all shapes, e.g. "stable"
   ShapeKind shape;
   std::string_view source;  // paper or formula it follows
-  Hit (*intersect)(const Ray&, const Shape&, HitRule);  // type-erased entry point
+  Hit (*kernel)(const Ray&, const Shape&, HitRule) = nullptr;  // built-in code: the type-erased entry point
   bool is_oracle = false;  // the exact oracle's own answer (certified-*): campaigns skip it unless named
+  Precision precision = Precision::f64;
+  std::optional<HitRule> fixed_rule;      // external code reports one rule, whatever --rule asks
+  ExternalIntersector* external = nullptr;  // set instead of kernel for plugins and --exec
+  std::string_view origin = "built-in";     // where the code comes from: "built-in", a plugin path, "exec: CMD"
+  bool all_shapes = false;                  // an --exec command answers every shape (`shape` is then nominal)
+
+  bool handles(ShapeKind k) const { return all_shapes || shape == k; }
+
+  // The rule this variant's answers follow when `asked` is requested.
+  HitRule rule_for(HitRule asked) const { return fixed_rule.value_or(asked); }
+  // One query (external code: a batch of one, so prefer intersect_all in loops).
+  Hit intersect(const Ray& ray, const Shape& shape, HitRule rule) const;
+  // Every query, in order; external code answers in one round trip.
+  void intersect_all(std::span<const Query> qs, HitRule rule, std::span<Hit> out) const;
 };
 
 // Every variant: the built-ins above, then those registered at run time.

@@ -24,6 +24,9 @@ using fuzz::Family;
 struct Prepared {
   std::function<void()> run;
   std::function<Hit(size_t)> answer;
+  // Code behind a process boundary times itself where it runs: seconds of the last run, so the
+  // transport is not charged to the formula. Empty: run is timed from outside.
+  std::function<double()> inner_seconds;
 };
 
 // Something to measure: readies a whole batch of queries of one shape in its own layout (so
@@ -36,6 +39,8 @@ struct Contender {
   // these, and a query the contender cannot take (nullopt) is left out of its row. Empty: the
   // queries as generated.
   std::function<std::optional<Query>(const Query&)> effective_input;
+  HitRule rule = HitRule::nearest_contact;  // the contact it reports (a plugin's fixed rule)
+  bool users_code = false;                  // a plugin's or --exec command's: marked in the plot
 };
 
 std::vector<Contender> variant_contenders();  // every registered variant, called per query
@@ -47,7 +52,8 @@ struct TradeRow {
   Family family;
   double ns_per_test = 0;
   Tally tally;          // against the oracle on the contender's effective inputs
-  bool pareto = false;  // no other contender on this shape and family is both as fast and as accurate
+  bool pareto = false;
+  bool users_code = false;  // no other contender on this shape and family is both as fast and as accurate
 };
 
 // Marks every row that no other row of its shape and family beats on both speed and accuracy

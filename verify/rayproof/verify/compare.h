@@ -7,6 +7,7 @@
 #include <map>
 #include <optional>
 #include <ostream>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -23,22 +24,37 @@ enum class Agreement {
   cannot_tell,  // exact is tangent or boundary; the intersector said enter, exit or miss
   wrong,        // any other difference
 };
+// A reported `hit` (code that does not say the contact's kind) agrees with every exact contact.
 Agreement agreement_of(HitClass exact, HitClass reported);
 
 struct VariantOutcome {
   const Variant* variant = nullptr;  // null for answers that come from elsewhere (batched, peers)
-  Hit hit;
+  Hit hit;                           // hit.failed(): no answer to judge; agreement and ulp mean nothing
   Agreement agreement = Agreement::agrees;
   std::optional<std::uint64_t> ulp;  // null where either t is absent
+  // Where the variant saw other numbers than the case (f32 code: the float-rounded query) or
+  // follows another rule than asked (a plugin's fixed rule): the oracle's verdict on what it
+  // saw, which the answer was judged against.
+  std::optional<Verdict> own_exact;
+  std::optional<std::uint64_t> ulp_own;  // f32 code: t's error in floats (fp.h, ulp_distance_f32)
+  // The truth this outcome was judged against.
+  const Verdict& truth(const Verdict& case_exact) const { return own_exact ? *own_exact : case_exact; }
 };
 
 // An answer judged against the exact verdict.
 VariantOutcome judge_answer(const Verdict& exact, const Hit& reported);
-// A registered variant run on the query and judged.
-VariantOutcome compare_variant(const Variant& v, const Verdict& exact, const Ray& ray, const Shape& shape,
-                               HitRule rule);
+// A variant asked once for a batch (Variant::intersect_all, so external code answers in one
+// round trip) and each answer judged: on the queries as it sees them (f32: rounded to floats,
+// or a `not_representable` failure) and under its own rule. `exact[i]` is the verdict on qs[i]
+// under `rule`, reused where the variant sees the same numbers and rule; the oracle judges the rest.
+std::vector<VariantOutcome> judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs,
+                                              std::span<const Verdict> exact, HitRule rule);
+// The same for one query.
+VariantOutcome compare_variant(Oracle& oracle, const Variant& v, const Verdict& exact, const Query& q, HitRule rule);
 
 // One result line: {"id", "exact": {"class", "t"}, "variants": {name: {"class", "t", "ulp", "agrees"}}}.
+// An f32 variant's entry adds its own "exact" and "ulp_own"; a case it could not be given is
+// {"skipped": "not_representable"}; an answer it failed to give is {"error": why} (plugin.md).
 using nlohmann::ordered_json;
 ordered_json check_line(const std::string& id, const Verdict& exact, const std::vector<VariantOutcome>& outcomes);
 

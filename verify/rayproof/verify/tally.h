@@ -36,11 +36,17 @@ class UlpHistogram {
 struct Tally {
   std::uint64_t cases = 0, agree = 0, wrong = 0, cannot_tell = 0;
   std::uint64_t shared_edge_holes = 0;  // see crosses_shared_edge (verify/compare.h)
-  std::uint64_t crashes = 0;            // answers the intersector failed to give (serialised when > 0)
+  // Answers external code failed to give (plugin.md), not among `cases`; serialised when > 0.
+  std::uint64_t crashes = 0, timeouts = 0, protocol_errors = 0;  // each stops the variant
+  std::uint64_t plugin_errors = 0;      // a return outside 0..5, a NaN t, a contact without t
+  std::uint64_t not_representable = 0;  // f32 code: cases that overflow float or degenerate when rounded
   std::map<std::string, std::uint64_t> confusion;  // "exact->reported", disagreements only
   UlpHistogram ulps;  // t error, where the class agrees and both t exist (a wrong class's t is no error of t)
+  UlpHistogram ulps_own;  // the same in the variant's own precision (f32 code only)
 
+  // `exact`: the case's verdict class (the outcome's own_exact, where it has one, wins).
   void add(HitClass exact, const VariantOutcome& outcome);
+  std::uint64_t failures() const { return crashes + timeouts + protocol_errors + plugin_errors; }
   std::uint64_t disagreements() const { return wrong + cannot_tell; }
   double disagreement_rate() const { return cases ? static_cast<double>(disagreements()) / cases : 0; }
   void merge(const Tally& o);

@@ -1,0 +1,129 @@
+// Answers files (docs/spec/plugin.md, `--answers NAME=FILE`): what the user's own program wrote
+// for a case file, looked up by case id. Every problem is kept with FILE:LINE (or the case id)
+// for `check` to print after the run; every other case is still judged.
+#include <algorithm>
+#include <deque>
+#include <memory>
+#include <fstream>
+#include <mutex>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "rayproof/core/json_fields.h"
+#include "rayproof/peers/external.h"
+
+namespace rayproof::peers {
+
+namespace {
+
+class AnswersFile final : public ExternalIntersector {
+ public:
+  explicit AnswersFile(const std::string& path) : path_(path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error("--answers " + path + ": cannot open");
+    std::string text;
+    for (long line = 1; std::getline(in, text); ++line) {
+      if (text.find_first_not_of(" \t\r") == std::string::npos) continue;
+      if (line == 1 && text.find("\"precision\"") != std::string::npos) {
+        read_precision(text);
+        continue;
+      }
+      try {
+        Answer a = parse_answer_line(text);
+        auto [it, fresh] = by_id_.try_emplace(a.id, Entry{a.hit, line, false});
+        if (!fresh)
+          problems_.push_back(where(line) + ": id '" + printable(a.id) + "' repeats line " + std::to_string(it->second.line));
+      } catch (const FieldError& e) {
+        problems_.push_back(where(line) + ": " + (e.field.empty() ? "" : e.field + ": ") + e.what());
+      } catch (const std::exception& e) {
+        problems_.push_back(where(line) + ": " + e.what());
+      }
+    }
+  }
+
+  Precision precision() const { return precision_; }
+
+  void answer_all(std::span<const Query> qs, std::span<Hit> out) override {
+    std::lock_guard lock(mutex_);
+    for (size_t i = 0; i < qs.size(); ++i) {
+      auto it = by_id_.find(qs[i].id);
+      if (it == by_id_.end()) {
+        problems_.push_back(path_ + ": no answer for case '" + printable(qs[i].id) + "'");
+        out[i] = Hit::failure_of(HitFailure::stopped);  // not judged, not counted: reported above
+        continue;
+      }
+      it->second.used = true;
+      out[i] = it->second.hit;
+    }
+  }
+
+  // Every problem so far, and the answers no case asked for (call after the run).
+  std::vector<std::string> problems() const {
+    std::lock_guard lock(mutex_);
+    std::vector<std::string> out = problems_;
+    std::vector<std::pair<long, std::string>> unused;
+    for (const auto& [id, e] : by_id_)
+      if (!e.used) unused.push_back({e.line, id});
+    std::sort(unused.begin(), unused.end());
+    for (const auto& [line, id] : unused) out.push_back(where(line) + ": id '" + printable(id) + "' is not a case");
+    return out;
+  }
+
+ private:
+  struct Entry {
+    Hit hit;
+    long line;
+    bool used;
+  };
+  std::string where(long line) const { return printable(path_) + ":" + std::to_string(line); }
+  void read_precision(const std::string& text) {
+    try {
+      const json j = parse_json_text(text);
+      check_keys(j, "", {"precision"}, {"precision"});
+      const std::string p = j.at("precision").is_string() ? j.at("precision").get<std::string>() : "";
+      if (p != "float" && p != "double") throw FieldError("precision", "must be \"float\" or \"double\"");
+      precision_ = p == "float" ? Precision::f32 : Precision::f64;
+    } catch (const FieldError& e) {
+      problems_.push_back(where(1) + ": " + (e.field.empty() ? "" : e.field + ": ") + e.what());
+    } catch (const std::exception& e) {
+      problems_.push_back(where(1) + ": " + e.what());
+    }
+  }
+  std::string path_;
+  Precision precision_ = Precision::f64;
+  mutable std::mutex mutex_;
+  std::unordered_map<std::string, Entry> by_id_;
+  std::vector<std::string> problems_;
+};
+
+std::deque<std::unique_ptr<AnswersFile>>& answers_files() {
+  static std::deque<std::unique_ptr<AnswersFile>> all;
+  return all;
+}
+std::deque<std::string>& answers_strings() {
+  static std::deque<std::string> all;
+  return all;
+}
+
+}  // namespace
+
+const Variant& add_answers_variant(const std::string& name, const std::string& path) {
+  if (!valid_variant_name(name)) throw std::runtime_error("--answers " + name + "=...: the name must match [a-z0-9-]+");
+  if (find_variant(name)) throw std::runtime_error("--answers " + name + "=...: a variant of that name exists already");
+  answers_files().push_back(std::make_unique<AnswersFile>(path));
+  const std::string& stored_name = answers_strings().emplace_back(name);
+  const std::string& origin = answers_strings().emplace_back("answers: " + path);
+  Variant v{stored_name, ShapeKind::sphere, origin, nullptr};
+  v.precision = answers_files().back()->precision();
+  v.external = answers_files().back().get();
+  v.origin = origin;
+  v.all_shapes = true;
+  return register_variant(v);
+}
+
+std::vector<std::string> answers_problems(const Variant& v) {
+  if (auto* a = dynamic_cast<const AnswersFile*>(v.external)) return a->problems();
+  return {};
+}
+
+}  // namespace rayproof::peers

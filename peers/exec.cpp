@@ -1,0 +1,268 @@
+// The exec protocol (docs/spec/plugin.md): a command started with /bin/sh -c is sent one case per
+// line and answers one line per case, in order. Writing and reading interleave through poll() on
+// non-blocking pipes, so neither side can wedge the other on a full pipe however many cases are
+// in flight; the command's standard error is rayproof's.
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+#include "rayproof/core/json_fields.h"
+#include "rayproof/peers/external.h"
+
+extern char** environ;
+
+namespace rayproof::peers {
+
+std::string exec_case_line(const Query& q, const std::string& id) {
+  std::string line = "{\"id\":" + json(id).dump() + ",\"ray\":{\"origin\":[";
+  auto numbers = [&](const double* x, int n) {
+    for (int i = 0; i < n; ++i) {
+      line += i ? ",\"" : "\"";
+      line += hex_double(x[i]);
+      line += '"';
+    }
+  };
+  const double origin[3] = {q.ray.origin.x(), q.ray.origin.y(), q.ray.origin.z()};
+  const double direction[3] = {q.ray.direction.x(), q.ray.direction.y(), q.ray.direction.z()};
+  numbers(origin, 3);
+  line += "],\"direction\":[";
+  numbers(direction, 3);
+  double s[kMaxShapeNumbers];
+  shape_numbers(q.shape, s);
+  line += "]},\"shape\":{\"type\":\"" + std::string(to_string(kind_of(q.shape))) + "\",";
+  switch (kind_of(q.shape)) {
+    case ShapeKind::sphere: line += "\"center\":["; numbers(s, 3); line += "],\"radius\":"; numbers(s + 3, 1); break;
+    case ShapeKind::plane: line += "\"normal\":["; numbers(s, 3); line += "],\"offset\":"; numbers(s + 3, 1); break;
+    case ShapeKind::triangle:
+      line += "\"vertices\":[[";
+      numbers(s, 3), line += "],[", numbers(s + 3, 3), line += "],[", numbers(s + 6, 3);
+      line += "]]";
+      break;
+    case ShapeKind::box: line += "\"min\":["; numbers(s, 3); line += "],\"max\":["; numbers(s + 3, 3); line += "]"; break;
+  }
+  return line + "}}\n";
+}
+
+Answer parse_answer_line(const std::string& text) {
+  const json j = parse_json_text(text);
+  if (!j.is_object()) throw FieldError("", "an answer line is a JSON object");
+  check_keys(j, "", {"id", "class", "t"}, {"id", "class"});
+  if (!j.at("id").is_string()) throw FieldError("id", "must be a string");
+  if (!j.at("class").is_string()) throw FieldError("class", "must be a string");
+  Answer a;
+  a.id = j.at("id").get<std::string>();
+  const auto cls = answer_class_from_string(j.at("class").get<std::string>());
+  if (!cls) throw FieldError("class", "must be miss, enter, exit, tangent, boundary or hit");
+  a.hit.cls = *cls;
+  const bool has_t = j.contains("t") && !j.at("t").is_null();
+  if (*cls == HitClass::miss) return a;  // a miss's t means nothing
+  if (has_t) {
+    if (j.at("t").is_string() && j.at("t").get<std::string>().find_first_of("nN") != std::string::npos)
+      return a.hit.failure = HitFailure::nan_t, a;
+    a.hit.t = read_number(j.at("t"), "t");
+  } else if (*cls != HitClass::tangent) {
+    a.hit.failure = HitFailure::t_unwritten;  // only a tangent may come without t (a ray lying in the surface)
+  }
+  return a;
+}
+
+namespace {
+
+// One running command with its pipes.
+class ExecProcess {
+ public:
+  explicit ExecProcess(const std::string& command) {
+    int in[2], out[2];
+    if (::pipe2(in, O_CLOEXEC) != 0 || ::pipe2(out, O_CLOEXEC) != 0)
+      throw std::runtime_error("--exec: cannot create pipes: " + std::string(std::strerror(errno)));
+    ::signal(SIGPIPE, SIG_IGN);  // a command that exits early is reported, not fatal
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, in[0], 0);
+    posix_spawn_file_actions_adddup2(&actions, out[1], 1);
+    char sh[] = "/bin/sh", dash_c[] = "-c";
+    std::string text = command;
+    char* argv[] = {sh, dash_c, text.data(), nullptr};
+    const int rc = ::posix_spawn(&pid_, "/bin/sh", &actions, nullptr, argv, environ);
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(in[0]), ::close(out[1]);
+    to_ = in[1], from_ = out[0];
+    if (rc != 0) throw std::runtime_error("--exec: cannot start /bin/sh: " + std::string(std::strerror(rc)));
+    ::fcntl(to_, F_SETFL, O_NONBLOCK);
+    ::fcntl(from_, F_SETFL, O_NONBLOCK);
+  }
+  ~ExecProcess() {
+    if (to_ >= 0) ::close(to_);
+    ::close(from_);
+    if (!reaped_) {
+      // Given its end of input the command should exit; one that does not is ended.
+      for (int i = 0; i < 50 && ::waitpid(pid_, nullptr, WNOHANG) == 0; ++i) ::usleep(10000);
+      if (::waitpid(pid_, nullptr, WNOHANG) == 0) ::kill(pid_, SIGKILL), ::waitpid(pid_, nullptr, 0);
+    }
+  }
+  ExecProcess(const ExecProcess&) = delete;
+
+  // Sends the lines and reads as many answer lines, interleaved. Returns "" when all came, else
+  // why not, with `answered` lines in `lines` and `kind` the failure to blame on the next case.
+  std::string exchange(const std::string& payload, std::size_t expected, double case_timeout,
+                       std::vector<std::string>& lines, HitFailure& kind) {
+    std::size_t sent = 0;
+    auto last_progress = std::chrono::steady_clock::now();
+    while (lines.size() < expected) {
+      pollfd p[2] = {{from_, POLLIN, 0}, {sent < payload.size() ? to_ : -1, POLLOUT, 0}};
+      const int ready = ::poll(p, 2, 50);
+      if (ready < 0 && errno != EINTR) return kind = HitFailure::crash, "poll failed";
+      if (p[1].revents & (POLLOUT | POLLERR)) {
+        const ssize_t n = ::write(to_, payload.data() + sent, payload.size() - sent);
+        if (n > 0) sent += static_cast<std::size_t>(n);
+        else if (n < 0 && errno != EAGAIN) return kind = HitFailure::crash, ended("stopped reading its input");
+      }
+      if (p[0].revents & (POLLIN | POLLHUP | POLLERR)) {
+        char buffer[65536];
+        const ssize_t n = ::read(from_, buffer, sizeof buffer);
+        if (n == 0) return kind = HitFailure::crash, ended("exited early");
+        if (n > 0) {
+          last_progress = std::chrono::steady_clock::now();
+          pending_.append(buffer, static_cast<std::size_t>(n));
+          for (std::size_t nl; lines.size() < expected && (nl = pending_.find('\n')) != std::string::npos;) {
+            lines.push_back(pending_.substr(0, nl));
+            pending_.erase(0, nl + 1);
+          }
+        }
+      }
+      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_progress).count() > case_timeout) {
+        ::kill(pid_, SIGKILL);
+        ::waitpid(pid_, nullptr, 0);
+        reaped_ = true;
+        kind = HitFailure::timeout;
+        return "no answer within " + std::to_string(case_timeout) + " s (--case-timeout)";
+      }
+    }
+    return "";
+  }
+
+ private:
+  std::string ended(const std::string& what) {
+    int status = 0;
+    ::close(to_), to_ = -1;
+    ::waitpid(pid_, &status, 0);
+    reaped_ = true;
+    std::string how = WIFEXITED(status) ? "status " + std::to_string(WEXITSTATUS(status))
+                                        : "signal " + std::to_string(WTERMSIG(status));
+    return what + " (" + how + ")";
+  }
+  pid_t pid_ = -1;
+  int to_ = -1, from_ = -1;
+  bool reaped_ = false;
+  std::string pending_;
+};
+
+class ExecVariant final : public ExternalIntersector {
+ public:
+  ExecVariant(std::string command, const ExternalOptions& options) : command_(std::move(command)), options_(options) {}
+
+  void answer_all(std::span<const Query> qs, std::span<Hit> out) override {
+    if (stopped_.load()) return std::fill(out.begin(), out.end(), Hit::failure_of(HitFailure::stopped));
+    std::unique_ptr<ExecProcess> process = take();
+    std::string payload;
+    std::vector<std::string> ids;
+    for (const Query& q : qs) {
+      ids.push_back(q.id.empty() ? "q" + std::to_string(next_id_++) : q.id);
+      payload += exec_case_line(q, ids.back());
+    }
+    std::vector<std::string> lines;
+    HitFailure kind = HitFailure::none;
+    std::string why = process->exchange(payload, qs.size(), options_.case_timeout_seconds, lines, kind);
+    std::size_t i = 0;
+    for (; i < lines.size() && why.empty(); ++i) {
+      try {
+        Answer a = parse_answer_line(lines[i]);
+        if (a.id != ids[i]) {
+          why = "answered id '" + printable(a.id) + "' where '" + printable(ids[i]) + "' was due (answers must keep the order)";
+          break;
+        }
+        out[i] = a.hit;
+      } catch (const std::exception& e) {
+        const auto* f = dynamic_cast<const FieldError*>(&e);
+        why = "unreadable answer line '" + printable(lines[i].substr(0, 200)) + "'" +
+              (f && !f->field.empty() ? ": " + f->field : std::string()) + ": " + e.what();
+        break;
+      }
+    }
+    if (why.empty()) return give_back(std::move(process));
+    if (kind == HitFailure::none) kind = HitFailure::protocol;
+    if (!stopped_.exchange(true)) {
+      std::lock_guard lock(mutex_);
+      reason_ = why;
+    }
+    out[i] = Hit::failure_of(kind);
+    std::fill(out.begin() + i + 1, out.end(), Hit::failure_of(HitFailure::stopped));
+  }
+  std::string stop_reason() const override {
+    std::lock_guard lock(mutex_);
+    return reason_;
+  }
+
+ private:
+  std::unique_ptr<ExecProcess> take() {
+    {
+      std::lock_guard lock(mutex_);
+      if (!idle_.empty()) {
+        auto p = std::move(idle_.back());
+        idle_.pop_back();
+        return p;
+      }
+    }
+    return std::make_unique<ExecProcess>(command_);
+  }
+  void give_back(std::unique_ptr<ExecProcess> p) {
+    std::lock_guard lock(mutex_);
+    idle_.push_back(std::move(p));
+  }
+  std::string command_;
+  ExternalOptions options_;
+  std::atomic<bool> stopped_{false};
+  std::atomic<std::uint64_t> next_id_{0};
+  mutable std::mutex mutex_;
+  std::string reason_;
+  std::vector<std::unique_ptr<ExecProcess>> idle_;
+};
+
+std::deque<std::unique_ptr<ExecVariant>>& exec_variants() {
+  static std::deque<std::unique_ptr<ExecVariant>> all;
+  return all;
+}
+std::deque<std::string>& exec_strings() {  // names and origins the registry points into
+  static std::deque<std::string> all;
+  return all;
+}
+
+}  // namespace
+
+const Variant& add_exec_variant(const std::string& name, const std::string& command, const ExternalOptions& options) {
+  if (!valid_variant_name(name)) throw std::runtime_error("--exec " + name + "=...: the name must match [a-z0-9-]+");
+  if (find_variant(name)) throw std::runtime_error("--exec " + name + "=...: a variant of that name exists already");
+  exec_variants().push_back(std::make_unique<ExecVariant>(command, options));
+  const std::string& stored_name = exec_strings().emplace_back(name);
+  const std::string& origin = exec_strings().emplace_back("exec: " + command);
+  Variant v{stored_name, ShapeKind::sphere, origin, nullptr};
+  v.precision = options.exec_precision;
+  v.external = exec_variants().back().get();
+  v.origin = origin;
+  v.all_shapes = true;
+  return register_variant(v);
+}
+
+}  // namespace rayproof::peers

@@ -1,0 +1,363 @@
+// Plugins (docs/spec/plugin.md) in worker processes. rayproof dlopens the plugin only to read
+// its variant table; every call runs in a worker: this same executable re-executed (so nothing
+// needs installing beside it), which sees RAYPROOF_PLUGIN_WORKER in its environment, loads the
+// plugin and answers batches through shared memory until its request pipe closes. A batch costs
+// two pipe wake-ups; the worker writes the index of the case it is on before each call, so when
+// it dies or stops making progress the case to blame is known and every earlier answer is kept.
+#include <dlfcn.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+#include "rayproof/peers/external.h"
+#include "rayproof/plugin.h"
+
+extern char** environ;
+
+namespace rayproof::peers {
+
+namespace {
+
+// ---------------------------------------------------------------- the shared-memory protocol
+constexpr std::size_t kBatchCapacity = 4096;
+constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;  // the worker's fixed descriptors
+constexpr const char* kWorkerEnv = "RAYPROOF_PLUGIN_WORKER";
+
+struct WireQuery {
+  double numbers[6 + kMaxShapeNumbers];  // ray, then the shape's numbers (cases.md order)
+};
+struct WireAnswer {
+  double t;
+  HitClass cls;
+  HitFailure failure;
+};
+struct SharedBatch {
+  std::atomic<std::uint32_t> progress;  // the index of the case the worker is calling on
+  std::uint32_t variant, count;
+  double inner_seconds;  // the worker's own time for the calls of this batch
+  WireQuery queries[kBatchCapacity];
+  WireAnswer answers[kBatchCapacity];
+};
+
+// A NaN with a payload no arithmetic produces: still there after the call means t was not written.
+constexpr std::uint64_t kUnwrittenF64 = 0x7ff8dead0000beefull;
+constexpr std::uint32_t kUnwrittenF32 = 0x7fc0beefu;
+
+// One call of the plugin's function, its answer checked as the spec says (never trusted).
+template <class Real, class Fn>
+WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real unwritten) {
+  Real ray[6], shape[kMaxShapeNumbers];
+  for (int i = 0; i < 6; ++i) ray[i] = static_cast<Real>(numbers[i]);  // f32: exact, the case was rounded before
+  for (int i = 0; i < shape_numbers; ++i) shape[i] = static_cast<Real>(numbers[6 + i]);
+  Real t = unwritten;
+  const int answer = fn(ray, shape, &t);
+  WireAnswer out{static_cast<double>(t), HitClass::miss, HitFailure::none};
+  if (answer < RAYPROOF_MISS || answer > RAYPROOF_HIT) return out.failure = HitFailure::bad_answer, out;
+  out.cls = static_cast<HitClass>(answer);  // the enum orders match: miss … boundary, hit
+  if (out.cls == HitClass::miss) return out.t = NAN, out;
+  if (std::memcmp(&t, &unwritten, sizeof t) == 0) return out.failure = HitFailure::t_unwritten, out;
+  if (std::isnan(t)) out.failure = HitFailure::nan_t;
+  return out;
+}
+
+// The worker: loads the plugin and answers until the request pipe closes. Runs before main()
+// when the environment says this process is one.
+[[noreturn]] void run_worker(const char* plugin_path) {
+  ::dup2(2, 1);  // a plugin's printf must not land in rayproof's results
+  void* lib = ::dlopen(plugin_path, RTLD_NOW | RTLD_LOCAL);
+  auto entry = lib ? reinterpret_cast<decltype(&rayproof_plugin)>(::dlsym(lib, "rayproof_plugin")) : nullptr;
+  int count = 0;
+  const rayproof_variant* table = entry ? entry(RAYPROOF_PLUGIN_ABI, &count) : nullptr;
+  auto* shared = static_cast<SharedBatch*>(
+      ::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0));
+  if (!table || shared == MAP_FAILED) ::_exit(3);
+  double unwritten64;
+  float unwritten32;
+  std::memcpy(&unwritten64, &kUnwrittenF64, sizeof unwritten64);
+  std::memcpy(&unwritten32, &kUnwrittenF32, sizeof unwritten32);
+  char byte;
+  while (::read(kRequestFd, &byte, 1) == 1) {
+    const rayproof_variant& v = table[shared->variant];
+    const int n = shape_number_count(*shape_kind_from_string(v.shape));
+    const auto t0 = std::chrono::steady_clock::now();
+    for (std::uint32_t i = 0; i < shared->count; ++i) {
+      shared->progress.store(i, std::memory_order_relaxed);
+      shared->answers[i] = v.f64 ? call_checked<double>(v.f64, shared->queries[i].numbers, n, unwritten64)
+                                 : call_checked<float>(v.f32, shared->queries[i].numbers, n, unwritten32);
+    }
+    shared->inner_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (::write(kResponseFd, &byte, 1) != 1) break;
+  }
+  ::_exit(0);
+}
+
+[[maybe_unused]] const bool kIsWorker = [] {
+  if (const char* path = std::getenv(kWorkerEnv)) run_worker(path);
+  return false;
+}();
+
+// ---------------------------------------------------------------- the rayproof side
+std::string signal_reason(int status) {
+  if (WIFSIGNALED(status)) {
+    const char* name = sigabbrev_np(WTERMSIG(status));
+    return std::string("killed by SIG") + (name ? name : std::to_string(WTERMSIG(status)));
+  }
+  if (WIFEXITED(status)) return "exited with status " + std::to_string(WEXITSTATUS(status));
+  return "ended";
+}
+
+// One worker process and its shared batch.
+class WorkerProcess {
+ public:
+  explicit WorkerProcess(const std::string& plugin_path) {
+    int request[2], response[2];
+    if (::pipe2(request, O_CLOEXEC) != 0 || ::pipe2(response, O_CLOEXEC) != 0)
+      throw std::runtime_error("cannot create pipes for a plugin worker: " + std::string(std::strerror(errno)));
+    const int shared_fd = ::memfd_create("rayproof-batch", MFD_CLOEXEC);
+    if (shared_fd < 0 || ::ftruncate(shared_fd, sizeof(SharedBatch)) != 0)
+      throw std::runtime_error("cannot create shared memory for a plugin worker");
+    shared_ = static_cast<SharedBatch*>(::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, shared_fd, 0));
+    if (shared_ == MAP_FAILED) throw std::runtime_error("cannot map shared memory for a plugin worker");
+    ::signal(SIGPIPE, SIG_IGN);  // a worker that died must not take rayproof with it on the next write
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, request[0], kRequestFd);
+    posix_spawn_file_actions_adddup2(&actions, response[1], kResponseFd);
+    posix_spawn_file_actions_adddup2(&actions, shared_fd, kSharedFd);
+    std::vector<std::string> env_text = {std::string(kWorkerEnv) + "=" + plugin_path};
+    for (char** e = environ; *e; ++e)
+      if (std::strncmp(*e, kWorkerEnv, std::strlen(kWorkerEnv)) != 0) env_text.push_back(*e);
+    std::vector<char*> envp;
+    for (std::string& e : env_text) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    char arg0[] = "rayproof-plugin-worker";
+    char* argv[] = {arg0, nullptr};
+    const int rc = ::posix_spawn(&pid_, "/proc/self/exe", &actions, nullptr, argv, envp.data());
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(request[0]), ::close(response[1]), ::close(shared_fd);
+    request_ = request[1], response_ = response[0];
+    if (rc != 0) throw std::runtime_error("cannot start a plugin worker: " + std::string(std::strerror(rc)));
+  }
+  ~WorkerProcess() {
+    ::close(request_), ::close(response_);  // the worker reads EOF and exits
+    if (pid_ > 0 && !reaped_) ::waitpid(pid_, nullptr, 0);
+    ::munmap(shared_, sizeof(SharedBatch));
+  }
+  WorkerProcess(const WorkerProcess&) = delete;
+
+  SharedBatch& batch() { return *shared_; }
+
+  // Runs the batch in shared memory. Returns "" when answered, else why it stopped, with
+  // `stopped_at` the case and `timed_out` whether it hung (the worker is then dead).
+  std::string run(double case_timeout, std::uint32_t& stopped_at, bool& timed_out) {
+    shared_->progress.store(0, std::memory_order_relaxed);
+    const char byte = 1;
+    timed_out = false;
+    if (::write(request_, &byte, 1) != 1) return finish(stopped_at);
+    std::uint32_t last = 0;
+    auto last_change = std::chrono::steady_clock::now();
+    const int slice_ms = static_cast<int>(std::clamp(case_timeout * 250, 1.0, 100.0));
+    for (;;) {
+      pollfd p{response_, POLLIN, 0};
+      const int ready = ::poll(&p, 1, slice_ms);
+      if (ready > 0) {
+        char got;
+        if (::read(response_, &got, 1) == 1) return "";
+        return finish(stopped_at);
+      }
+      const std::uint32_t now_at = shared_->progress.load(std::memory_order_relaxed);
+      const auto now = std::chrono::steady_clock::now();
+      if (now_at != last) last = now_at, last_change = now;
+      else if (std::chrono::duration<double>(now - last_change).count() > case_timeout) {
+        ::kill(pid_, SIGKILL);
+        finish(stopped_at);
+        timed_out = true;
+        return "no answer within " + std::to_string(case_timeout) + " s (--case-timeout)";
+      }
+    }
+  }
+
+ private:
+  std::string finish(std::uint32_t& stopped_at) {
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    reaped_ = true;
+    stopped_at = shared_->progress.load(std::memory_order_relaxed);
+    return signal_reason(status);
+  }
+  pid_t pid_ = -1;
+  int request_ = -1, response_ = -1;
+  bool reaped_ = false;
+  SharedBatch* shared_ = nullptr;
+};
+
+// One loaded plugin: its workers, shared by its variants (one per thread at a time).
+class Plugin {
+ public:
+  explicit Plugin(std::string path) : path_(std::move(path)) {}
+  const std::string& path() const { return path_; }
+  std::unique_ptr<WorkerProcess> take() {
+    {
+      std::lock_guard lock(mutex_);
+      if (!idle_.empty()) {
+        auto w = std::move(idle_.back());
+        idle_.pop_back();
+        return w;
+      }
+    }
+    return std::make_unique<WorkerProcess>(path_);
+  }
+  void give_back(std::unique_ptr<WorkerProcess> w) {
+    std::lock_guard lock(mutex_);
+    idle_.push_back(std::move(w));
+  }
+
+ private:
+  std::string path_;
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<WorkerProcess>> idle_;
+};
+
+class PluginVariant final : public ExternalIntersector {
+ public:
+  PluginVariant(Plugin& plugin, std::uint32_t index, ShapeKind shape, const ExternalOptions& options)
+      : plugin_(plugin), index_(index), shape_(shape), options_(options) {}
+
+  void answer_all(std::span<const Query> qs, std::span<Hit> out) override {
+    double inside = 0;
+    for (std::size_t start = 0; start < qs.size(); start += kBatchCapacity) {
+      const std::size_t n = std::min(kBatchCapacity, qs.size() - start);
+      if (stopped_.load()) {
+        std::fill(out.begin() + start, out.end(), Hit::failure_of(HitFailure::stopped));
+        break;
+      }
+      std::unique_ptr<WorkerProcess> worker = plugin_.take();
+      SharedBatch& b = worker->batch();
+      b.variant = index_, b.count = static_cast<std::uint32_t>(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        const Query& q = qs[start + i];
+        double* x = b.queries[i].numbers;
+        for (int k = 0; k < 3; ++k) x[k] = q.ray.origin[k], x[3 + k] = q.ray.direction[k];
+        shape_numbers(q.shape, x + 6);
+      }
+      std::uint32_t stopped_at = 0;
+      bool timed_out = false;
+      const std::string why = worker->run(options_.case_timeout_seconds, stopped_at, timed_out);
+      const std::size_t answered = why.empty() ? n : std::min<std::size_t>(stopped_at, n);
+      for (std::size_t i = 0; i < answered; ++i) {
+        const WireAnswer& a = b.answers[i];
+        out[start + i] = Hit{a.cls, a.t, a.failure};
+      }
+      inside += b.inner_seconds;
+      if (why.empty()) {
+        plugin_.give_back(std::move(worker));
+        continue;
+      }
+      // The worker is gone: blame the case it was on, stop this variant, keep what it answered.
+      if (!stopped_.exchange(true)) {
+        std::lock_guard lock(reason_mutex_);
+        reason_ = why;
+      }
+      out[start + answered] = Hit::failure_of(timed_out ? HitFailure::timeout : HitFailure::crash);
+      std::fill(out.begin() + start + answered + 1, out.end(), Hit::failure_of(HitFailure::stopped));
+      inside = -1;
+      break;
+    }
+    last_inner_seconds_ = inside;
+  }
+  double inner_seconds() const override { return last_inner_seconds_; }
+  std::string stop_reason() const override {
+    std::lock_guard lock(reason_mutex_);
+    return reason_;
+  }
+
+ private:
+  Plugin& plugin_;
+  std::uint32_t index_;
+  ShapeKind shape_;
+  ExternalOptions options_;
+  std::atomic<bool> stopped_{false};
+  mutable std::mutex reason_mutex_;
+  std::string reason_;
+  static thread_local double last_inner_seconds_;
+};
+thread_local double PluginVariant::last_inner_seconds_ = -1;
+
+// Plugins and their variants live for the whole process (registered variants point into them).
+std::deque<Plugin>& loaded_plugins() {
+  static std::deque<Plugin> all;
+  return all;
+}
+std::deque<std::unique_ptr<ExternalIntersector>>& external_intersectors() {
+  static std::deque<std::unique_ptr<ExternalIntersector>> all;
+  return all;
+}
+
+}  // namespace
+
+bool valid_variant_name(const std::string& name) {
+  return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-';
+  });
+}
+
+std::pair<std::string, std::string> split_assignment(const std::string& flag, const std::string& text) {
+  const std::size_t eq = text.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == text.size())
+    throw std::runtime_error(flag + " '" + text + "': expected NAME=VALUE");
+  return {text.substr(0, eq), text.substr(eq + 1)};
+}
+
+std::vector<const Variant*> load_plugin(const std::string& path, const ExternalOptions& options) {
+  auto fail = [&](const std::string& why) { return std::runtime_error("--plugin " + path + ": " + why); };
+  // A path without a slash would make dlopen search the library path; the user means a file.
+  const std::string file = path.find('/') == std::string::npos ? "./" + path : path;
+  void* lib = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!lib) throw fail(::dlerror());
+  auto entry = reinterpret_cast<decltype(&rayproof_plugin)>(::dlsym(lib, "rayproof_plugin"));
+  if (!entry) throw fail("no symbol rayproof_plugin (export it with C linkage: see rayproof/plugin.h)");
+  int count = 0;
+  const rayproof_variant* table = entry(RAYPROOF_PLUGIN_ABI, &count);
+  if (!table) throw fail("rayproof_plugin returned NULL for ABI " + std::to_string(RAYPROOF_PLUGIN_ABI) + " (built for another ABI?)");
+  if (count <= 0 || count > 64) throw fail("rayproof_plugin gave " + std::to_string(count) + " variants (1 to 64 expected)");
+  loaded_plugins().emplace_back(file);
+  Plugin& plugin = loaded_plugins().back();
+  std::vector<const Variant*> out;
+  for (int i = 0; i < count; ++i) {
+    const rayproof_variant& v = table[i];
+    const std::string where = "variant " + std::to_string(i) + (v.name ? " '" + std::string(v.name) + "'" : "");
+    if (!v.name || !valid_variant_name(v.name)) throw fail(where + ": name must match [a-z0-9-]+");
+    const auto shape = v.shape ? shape_kind_from_string(v.shape) : std::nullopt;
+    if (!shape) throw fail(where + ": shape must be sphere, plane, triangle or box");
+    const auto rule = v.rule ? hit_rule_from_string(v.rule) : std::nullopt;
+    if (!rule) throw fail(where + ": rule must be nearest or enter-only");
+    if ((v.f64 == nullptr) == (v.f32 == nullptr)) throw fail(where + ": exactly one of f64 and f32 must be set");
+    if (find_variant(v.name)) throw fail(where + ": a variant of that name exists already");
+    external_intersectors().push_back(std::make_unique<PluginVariant>(plugin, i, *shape, options));
+    Variant registered{v.name, *shape, v.source ? v.source : "", nullptr};
+    registered.precision = v.f32 ? Precision::f32 : Precision::f64;
+    registered.fixed_rule = *rule;
+    registered.external = external_intersectors().back().get();
+    registered.origin = plugin.path();
+    out.push_back(&register_variant(registered));
+  }
+  return out;
+}
+
+}  // namespace rayproof::peers
