@@ -103,6 +103,7 @@ struct CheckRun {
   CheckSummary summary;
   long cases = 0, unreadable = 0, contradicted = 0;  // contradicted: an `expect` the oracle refutes
   long unopened = 0;                                 // files that could not be read at all
+  long stopped = 0;                                  // external variants stopped by a crash, timeout or protocol error
 };
 
 // A chunk of cases read but not yet judged: judged together, so each variant (external code
@@ -126,7 +127,7 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
     if (queries.empty()) continue;
     std::vector<VariantOutcome> judged = judge_variant_all(run.oracle, *v, queries, truth, run.rule);
     for (size_t k = 0; k < judged.size(); ++k) {
-      if (stops_variant(judged[k].hit.failure))
+      if (stops_variant(judged[k].hit.failure) && ++run.stopped)
         std::cerr << "rayproof: " << printable(path) << ":" << pending[where[k]].line << ": case '"
                   << printable(pending[where[k]].c.id) << "': variant " << v->name << " stopped: "
                   << to_string(judged[k].hit.failure)
@@ -219,7 +220,7 @@ int run_check(const CheckOptions& opts) {
   for (const Variant* v : answers)
     for (const std::string& problem : peers::answers_problems(*v)) ++answer_problems, std::cerr << "rayproof: " << problem << "\n";
   if (run.unopened > 0) return 2;
-  return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0) ? 1 : 0;
+  return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0 || run.stopped > 0) ? 1 : 0;
 }
 
 }  // namespace

@@ -184,9 +184,10 @@ class ExecVariant final : public ExternalIntersector {
     }
     std::vector<std::string> lines;
     HitFailure kind = HitFailure::none;
-    std::string why = process->exchange(payload, qs.size(), options_.case_timeout_seconds, lines, kind);
+    const std::string ended = process->exchange(payload, qs.size(), options_.case_timeout_seconds, lines, kind);
+    std::string why;  // the lines that came are judged even when the command then failed
     std::size_t i = 0;
-    for (; i < lines.size() && why.empty(); ++i) {
+    for (; i < lines.size(); ++i) {
       try {
         Answer a = parse_answer_line(lines[i]);
         if (a.id != ids[i]) {
@@ -201,8 +202,9 @@ class ExecVariant final : public ExternalIntersector {
         break;
       }
     }
+    if (!why.empty()) kind = HitFailure::protocol;
+    else why = ended;
     if (why.empty()) return give_back(std::move(process));
-    if (kind == HitFailure::none) kind = HitFailure::protocol;
     if (!stopped_.exchange(true)) {
       std::lock_guard lock(mutex_);
       reason_ = why;

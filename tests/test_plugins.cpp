@@ -1,0 +1,280 @@
+// The user's own code (docs/spec/plugin.md), end to end through the command line: plugins that
+// crash, hang and return garbage cost one variant and nothing already found; float code is
+// judged on the float-rounded case; bad plugins are one-line errors; exec commands and answers
+// files are judged like plugins, their failures reported with the case.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "rayproof/core/casefile.h"
+#include "rayproof/core/json_fields.h"
+#include "rayproof/peers/external.h"
+#include "rayproof/verify/oracle.h"
+#include "test_dir.h"
+
+namespace rayproof {
+namespace {
+
+using testing_support::test_dir;
+
+struct CliRun {
+  int status;
+  std::string out, err;
+};
+
+CliRun run(const std::string& args) {
+  const std::string err_path = test_dir() + "/stderr.txt";
+  const std::string cmd = std::string(RAYPROOF_CLI) + " " + args + " 2>" + err_path;
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  const int status = pclose(p);
+  std::stringstream err;
+  err << std::ifstream(err_path).rdbuf();
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
+}
+
+std::string write(const std::string& name, const std::string& text) {
+  const std::string path = test_dir() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+// A sphere case the ray enters at t = 2: origin (-2 - r + 1... ) kept simple: ray along +x from
+// x = -(r + 2) towards a sphere of radius r at the origin.
+std::string sphere_case(const std::string& id, double radius, double origin_x = 0) {
+  const double x = origin_x != 0 ? origin_x : -(radius + 2);
+  std::ostringstream s;
+  s << R"({"id": ")" << id << R"(", "ray": {"origin": [)" << x << R"(, 0.25, 0], "direction": [1, 0, 0]}, )"
+    << R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": )" << radius << "}}";
+  return s.str();
+}
+
+std::vector<json> lines_of(const std::string& text) {
+  std::vector<json> out;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty()) out.push_back(json::parse(line));
+  return out;
+}
+
+const std::string kPlugin = std::string(" --plugin ") + MISBEHAVING_PLUGIN + " ";
+
+TEST(Plugins, ListedWithTheirSourcePrecisionAndRule) {
+  const CliRun r = run("variants --shapes sphere" + kPlugin);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("test-float\tsphere\ttests: the textbook quadratic in float ["), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(", float, nearest]"), std::string::npos);
+  EXPECT_NE(r.out.find("test-crashing\tsphere"), std::string::npos);
+}
+
+TEST(Plugins, SegfaultIsReportedWithItsCaseAndCostsNothingElse) {
+  const std::string cases = write("cases.jsonl", sphere_case("before", 1) + "\n" + sphere_case("segfault", 13) + "\n" +
+                                                     sphere_case("after", 1) + "\n");
+  const CliRun r = run("check " + cases + kPlugin + "--variants test-crashing,stable --summary " + test_dir() + "/s.json");
+  EXPECT_EQ(r.status, 1) << r.err;  // a variant stopped: the run says so in its exit code
+  const auto lines = lines_of(r.out);
+  ASSERT_EQ(lines.size(), 3u) << r.out;
+  EXPECT_EQ(lines[0]["variants"]["test-crashing"]["class"], "hit");
+  EXPECT_EQ(lines[0]["variants"]["test-crashing"]["agrees"], true);
+  EXPECT_EQ(lines[1]["variants"]["test-crashing"], (json{{"error", "crash"}}));
+  EXPECT_EQ(lines[2]["variants"]["test-crashing"], (json{{"error", "stopped"}}));
+  for (const json& l : lines) EXPECT_EQ(l["variants"]["stable"]["agrees"], true);  // the others go on
+  EXPECT_NE(r.err.find("case 'segfault'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("SIGSEGV"), std::string::npos) << r.err;
+  const json summary = json::parse(std::ifstream(test_dir() + "/s.json"));
+  EXPECT_EQ(summary["variants"]["test-crashing"]["crashes"], 1);
+  EXPECT_EQ(summary["variants"]["test-crashing"]["cases"], 1);
+  EXPECT_EQ(summary["variants"]["stable"]["cases"], 3);
+}
+
+TEST(Plugins, AbortAndHangAreCrashAndTimeout) {
+  const std::string cases = write("cases.jsonl", sphere_case("abort", 17) + "\n");
+  const CliRun aborted = run("check " + cases + kPlugin + "--variants test-crashing");
+  EXPECT_EQ(lines_of(aborted.out).at(0)["variants"]["test-crashing"], (json{{"error", "crash"}}));
+  EXPECT_NE(aborted.err.find("SIGABRT"), std::string::npos) << aborted.err;
+  const std::string hang = write("hang.jsonl", sphere_case("ok", 1) + "\n" + sphere_case("hang", 19) + "\n");
+  const CliRun hung = run("check " + hang + kPlugin + "--variants test-crashing --case-timeout 0.3");
+  const auto lines = lines_of(hung.out);
+  ASSERT_EQ(lines.size(), 2u) << hung.err;
+  EXPECT_EQ(lines[0]["variants"]["test-crashing"]["agrees"], true);  // answered before the hang: kept
+  EXPECT_EQ(lines[1]["variants"]["test-crashing"], (json{{"error", "timeout"}}));
+  EXPECT_NE(hung.err.find("case 'hang'"), std::string::npos) << hung.err;
+}
+
+TEST(Plugins, GarbageAnswersArePluginErrorsNotCrashes) {
+  const std::string cases = write("cases.jsonl", sphere_case("seven", 3) + "\n" + sphere_case("nan", 5) + "\n" +
+                                                     sphere_case("unwritten", 7) + "\n" + sphere_case("fine", 2) + "\n");
+  const CliRun r = run("check " + cases + kPlugin + "--variants test-garbage --summary " + test_dir() + "/s.json");
+  const auto lines = lines_of(r.out);
+  ASSERT_EQ(lines.size(), 4u) << r.err;
+  EXPECT_EQ(lines[0]["variants"]["test-garbage"]["error"], "answer outside 0..5");
+  EXPECT_EQ(lines[1]["variants"]["test-garbage"]["error"], "contact with a NaN t");
+  EXPECT_EQ(lines[2]["variants"]["test-garbage"]["error"], "contact with t left unwritten");
+  EXPECT_EQ(lines[3]["variants"]["test-garbage"]["agrees"], true);  // not stopped by garbage
+  const json summary = json::parse(std::ifstream(test_dir() + "/s.json"));
+  EXPECT_EQ(summary["variants"]["test-garbage"]["plugin_errors"], 3);
+  EXPECT_EQ(summary["variants"]["test-garbage"]["cases"], 1);
+}
+
+TEST(Plugins, FloatCodeIsJudgedOnTheFloatRoundedCase) {
+  // 0.1 is not a float: the float case is another query, and its own exact verdict is reported.
+  const std::string line =
+      R"({"id": "tenth", "ray": {"origin": [-3, 0.1, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 0.1}})";
+  const std::string huge =
+      R"({"id": "huge", "ray": {"origin": [-1e39, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}})";
+  const CliRun r = run("check " + write("cases.jsonl", line + "\n" + huge + "\n") + kPlugin + "--variants test-float,stable");
+  const auto lines = lines_of(r.out);
+  ASSERT_EQ(lines.size(), 2u) << r.err;
+  const json& f = lines[0]["variants"]["test-float"];
+  ASSERT_TRUE(f.contains("exact") && f.contains("ulp_own")) << f.dump();
+  Oracle oracle;
+  const Case c = parse_case(line);
+  const Query rounded = *rounded_to_float(c);
+  EXPECT_EQ(rounded.ray.origin.y(), static_cast<double>(0.1f));
+  const Verdict v = oracle.judge(rounded.ray, rounded.shape);
+  EXPECT_EQ(f["exact"]["class"], std::string(to_string(v.cls)));
+  EXPECT_EQ(f["exact"]["t"], v.t ? json(hex_double(*v.t)) : json(nullptr));
+  EXPECT_EQ(lines[0]["exact"]["class"], "tangent");  // the double case touches; the float one need not
+  EXPECT_EQ(lines[1]["variants"]["test-float"], (json{{"skipped", "not_representable"}}));
+  EXPECT_TRUE(lines[1]["variants"]["stable"].contains("class"));
+}
+
+TEST(Plugins, BadPluginsAreOneLineErrorsWithExitCodeTwo) {
+  const std::string dir = BAD_PLUGIN_DIR;
+  const std::vector<std::pair<std::string, std::string>> expected = {
+      {"libtest_bad_other_abi.so", "returned NULL for ABI 1"},
+      {"libtest_bad_BAD_SHAPE.so", "shape must be sphere, plane, triangle or box"},
+      {"libtest_bad_BAD_RULE.so", "rule must be nearest or enter-only"},
+      {"libtest_bad_BOTH_FUNCTIONS.so", "exactly one of f64 and f32"},
+      {"libtest_bad_NAME_CLASH.so", "exists already"},
+      {"libtest_bad_BAD_NAME.so", "[a-z0-9-]+"},
+      {"no-such-plugin.so", "no-such-plugin.so"}};
+  for (const auto& [file, why] : expected) {
+    const CliRun r = run("variants --plugin " + dir + "/" + file);
+    EXPECT_EQ(r.status, 2) << file;
+    EXPECT_NE(r.err.find(why), std::string::npos) << file << ": " << r.err;
+    EXPECT_NE(r.err.find(file), std::string::npos) << file << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+}
+
+TEST(Plugins, FuzzCampaignKeepsEverythingWhenAPluginCrashes) {
+  const std::string out = test_dir() + "/findings.jsonl";
+  const CliRun r = run("fuzz --shapes sphere --families random --count 4000 --threads 2 --variants stable,test-crash-often,test-float" +
+                       kPlugin + "-o " + out + " --summary " + test_dir() + "/s.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::ifstream in(out);
+  int crashes = 0;
+  for (std::string line; std::getline(in, line);) {
+    const Case c = parse_case(line);  // every finding replays as a case
+    if (c.found.value("kind", "") != "crash") continue;
+    ++crashes;
+    EXPECT_EQ(c.found["variant"], "test-crash-often");
+    EXPECT_GT(c.ray.origin.x(), 0.5);  // the case it crashed on, unshrunk
+    EXPECT_EQ(c.found["reason"], "killed by SIGSEGV");
+  }
+  EXPECT_GE(crashes, 1);
+  EXPECT_LE(crashes, 2);  // one per thread at most: the variant stops
+  const json s = json::parse(std::ifstream(test_dir() + "/s.json"));
+  EXPECT_EQ(s["tallies"]["random\tstable"]["cases"], 4000);
+  EXPECT_EQ(s["tallies"]["random\ttest-float"]["cases"], 4000);
+  EXPECT_GE(s["tallies"]["random\ttest-crash-often"]["crashes"], 1);
+}
+
+TEST(Exec, PythonIntersectorIsJudgedLikeAPlugin) {
+  const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
+  const std::string cases = std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl";
+  const CliRun r = run("check " + cases + " --exec py=" + script + " --variants textbook --summary " + test_dir() + "/s.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json s = json::parse(std::ifstream(test_dir() + "/s.json"));
+  EXPECT_GT(s["variants"]["py"]["cases"].get<int>(), 1000);
+  EXPECT_GT(s["variants"]["py"]["wrong"].get<int>(), 0);  // the textbook formula has findings to show
+  for (const json& l : lines_of(r.out)) {
+    if (!l["variants"]["py"].contains("class")) continue;
+    const std::string cls = l["variants"]["py"]["class"];
+    EXPECT_TRUE(cls == "hit" || cls == "miss") << l.dump();
+  }
+}
+
+TEST(Exec, EarlyExitWrongIdUnreadableAndSilenceAreReportedWithTheCase) {
+  const std::string cases = write("cases.jsonl", sphere_case("one", 1) + "\n" + sphere_case("two", 1) + "\n");
+  struct Bad {
+    std::string command, error, message;
+  };
+  const std::vector<Bad> bad = {
+      {"read line; echo '{\\\"id\\\": \\\"one\\\", \\\"class\\\": \\\"miss\\\"}'", "crash", "exited early"},
+      {"while read line; do echo '{\\\"id\\\": \\\"zzz\\\", \\\"class\\\": \\\"miss\\\"}'; done", "protocol", "answered id 'zzz'"},
+      {"while read line; do echo 'not json'; done", "protocol", "unreadable answer line"},
+      {"sleep 30", "timeout", "no answer within"}};
+  for (const Bad& b : bad) {
+    const CliRun r = run("check " + cases + " --variants stable --case-timeout 0.5 --exec \"x=" + b.command + "\"");
+    const auto lines = lines_of(r.out);
+    ASSERT_EQ(lines.size(), 2u) << b.command << r.err;
+    const json& first = lines[b.error == "crash" ? 1 : 0]["variants"]["x"];
+    EXPECT_EQ(first["error"], b.error == "protocol" ? "protocol error" : b.error) << b.command << ": " << r.out;
+    EXPECT_NE(r.err.find(b.message), std::string::npos) << b.command << ": " << r.err;
+    EXPECT_NE(r.status, 0);
+    for (const json& l : lines) EXPECT_TRUE(l["variants"]["stable"].contains("class"));
+  }
+}
+
+TEST(Answers, EveryProblemIsNamedWithFileAndLineAndTheRestIsJudged) {
+  const std::string cases = write("cases.jsonl", sphere_case("a", 1) + "\n" + sphere_case("b", 1) + "\n" +
+                                                     sphere_case("c", 1) + "\n");
+  const std::string answers = write("answers.jsonl",
+                                    "{\"id\": \"a\", \"class\": \"hit\", \"t\": \"0x1p+1\"}\n"
+                                    "{\"id\": \"a\", \"class\": \"miss\"}\n"
+                                    "{\"id\": \"zz\", \"class\": \"miss\"}\n"
+                                    "{\"id\": \"c\", \"class\": \"sideways\"}\n");
+  const CliRun r = run("check " + cases + " --answers mine=" + answers + " --variants stable");
+  EXPECT_EQ(r.status, 1);
+  const auto lines = lines_of(r.out);
+  ASSERT_EQ(lines.size(), 3u);
+  EXPECT_EQ(lines[0]["variants"]["mine"]["class"], "hit");
+  EXPECT_EQ(lines[0]["variants"]["mine"]["agrees"], true);
+  EXPECT_NE(r.err.find(answers + ":2: id 'a' repeats line 1"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(answers + ":3: id 'zz' is not a case"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(answers + ":4: class:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("no answer for case 'b'"), std::string::npos) << r.err;
+}
+
+TEST(Answers, FloatPrecisionLineJudgesTheFloatRoundedCase) {
+  const std::string cases = write("cases.jsonl", sphere_case("a", 0.1) + "\n");
+  const std::string answers =
+      write("answers.jsonl", "{\"precision\": \"float\"}\n{\"id\": \"a\", \"class\": \"enter\", \"t\": 2}\n");
+  const CliRun r = run("check " + cases + " --answers mine=" + answers + " --variants stable");
+  const auto lines = lines_of(r.out);
+  ASSERT_EQ(lines.size(), 1u) << r.err;
+  EXPECT_TRUE(lines[0]["variants"]["mine"].contains("ulp_own")) << lines[0].dump();
+  EXPECT_TRUE(lines[0]["variants"]["mine"].contains("exact"));
+}
+
+TEST(ExecProtocol, CaseLinesReadBackAsTheSameQuery) {
+  for (const std::string& text :
+       {sphere_case("s", 0.1), std::string(R"({"id": "t", "ray": {"origin": [0.1, 0.2, -1], "direction": [1e-300, 0, 1]}, "shape": {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0.3]]}})"),
+        std::string(R"({"id": "b", "ray": {"origin": [-0.0, 2, 3], "direction": [1, 1, 1]}, "shape": {"type": "box", "min": [0, 0, 0], "max": [1, 2, 3]}})"),
+        std::string(R"({"id": "p", "ray": {"origin": [0, 0, 5], "direction": [0, 0, -1]}, "shape": {"type": "plane", "normal": [0, 0.3, 1], "offset": 0.7}})")}) {
+    const Case c = parse_case(text);
+    const std::string line = peers::exec_case_line(c, c.id);
+    const Case back = parse_case(line.substr(0, line.size() - 1));
+    EXPECT_EQ(case_to_json(back), case_to_json(c)) << line;
+    const json j = json::parse(line);
+    std::vector<json> numbers;
+    for (const auto& part : {j["ray"]["origin"], j["ray"]["direction"]})
+      for (const json& x : part) numbers.push_back(x);
+    for (const auto& [key, value] : j["shape"].items())
+      if (key != "type") numbers.push_back(value);
+    for (const json& x : numbers)  // every number a hex-float string, nested arrays included
+      for (const json& y : x.is_array() ? x : json::array({x}))
+        for (const json& z : y.is_array() ? y : json::array({y}))
+          EXPECT_TRUE(z.is_string() && z.get<std::string>().find("0x") != std::string::npos) << line;
+  }
+}
+
+}  // namespace
+}  // namespace rayproof
