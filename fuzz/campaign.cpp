@@ -228,6 +228,12 @@ struct Worker {
   Oracle oracle;
   std::vector<Tally> tallies;  // by variant
   std::vector<Finding> findings;
+  // A chunk's cases, verdicts and outcomes: kept from batch to batch, so their storage (hundreds
+  // of kilobytes) is not returned to the system and faulted in again for every chunk.
+  std::vector<GeneratedCase> cases;
+  std::vector<Query> queries;
+  std::vector<Verdict> exact;
+  std::vector<VariantOutcome> outcomes;
 };
 
 struct Judged {
@@ -238,7 +244,7 @@ struct Judged {
 // Step 1: generate and judge every case; tally per variant; keep the disagreeing cases and the
 // cases external code failed on. Each thread asks each variant for a chunk of cases at once, so
 // code behind a process boundary (plugins, --exec) answers in round trips of a chunk.
-constexpr size_t kChunk = 512;
+constexpr size_t kChunk = 4096;  // a plugin round trip costs tens of microseconds: amortised over thousands of cases
 Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, const CampaignOptions& o,
                    std::vector<Worker>& workers, CampaignReport& report) {
   const bool pairs_of_triangles = b.family == Family::grazing && b.shape == ShapeKind::triangle;
@@ -250,9 +256,10 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
     me.tallies.assign(variants.size(), Tally{});
     me.findings.clear();
     const std::uint64_t lo = b.start + b.size() * w / threads, hi = b.start + b.size() * (w + 1) / threads;
-    std::vector<GeneratedCase> cases;
-    std::vector<Query> queries;
-    std::vector<Verdict> exact;
+    std::vector<GeneratedCase>& cases = me.cases;
+    std::vector<Query>& queries = me.queries;
+    std::vector<Verdict>& exact = me.exact;
+    std::vector<VariantOutcome>& outcomes = me.outcomes;
     std::vector<const Variant*> first;  // by case in the chunk: the first variant that disagreed or failed
     std::vector<HitFailure> failure;
     for (std::uint64_t chunk = lo; chunk < hi; chunk += kChunk) {
@@ -269,7 +276,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         edge.shared_edge = is_shared_edge_pair(cases[k]), edge.exact = exact[k], edge.variant_hit.resize(variants.size());
       }
       for (size_t vi = 0; vi < variants.size(); ++vi) {
-        const std::vector<VariantOutcome> outcomes = judge_variant_all(me.oracle, *variants[vi], queries, exact, o.rule);
+        judge_variant_all(me.oracle, *variants[vi], queries, exact, o.rule, outcomes);
         for (size_t k = 0; k < n; ++k) {
           const VariantOutcome& r = outcomes[k];
           me.tallies[vi].add(exact[k].cls, r);

@@ -199,10 +199,12 @@ namespace {
 // The scatter's frame: log axes of ns per test and disagreement rate; zero rates sit on a floor
 // line labelled "0", a decade below the smallest non-zero rate.
 struct TradeFrame {
-  static constexpr double W = 900, H = 600, left = 90, right = 230, top = 50, bottom = 70;
+  static constexpr double W = 900, H = 480, left = 90, right = 230, bottom = 60;
+  double top = 50;  // each shape's panel stacks below the last
   double lx0, lx1, ly_floor, ly0, ly1 = 0;
+  std::string title;
 
-  explicit TradeFrame(const std::vector<TradeRow>& rows) {
+  TradeFrame(const std::vector<TradeRow>& rows, double offset, std::string heading) : top(offset + 50), title(std::move(heading)) {
     double x_lo = INFINITY, x_hi = 0, y_min_nonzero = 1;
     for (const TradeRow& r : rows) {
       x_lo = std::min(x_lo, r.ns_per_test), x_hi = std::max(x_hi, r.ns_per_test);
@@ -217,16 +219,16 @@ struct TradeFrame {
   }
   double y(double rate) const {
     const double l = rate > 0 ? std::log10(rate) : ly_floor;
-    return top + (ly1 - l) / (ly1 - ly0) * (H - top - bottom);
+    return top + (ly1 - l) / (ly1 - ly0) * (H - 50 - bottom);
   }
+  double bottom_y() const { return top + H - 50 - bottom; }
 
   void draw(std::ostream& out) const {
-    out << svg::text(left, 28, "Speed against accuracy: every variant on every family (lower left is better)",
-                     "font-size='16'") << "\n";
+    out << svg::text(left, top - 22, title, "font-size='16'") << "\n";
     for (int e = static_cast<int>(lx0); e <= static_cast<int>(lx1); ++e) {  // x grid
       const double gx = x(std::pow(10, e));
-      out << svg::line(gx, top, gx, H - bottom, "stroke='#ddd'")
-          << svg::text(gx, H - bottom + 18, svg::format("%g", std::pow(10, e)), "text-anchor='middle'") << "\n";
+      out << svg::line(gx, top, gx, bottom_y(), "stroke='#ddd'")
+          << svg::text(gx, bottom_y() + 18, svg::format("%g", std::pow(10, e)), "text-anchor='middle'") << "\n";
     }
     for (int e = static_cast<int>(ly_floor) + 1; e <= 0; ++e) {  // y grid
       const double gy = y(std::pow(10, e));
@@ -235,22 +237,34 @@ struct TradeFrame {
     }
     out << svg::line(left, y(0), W - right, y(0), "stroke='#999' stroke-dasharray='4 3'")
         << svg::text(left - 6, y(0) + 4, "0", "text-anchor='end'") << "\n"
-        << svg::text((left + W - right) / 2, H - 25, "ns per test (log)", "text-anchor='middle'")
-        << svg::format("<text transform='translate(22 %.1f) rotate(-90)' text-anchor='middle'>", (top + H - bottom) / 2)
+        << svg::text((left + W - right) / 2, bottom_y() + 38, "ns per test (log)", "text-anchor='middle'")
+        << svg::format("<text transform='translate(22 %.1f) rotate(-90)' text-anchor='middle'>", (top + bottom_y()) / 2)
         << "class disagreement rate (log)</text>\n";
   }
 };
 
-// One marker shape per family (cycling), filled with the variant's colour.
-std::string trade_marker(double x, double y, size_t family, const char* colour) {
-  switch (family % 4) {
-    case 0: return svg::format("<circle cx='%.1f' cy='%.1f' r='5' fill='%s'/>", x, y, colour);
+// One marker shape per family (six shapes for the six families), filled with the contender's colour.
+std::string trade_marker(double x, double y, size_t family, const std::string& colour) {
+  const char* c = colour.c_str();
+  switch (family % 6) {
+    case 0: return svg::format("<circle cx='%.1f' cy='%.1f' r='5' fill='%s'/>", x, y, c);
     case 1: return svg::rect(x - 4.5, y - 4.5, 9, 9, colour);
-    case 2: return svg::format("<path d='M%.1f %.1f l5 9 l-10 0 z' fill='%s'/>", x, y - 5.5, colour);
+    case 2: return svg::format("<path d='M%.1f %.1f l5.5 9.5 l-11 0 z' fill='%s'/>", x, y - 6, c);
+    case 3: return svg::format("<path d='M%.1f %.1f l5.5 -9.5 l-11 0 z' fill='%s'/>", x, y + 6, c);
+    case 4: return svg::format("<path d='M%.1f %.1f l6 6 l-6 6 l-6 -6 z' fill='%s'/>", x, y - 6, c);
     default:
-      return svg::format("<path d='M%.1f %.1f l5 5 l-5 5 l-5 -5 z' fill='none' stroke='%s' stroke-width='2'/>", x, y - 5,
-                         colour);
+      return svg::format("<path d='M%.1f %.1f h10 M%.1f %.1f v10' stroke='%s' stroke-width='3'/>", x - 5, y, x, y - 5, c);
   }
+}
+
+// A colour per contender, never repeated: Kelly's 22 colours of maximum contrast (white and
+// black left out), then hues spaced by the golden angle.
+std::string contender_colour(size_t i) {
+  static const char* kelly[] = {"#f3c300", "#875692", "#f38400", "#a1caf1", "#be0032", "#c2b280", "#848482",
+                                "#008856", "#e68fac", "#0067a5", "#f99379", "#604e97", "#f6a600", "#b3446c",
+                                "#dcd300", "#882d17", "#8db600", "#654522", "#e25822", "#2b3d26"};
+  if (i < std::size(kelly)) return kelly[i];
+  return svg::format("hsl(%.0f, 65%%, 45%%)", std::fmod(i * 137.508, 360.0));
 }
 
 template <class T>
@@ -264,28 +278,57 @@ size_t index_in(std::vector<T>& seen, const T& value) {
 }  // namespace
 
 void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
-  static const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e",
-                                  "#8c564b", "#e377c2", "#17becf", "#7f7f7f", "#bcbd22"};
-  const TradeFrame frame(rows);
-  svg::begin(out, TradeFrame::W, TradeFrame::H, 12);
-  frame.draw(out);
-  std::vector<std::string> variants;  // one colour per variant, one marker per family
+  std::vector<std::string> contenders;  // colours and markers are the same in every panel
   std::vector<Family> families;
-  for (const TradeRow& r : rows) {
-    const size_t vi = index_in(variants, r.variant), fi = index_in(families, r.family);
-    const double rate = r.tally.disagreement_rate();
-    out << "<g><title>"
-        << svg::escape(r.variant + " / " + std::string(to_string(r.shape)) + " / " + std::string(to_string(r.family)) +
-                       svg::format(": %g ns, rate %g", r.ns_per_test, rate))
-        << "</title>" << trade_marker(frame.x(r.ns_per_test), frame.y(rate), fi, colours[vi % 10]) << "</g>\n";
+  std::vector<ShapeKind> shapes;
+  for (const TradeRow& r : rows) index_in(contenders, r.variant), index_in(families, r.family), index_in(shapes, r.shape);
+  std::sort(families.begin(), families.end());
+  svg::begin(out, TradeFrame::W, std::max<size_t>(1, shapes.size()) * TradeFrame::H + 20, 12);
+  for (size_t si = 0; si < shapes.size(); ++si) {
+    std::vector<TradeRow> panel;
+    for (const TradeRow& r : rows)
+      if (r.shape == shapes[si]) panel.push_back(r);
+    const TradeFrame frame(panel, si * TradeFrame::H,
+                           std::string(to_string(shapes[si])) + ": speed against accuracy (lower left is better)");
+    frame.draw(out);
+    // The Pareto front of each family: its optimal contenders joined from fastest to slowest.
+    for (size_t fi = 0; fi < families.size(); ++fi) {
+      std::vector<const TradeRow*> front;
+      for (const TradeRow& r : panel)
+        if (r.family == families[fi] && r.pareto) front.push_back(&r);
+      std::sort(front.begin(), front.end(), [](const TradeRow* a, const TradeRow* b) { return a->ns_per_test < b->ns_per_test; });
+      std::string points;
+      for (const TradeRow* r : front) points += svg::format("%.1f,%.1f ", frame.x(r->ns_per_test), frame.y(r->tally.disagreement_rate()));
+      if (front.size() > 1)
+        out << "<polyline points='" << points << "' fill='none' stroke='#888' stroke-width='1.2'><title>"
+            << svg::escape("Pareto front, " + std::string(to_string(families[fi]))) << "</title></polyline>\n";
+    }
+    for (const TradeRow& r : panel) {
+      const size_t vi = index_in(contenders, r.variant), fi = index_in(families, r.family);
+      const double x = frame.x(r.ns_per_test), y = frame.y(r.tally.disagreement_rate());
+      out << "<g><title>"
+          << svg::escape(r.variant + (r.users_code ? " (your code)" : "") + " / " + std::string(to_string(r.family)) +
+                         svg::format(": %g ns, rate %g", r.ns_per_test, r.tally.disagreement_rate()))
+          << "</title>" << trade_marker(x, y, fi, contender_colour(vi));
+      if (r.users_code)  // the user's own code: ringed and named, so it is found at a glance
+        out << svg::format("<circle cx='%.1f' cy='%.1f' r='10' fill='none' stroke='#000' stroke-width='1.5'/>", x, y)
+            << svg::text(x + 12, y - 8, r.variant, "font-weight='bold'");
+      out << "</g>\n";
+    }
+    const double lx = TradeFrame::W - TradeFrame::right;
+    double ly = frame.top + 10;
+    for (size_t i = 0; i < contenders.size(); ++i) {
+      if (std::none_of(panel.begin(), panel.end(), [&](const TradeRow& r) { return r.variant == contenders[i]; })) continue;
+      const bool users = std::any_of(panel.begin(), panel.end(), [&](const TradeRow& r) { return r.variant == contenders[i] && r.users_code; });
+      out << svg::rect(lx + 20, ly - 10, 12, 12, contender_colour(i))
+          << svg::text(lx + 38, ly, contenders[i] + (users ? " (yours)" : ""), users ? "font-weight='bold'" : "") << "\n";
+      ly += 16;
+    }
+    ly += 8;
+    for (size_t i = 0; i < families.size(); ++i, ly += 16)
+      out << trade_marker(lx + 26, ly - 4, i, "#444") << svg::text(lx + 38, ly, to_string(families[i])) << "\n";
+    out << svg::line(lx + 20, ly, lx + 34, ly, "stroke='#888' stroke-width='1.2'") << svg::text(lx + 38, ly + 4, "Pareto front") << "\n";
   }
-  const double lx = TradeFrame::W - TradeFrame::right;
-  double ly = TradeFrame::top + 10;
-  for (size_t i = 0; i < variants.size(); ++i, ly += 18)
-    out << svg::rect(lx + 20, ly - 10, 12, 12, colours[i % 10]) << svg::text(lx + 38, ly, variants[i]) << "\n";
-  ly += 10;
-  for (size_t i = 0; i < families.size(); ++i, ly += 18)
-    out << trade_marker(lx + 26, ly - 4, i, "#444") << svg::text(lx + 38, ly, to_string(families[i])) << "\n";
   svg::end(out);
 }
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -273,6 +274,60 @@ TEST(ExecProtocol, CaseLinesReadBackAsTheSameQuery) {
       for (const json& y : x.is_array() ? x : json::array({x}))
         for (const json& z : y.is_array() ? y : json::array({y}))
           EXPECT_TRUE(z.is_string() && z.get<std::string>().find("0x") != std::string::npos) << line;
+  }
+}
+
+}  // namespace
+}  // namespace rayproof
+
+namespace rayproof {
+namespace {
+
+// Answer lines read by the fast path and by the full JSON reader mean the same; what the fast
+// path declines, the full reader reads or rejects naming the field.
+TEST(ExecProtocol, AnswerLinesMeanTheSameWhicheverReaderReadsThem) {
+  struct Line {
+    std::string text;
+    HitClass cls;
+    double t;
+    HitFailure failure;
+  };
+  const std::vector<Line> good = {
+      {R"({"id":"a","class":"enter","t":"0x1.8p+1"})", HitClass::enter, 3, HitFailure::none},
+      {R"( { "t" : 3 , "class" : "exit" , "id" : "a" } )", HitClass::exit, 3, HitFailure::none},
+      {R"({"id":"a","class":"hit","t":3e0})", HitClass::hit, 3, HitFailure::none},
+      {R"({"id":"\u0061","class":"tangent","t":"0x1.8p+1"})", HitClass::tangent, 3, HitFailure::none},  // escape: full reader
+      {R"({"id":"a","class":"miss","t":null})", HitClass::miss, NAN, HitFailure::none},
+      {R"({"id":"a","class":"tangent"})", HitClass::tangent, NAN, HitFailure::none},
+      {R"({"id":"a","class":"enter"})", HitClass::enter, NAN, HitFailure::t_unwritten},
+      {R"({"id":"a","class":"enter","t":"nan"})", HitClass::enter, NAN, HitFailure::nan_t},
+  };
+  for (const Line& l : good) {
+    const peers::Answer a = peers::parse_answer_line(l.text);
+    EXPECT_EQ(a.id, "a") << l.text;
+    EXPECT_EQ(a.hit.failure, l.failure) << l.text;
+    if (l.failure != HitFailure::none) continue;
+    EXPECT_EQ(a.hit.cls, l.cls) << l.text;
+    if (std::isnan(l.t)) EXPECT_FALSE(a.hit.has_t()) << l.text;
+    else EXPECT_EQ(a.hit.t, l.t) << l.text;
+  }
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {R"({"id":"a","class":"sideways"})", "class"},
+      {R"({"id":"a","class":"enter","t":"3"})", "t"},
+      {R"({"id":"a","class":"enter","t":1e999})", "t"},
+      {R"({"id":"a","class":"enter","colour":1})", ""},
+      {R"({"id":"a","id":"b","class":"miss"})", "id"},
+      {R"({"class":"miss"})", ""},
+      {R"([1, 2])", ""}};
+  for (const auto& [text, field] : bad) {
+    try {
+      peers::parse_answer_line(text);
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const FieldError& e) {
+      if (!field.empty()) EXPECT_EQ(e.field, field) << text << ": " << e.what();
+    } catch (const std::exception&) {
+      EXPECT_TRUE(field.empty()) << text;
+    }
   }
 }
 

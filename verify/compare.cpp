@@ -41,37 +41,48 @@ float exact_t_as_float(const Query& q, HitRule rule, double d) {
 }
 }  // namespace
 
-std::vector<VariantOutcome> judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs,
-                                              std::span<const Verdict> exact, HitRule rule) {
+void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs, std::span<const Verdict> exact,
+                       HitRule rule, std::vector<VariantOutcome>& out) {
   const HitRule own_rule = v.rule_for(rule);
-  const bool f32 = v.precision == Precision::f32;
-  std::vector<VariantOutcome> out(qs.size());
-  std::vector<Query> rounded;  // f32: what the variant is given, and where each came from
-  std::vector<size_t> from;
+  const bool f32 = v.precision == Precision::f32, own = f32 || own_rule != rule;
+  out.assign(qs.size(), VariantOutcome{&v});
+  thread_local std::vector<Query> rounded;  // f32: what the variant is given, and where each came from
+  thread_local std::vector<size_t> from;
+  thread_local std::vector<Hit> hits;
+  rounded.clear(), from.clear();
   if (f32) {
     for (size_t i = 0; i < qs.size(); ++i) {
-      out[i].variant = &v;
       if (auto r = rounded_to_float(qs[i])) rounded.push_back(std::move(*r)), from.push_back(i);
       else out[i].hit = Hit::failure_of(HitFailure::not_representable);
     }
   }
   const std::span<const Query> given = f32 ? std::span<const Query>(rounded) : qs;
-  std::vector<Hit> hits(given.size());
+  hits.resize(given.size());
   v.intersect_all(given, rule, hits);
   for (size_t k = 0; k < given.size(); ++k) {
-    const size_t i = f32 ? from[k] : k;
+    VariantOutcome& o = out[f32 ? from[k] : k];
     if (hits[k].failed()) {
-      out[i].variant = &v, out[i].hit = hits[k];
+      o.hit = hits[k];
       continue;
     }
-    const bool own = f32 || own_rule != rule;
-    const Verdict truth = own ? oracle.judge(given[k].ray, given[k].shape, own_rule) : exact[i];
-    out[i] = judge_answer(truth, hits[k]);
-    out[i].variant = &v;
-    if (own) out[i].own_exact = truth;
+    if (!own) {
+      o = judge_answer(exact[k], hits[k]);
+      o.variant = &v;
+      continue;
+    }
+    const Verdict truth = oracle.judge(given[k].ray, given[k].shape, own_rule);
+    o = judge_answer(truth, hits[k]);
+    o.variant = &v;
     if (f32 && truth.t && hits[k].has_t())
-      out[i].ulp_own = ulp_distance_f32(static_cast<float>(hits[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
+      o.ulp_own = ulp_distance_f32(static_cast<float>(hits[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
+    o.own_exact = std::move(truth);
   }
+}
+
+std::vector<VariantOutcome> judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs,
+                                              std::span<const Verdict> exact, HitRule rule) {
+  std::vector<VariantOutcome> out;
+  judge_variant_all(oracle, v, qs, exact, rule, out);
   return out;
 }
 

@@ -49,6 +49,9 @@ VariantOutcome judge_answer(const Verdict& exact, const Hit& reported);
 // under `rule`, reused where the variant sees the same numbers and rule; the oracle judges the rest.
 std::vector<VariantOutcome> judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs,
                                               std::span<const Verdict> exact, HitRule rule);
+// The same into `out` (resized), whose storage a loop over chunks reuses.
+void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs, std::span<const Verdict> exact,
+                       HitRule rule, std::vector<VariantOutcome>& out);
 // The same for one query.
 VariantOutcome compare_variant(Oracle& oracle, const Variant& v, const Verdict& exact, const Query& q, HitRule rule);
 
