@@ -234,6 +234,7 @@ struct Worker {
   std::vector<Query> queries;
   std::vector<Verdict> exact;
   std::vector<VariantOutcome> outcomes;
+  std::vector<Hit> hits;
 };
 
 struct Judged {
@@ -244,13 +245,18 @@ struct Judged {
 // Step 1: generate and judge every case; tally per variant; keep the disagreeing cases and the
 // cases external code failed on. Each thread asks each variant for a chunk of cases at once, so
 // code behind a process boundary (plugins, --exec) answers in round trips of a chunk.
-constexpr size_t kChunk = 4096;  // a plugin round trip costs tens of microseconds: amortised over thousands of cases
+// Cases per chunk: small while every variant is built in (a chunk's cases, verdicts and
+// outcomes stay in cache), large when external code answers (a round trip to a worker process
+// costs tens of microseconds: spread over thousands of cases).
+constexpr size_t kChunkBuiltIn = 64, kChunkExternal = 1024;
 Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, const CampaignOptions& o,
                    std::vector<Worker>& workers, CampaignReport& report) {
   const bool pairs_of_triangles = b.family == Family::grazing && b.shape == ShapeKind::triangle;
   Judged judged;
   judged.edges.resize(pairs_of_triangles ? b.size() : 0);
   const int threads = static_cast<int>(workers.size());
+  const bool external = std::any_of(variants.begin(), variants.end(), [](const Variant* v) { return v->external; });
+  const std::uint64_t chunk_size = external ? kChunkExternal : kChunkBuiltIn;
   run_workers(threads, [&](int w) {
     Worker& me = workers[w];
     me.tallies.assign(variants.size(), Tally{});
@@ -262,12 +268,12 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
     std::vector<VariantOutcome>& outcomes = me.outcomes;
     std::vector<const Variant*> first;  // by case in the chunk: the first variant that disagreed or failed
     std::vector<HitFailure> failure;
-    for (std::uint64_t chunk = lo; chunk < hi; chunk += kChunk) {
-      const size_t n = static_cast<size_t>(std::min<std::uint64_t>(kChunk, hi - chunk));
+    for (std::uint64_t chunk = lo; chunk < hi; chunk += chunk_size) {
+      const size_t n = static_cast<size_t>(std::min<std::uint64_t>(chunk_size, hi - chunk));
       cases.clear(), queries.clear(), exact.clear();
       for (size_t k = 0; k < n; ++k) {
         cases.push_back(generate(b.family, b.shape, o.seed, chunk + k));
-        queries.push_back(cases.back());
+        if (external) queries.push_back(cases.back());
         exact.push_back(me.oracle.judge(cases.back().ray, cases.back().shape, o.rule));
       }
       first.assign(n, nullptr), failure.assign(n, HitFailure::none);
@@ -276,7 +282,35 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         edge.shared_edge = is_shared_edge_pair(cases[k]), edge.exact = exact[k], edge.variant_hit.resize(variants.size());
       }
       for (size_t vi = 0; vi < variants.size(); ++vi) {
-        judge_variant_all(me.oracle, *variants[vi], queries, exact, o.rule, outcomes);
+        // Built-in double code is judged case by case as it answers (nothing stored: the
+        // campaign's hot loop); external code answers the chunk in one call first.
+        const Variant& v = *variants[vi];
+        const bool direct = v.kernel && v.precision == Precision::f64 && !v.fixed_rule;
+        if (direct) {
+          for (size_t k = 0; k < n; ++k) {
+            const Hit h = v.kernel(cases[k].ray, cases[k].shape, o.rule);
+            if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k]) first[k] = &v;
+            if (pairs_of_triangles) judged.edges[chunk + k - b.start].variant_hit[vi] = h.cls != HitClass::miss;
+          }
+          continue;
+        }
+        if (v.precision == Precision::f64 && v.rule_for(o.rule) == o.rule) {
+          // External double code on the case as given: its answers judged like a built-in's.
+          me.hits.resize(n);
+          v.intersect_all(queries, o.rule, me.hits);
+          for (size_t k = 0; k < n; ++k) {
+            const Hit& h = me.hits[k];
+            if (h.failed()) {
+              me.tallies[vi].add(exact[k].cls, VariantOutcome{&v, h});
+              if ((stops_variant(h.failure) || is_plugin_error(h.failure)) && !first[k]) first[k] = &v, failure[k] = h.failure;
+            } else if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k]) {
+              first[k] = &v;
+            }
+            if (pairs_of_triangles) judged.edges[chunk + k - b.start].variant_hit[vi] = !h.failed() && h.cls != HitClass::miss;
+          }
+          continue;
+        }
+        judge_variant_all(me.oracle, v, queries, exact, o.rule, outcomes);
         for (size_t k = 0; k < n; ++k) {
           const VariantOutcome& r = outcomes[k];
           me.tallies[vi].add(exact[k].cls, r);

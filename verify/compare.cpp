@@ -5,22 +5,6 @@
 
 namespace rayproof {
 
-Agreement agreement_of(HitClass exact, HitClass reported) {
-  if (reported == exact) return Agreement::agrees;
-  if (reported == HitClass::hit) return exact == HitClass::miss ? Agreement::wrong : Agreement::agrees;
-  const bool exact_is_a_touch = exact == HitClass::tangent || exact == HitClass::boundary;
-  const bool reported_is_plain = reported == HitClass::enter || reported == HitClass::exit || reported == HitClass::miss;
-  return exact_is_a_touch && reported_is_plain ? Agreement::cannot_tell : Agreement::wrong;
-}
-
-VariantOutcome judge_answer(const Verdict& exact, const Hit& reported) {
-  VariantOutcome out;
-  out.hit = reported;
-  out.agreement = agreement_of(exact.cls, reported.cls);
-  if (exact.t && reported.has_t()) out.ulp = ulp_distance(reported.t, *exact.t);
-  return out;
-}
-
 namespace {
 // The exact t rounded to the nearest float (ties to even), from its correctly rounded double d.
 // fl32(d) = fl32(t) unless d is itself a float midpoint: a midpoint m strictly between t and d
@@ -75,7 +59,7 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
     o.variant = &v;
     if (f32 && truth.t && hits[k].has_t())
       o.ulp_own = ulp_distance_f32(static_cast<float>(hits[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
-    o.own_exact = std::move(truth);
+    o.own_exact = VariantOutcome::OwnVerdict{truth.cls, truth.t};
   }
 }
 

@@ -74,6 +74,21 @@ void Tally::add(HitClass case_exact, const VariantOutcome& o) {
   if (o.ulp_own && o.agreement == Agreement::agrees) ulps_own.add(*o.ulp_own);
 }
 
+Agreement Tally::add_answer(const Verdict& exact, const Hit& h) {
+  const Agreement a = agreement_of(exact.cls, h.cls);
+  ++cases;
+  switch (a) {
+    case Agreement::agrees:
+      ++agree;
+      if (exact.t && h.has_t()) ulps.add(*ulp_distance(h.t, *exact.t));
+      return a;
+    case Agreement::cannot_tell: ++cannot_tell; break;
+    case Agreement::wrong: ++wrong; break;
+  }
+  ++confusion[std::string(to_string(exact.cls)) + "->" + std::string(to_string(h.cls))];
+  return a;
+}
+
 void Tally::merge(const Tally& o) {
   cases += o.cases, agree += o.agree, wrong += o.wrong, cannot_tell += o.cannot_tell;
   shared_edge_holes += o.shared_edge_holes, crashes += o.crashes, timeouts += o.timeouts;

@@ -25,7 +25,13 @@ enum class Agreement {
   wrong,        // any other difference
 };
 // A reported `hit` (code that does not say the contact's kind) agrees with every exact contact.
-Agreement agreement_of(HitClass exact, HitClass reported);
+inline Agreement agreement_of(HitClass exact, HitClass reported) {
+  if (reported == exact) return Agreement::agrees;
+  if (reported == HitClass::hit) return exact == HitClass::miss ? Agreement::wrong : Agreement::agrees;
+  const bool exact_is_a_touch = exact == HitClass::tangent || exact == HitClass::boundary;
+  const bool reported_is_plain = reported == HitClass::enter || reported == HitClass::exit || reported == HitClass::miss;
+  return exact_is_a_touch && reported_is_plain ? Agreement::cannot_tell : Agreement::wrong;
+}
 
 struct VariantOutcome {
   const Variant* variant = nullptr;  // null for answers that come from elsewhere (batched, peers)
@@ -35,14 +41,22 @@ struct VariantOutcome {
   // Where the variant saw other numbers than the case (f32 code: the float-rounded query) or
   // follows another rule than asked (a plugin's fixed rule): the oracle's verdict on what it
   // saw, which the answer was judged against.
-  std::optional<Verdict> own_exact;
+  struct OwnVerdict {
+    HitClass cls;
+    std::optional<double> t;
+  };
+  std::optional<OwnVerdict> own_exact;   // (class and t only: outcomes are many, and small)
   std::optional<std::uint64_t> ulp_own;  // f32 code: t's error in floats (fp.h, ulp_distance_f32)
-  // The truth this outcome was judged against.
-  const Verdict& truth(const Verdict& case_exact) const { return own_exact ? *own_exact : case_exact; }
 };
 
-// An answer judged against the exact verdict.
-VariantOutcome judge_answer(const Verdict& exact, const Hit& reported);
+// An answer judged against the exact verdict (inline: campaigns call it for every case and variant).
+inline VariantOutcome judge_answer(const Verdict& exact, const Hit& reported) {
+  VariantOutcome out;
+  out.hit = reported;
+  out.agreement = agreement_of(exact.cls, reported.cls);
+  if (exact.t && reported.has_t()) out.ulp = ulp_distance(reported.t, *exact.t);
+  return out;
+}
 // A variant asked once for a batch (Variant::intersect_all, so external code answers in one
 // round trip) and each answer judged: on the queries as it sees them (f32: rounded to floats,
 // or a `not_representable` failure) and under its own rule. `exact[i]` is the verdict on qs[i]

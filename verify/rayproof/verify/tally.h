@@ -46,6 +46,9 @@ struct Tally {
 
   // `exact`: the case's verdict class (the outcome's own_exact, where it has one, wins).
   void add(HitClass exact, const VariantOutcome& outcome);
+  // A built-in double variant's answer (it cannot fail and sees the case as given) judged and
+  // counted in one step, as add(exact.cls, judge_answer(exact, h)) would: a campaign's hot loop.
+  Agreement add_answer(const Verdict& exact, const Hit& h);
   std::uint64_t failures() const { return crashes + timeouts + protocol_errors + plugin_errors; }
   std::uint64_t disagreements() const { return wrong + cannot_tell; }
   double disagreement_rate() const { return cases ? static_cast<double>(disagreements()) / cases : 0; }
