@@ -36,6 +36,7 @@ void add_trade_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--format", opts->format, "stdout table: markdown (default, paste-ready), table or json")
       ->check(CLI::IsMember({"table", "markdown", "json"}));
   cmd->callback([opts, &exit_code] {
+    exit_code = 0;
     load_externals(opts->ext);
     const std::vector<ShapeKind> shapes = parse_shapes(opts->shapes);
     const std::vector<fuzz::Family> families = parse_families(opts->families);
@@ -53,6 +54,14 @@ void add_trade_command(CLI::App& app, int& exit_code) {
     const auto rows = studies::measure_trade(contenders, shapes, families, opts->count, opts->seed,
                                              thread_count(opts->threads));
     studies::write_trade_table(rows, *table_format_from_string(opts->format), std::cout);
+    for (const studies::TradeRow& r : rows)  // external code that stopped: its row times nothing
+      if (r.tally.crashes + r.tally.timeouts + r.tally.protocol_errors > 0) {
+        const Variant* v = find_variant(r.variant);
+        std::cerr << "rayproof trade: " << r.variant << " stopped on " << to_string(r.shape) << "/" << to_string(r.family)
+                  << (v && v->external ? ": " + v->external->stop_reason() : std::string())
+                  << "; its later rows are left out of the plot and the Pareto front\n";
+        exit_code = 1;
+      }
     studies::write_trade_csv(rows, csv.stream());
     csv.commit();
     if (svg) {
@@ -74,7 +83,6 @@ void add_trade_command(CLI::App& app, int& exit_code) {
     }
 #endif
     std::cerr << "rayproof trade: " << opts->output << (opts->plot.empty() ? "" : ", " + opts->plot) << "\n";
-    exit_code = 0;
   });
 }
 

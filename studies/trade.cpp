@@ -22,10 +22,10 @@ std::vector<Contender> variant_contenders() {
     Contender c{std::string(v.name), v.shape,
                 [p](const std::vector<Query>& qs) {
                   auto hits = std::make_shared<std::vector<Hit>>(qs.size());
-                  if (p->external)  // one round trip for the batch; the code times itself
+                  if (p->external)  // one round trip for the batch, run repeatedly where the code runs, timed there
                     return Prepared{[p, &qs, hits] { p->intersect_all(qs, HitRule::nearest_contact, *hits); },
                                     [hits](size_t i) { return (*hits)[i]; },
-                                    [p] { return p->external->inner_seconds(); }};
+                                    [p] { return p->external->inner_seconds(); }, p->external};
                   return Prepared{[p, &qs, hits] {
                                     for (size_t i = 0; i < qs.size(); ++i)
                                       (*hits)[i] = p->intersect(qs[i].ray, qs[i].shape, HitRule::nearest_contact);
@@ -76,6 +76,13 @@ double time_per_query(const Contender& c, const std::vector<Query>& all) {
   const std::vector<Query> qs(all.begin(), all.begin() + std::min<size_t>(all.size(), 4096));
   const Prepared p = c.prepare(qs);
   const int repeats = static_cast<int>(std::max<size_t>(1, 200000 / qs.size()));
+  if (p.external) {  // external code repeats the batch where it runs: one round trip per pass
+    double best = INFINITY;
+    p.external->set_timing_repeats(repeats);
+    for (int pass = 0; pass < 5 && best >= 0; ++pass) p.run(), best = std::min(best, p.inner_seconds());
+    p.external->set_timing_repeats(1);
+    if (best >= 0) return best * 1e9 / std::max<size_t>(1, qs.size());
+  }
   double best = INFINITY;
   for (int pass = 0; pass < 5; ++pass) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -99,9 +106,9 @@ double time_per_query(const Contender& c, const std::vector<Query>& all) {
 
 void mark_pareto(std::vector<TradeRow>& rows) {
   for (TradeRow& r : rows) {
-    r.pareto = true;
+    r.pareto = r.measured();
     for (const TradeRow& o : rows) {
-      if (&o == &r || o.shape != r.shape || o.family != r.family) continue;
+      if (&o == &r || o.shape != r.shape || o.family != r.family || !o.measured()) continue;
       const double o_rate = o.tally.disagreement_rate(), r_rate = r.tally.disagreement_rate();
       const bool no_worse = o.ns_per_test <= r.ns_per_test && o_rate <= r_rate;
       const bool better = o.ns_per_test < r.ns_per_test || o_rate < r_rate;
@@ -287,7 +294,7 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
   for (size_t si = 0; si < shapes.size(); ++si) {
     std::vector<TradeRow> panel;
     for (const TradeRow& r : rows)
-      if (r.shape == shapes[si]) panel.push_back(r);
+      if (r.shape == shapes[si] && r.measured()) panel.push_back(r);
     const TradeFrame frame(panel, si * TradeFrame::H,
                            std::string(to_string(shapes[si])) + ": speed against accuracy (lower left is better)");
     frame.draw(out);
@@ -310,9 +317,8 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
           << svg::escape(r.variant + (r.users_code ? " (your code)" : "") + " / " + std::string(to_string(r.family)) +
                          svg::format(": %g ns, rate %g", r.ns_per_test, r.tally.disagreement_rate()))
           << "</title>" << trade_marker(x, y, fi, contender_colour(vi));
-      if (r.users_code)  // the user's own code: ringed and named, so it is found at a glance
-        out << svg::format("<circle cx='%.1f' cy='%.1f' r='10' fill='none' stroke='#000' stroke-width='1.5'/>", x, y)
-            << svg::text(x + 12, y - 8, r.variant, "font-weight='bold'");
+      if (r.users_code)  // the user's own code: ringed (and named in bold in the legend), found at a glance
+        out << svg::format("<circle cx='%.1f' cy='%.1f' r='10' fill='none' stroke='#000' stroke-width='2'/>", x, y);
       out << "</g>\n";
     }
     const double lx = TradeFrame::W - TradeFrame::right;

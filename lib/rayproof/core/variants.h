@@ -42,6 +42,9 @@ class ExternalIntersector {
   // Seconds the code itself spent on the last answer_all on this thread, measured where it
   // ran (no transport), or a negative number when only the round trip can be timed.
   virtual double inner_seconds() const { return -1; }
+  // Timing (`trade`): on this thread, answer_all runs each batch this many times where the code
+  // runs, on inputs then in its cache, and inner_seconds gives the mean pass. 1: normal use.
+  virtual void set_timing_repeats(int repeats) { (void)repeats; }
   // One line: why it stopped (signal, exit status, the unreadable line), empty while it runs.
   virtual std::string stop_reason() const { return {}; }
 };

@@ -11,6 +11,7 @@
 
 #include "rayproof/core/hit.h"
 #include "rayproof/core/query.h"
+#include "rayproof/core/variants.h"
 #include "rayproof/fuzz/generators.h"
 #include "rayproof/verify/report.h"
 #include "rayproof/verify/tally.h"
@@ -27,6 +28,7 @@ struct Prepared {
   // Code behind a process boundary times itself where it runs: seconds of the last run, so the
   // transport is not charged to the formula. Empty: run is timed from outside.
   std::function<double()> inner_seconds;
+  ExternalIntersector* external = nullptr;  // code that can repeat a batch where it runs (timing)
 };
 
 // Something to measure: readies a whole batch of queries of one shape in its own layout (so
@@ -52,8 +54,12 @@ struct TradeRow {
   Family family;
   double ns_per_test = 0;
   Tally tally;          // against the oracle on the contender's effective inputs
-  bool pareto = false;
-  bool users_code = false;  // no other contender on this shape and family is both as fast and as accurate
+  bool pareto = false;      // no other contender on this shape and family is both as fast and as accurate
+  bool users_code = false;  // a plugin's or an --exec command's: ringed in the plot
+  // Whether the row means something: cases were judged and the code did not stop on one (a
+  // crash, timeout or protocol error leaves a time and a rate of nothing). Others stay out of
+  // the plot and the Pareto front.
+  bool measured() const { return tally.cases > 0 && tally.crashes + tally.timeouts + tally.protocol_errors == 0; }
 };
 
 // Marks every row that no other row of its shape and family beats on both speed and accuracy
