@@ -34,6 +34,10 @@ void add_intersect_command(CLI::App& app, int& exit_code) {
             for (const Variant* v : variants) {
               if (!v->handles(kind_of(c.shape))) continue;
               const Hit h = v->intersect(c.ray, c.shape, rule);
+              if (h.failed()) {  // external code that gave no answer (docs/spec/plugin.md)
+                out["variants"][std::string(v->name)] = {{"error", std::string(to_string(h.failure))}};
+                continue;
+              }
               out["variants"][std::string(v->name)] = {
                   {"class", std::string(to_string(h.cls))},
                   {"t", h.has_t() ? json(hex_double(h.t)) : json(nullptr)}};

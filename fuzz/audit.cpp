@@ -44,7 +44,7 @@ struct Auditor {
       const bool finding = outcomes[i].hit.failed() ? is_plugin_error(outcomes[i].hit.failure)
                                                     : outcomes[i].agreement != Agreement::agrees;
       if (finding && report.findings.size() < options.keep) {
-        Case c = fuzz::shrink(chunk[i], variant, oracle, options.rule);
+        Case c = fuzz::shrink(chunk[i], variant, oracle, options.rule, 3000, outcomes[i].hit.failure);
         const Verdict v = oracle.judge(c.ray, c.shape, HitRule::nearest_contact);
         c.expect = Expectation{v.cls, v.t};
         const Hit h = variant.intersect(c.ray, c.shape, options.rule);

@@ -378,7 +378,7 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
   const Case original = c;
   // A variant that stopped (crash, timeout, protocol) cannot be asked again: its case stays as found.
   const bool shrinkable = o.shrink && !stops_variant(f.failure);
-  if (shrinkable) c = shrink(c, *f.first_disagreeing, oracle, o.rule);
+  if (shrinkable) c = shrink(c, *f.first_disagreeing, oracle, o.rule, 3000, f.failure);
   // `expect` keeps the case format's meaning, the nearest contact, whatever rule found the case
   // (found.rule says which): the finding replays green under `check`.
   const Verdict exact = oracle.judge(c.ray, c.shape, HitRule::nearest_contact);

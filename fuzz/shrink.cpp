@@ -11,7 +11,14 @@ namespace rayproof::fuzz {
 bool disagrees(const Variant& v, Oracle& oracle, const Ray& ray, const Shape& shape, HitRule rule) {
   const Query q{ray, shape, {}};
   const VariantOutcome o = compare_variant(oracle, v, oracle.judge(ray, shape, rule), q, rule);
-  return o.hit.failed() ? is_plugin_error(o.hit.failure) : o.agreement != Agreement::agrees;
+  return !o.hit.failed() && o.agreement != Agreement::agrees;
+}
+
+bool fails_the_same_way(const Variant& v, Oracle& oracle, const Ray& ray, const Shape& shape, HitRule rule,
+                        HitFailure failure) {
+  if (failure == HitFailure::none) return disagrees(v, oracle, ray, shape, rule);
+  const Query q{ray, shape, {}};
+  return compare_variant(oracle, v, oracle.judge(ray, shape, rule), q, rule).hit.failure == failure;
 }
 
 int number_cost(double x) {
@@ -69,7 +76,7 @@ std::vector<double> candidates(double x) {
 
 }  // namespace
 
-Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget) {
+Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget, HitFailure failure) {
   bool changed = true;
   while (changed && budget > 0) {
     changed = false;
@@ -83,7 +90,7 @@ Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget) 
         const double before = *x;
         *x = candidate;
         --budget;
-        if (is_valid_query(trial.ray, trial.shape) && disagrees(v, oracle, trial.ray, trial.shape, rule)) {
+        if (is_valid_query(trial.ray, trial.shape) && fails_the_same_way(v, oracle, trial.ray, trial.shape, rule, failure)) {
           changed = true;
           break;  // keep the simplest candidate that still disagrees
         }

@@ -87,6 +87,9 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
 // when the environment says this process is one.
 [[noreturn]] void run_worker(const char* plugin_path) {
   ::dup2(2, 1);  // a plugin's printf must not land in rayproof's results
+  // A crash is the plugin's: let its signal end this process as it is (a sanitizer's handlers
+  // would turn it into an exit status), so rayproof can name the signal.
+  for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGTRAP}) ::signal(sig, SIG_DFL);
   void* lib = ::dlopen(plugin_path, RTLD_NOW | RTLD_LOCAL);
   auto entry = lib ? reinterpret_cast<decltype(&rayproof_plugin)>(::dlsym(lib, "rayproof_plugin")) : nullptr;
   int count = 0;
