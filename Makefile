@@ -20,7 +20,7 @@ test: build
 # includes float-cast-overflow, unlike GCC's), in its own build directory. .ci/run runs it.
 test-sanitize:
 	@bash scripts/install-deps.sh sanitize
-	@cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+	@cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
 	  -DRAYPROOF_SANITIZE=ON -DRAYPROOF_BUILD_BENCH=OFF > /dev/null
 	@cmake --build build-sanitize -j$(JOBS)
 	@cd build-sanitize && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j$(JOBS)
@@ -39,7 +39,7 @@ FUZZ_SECONDS ?= 30
 FUZZERS = sphere_fuzzer plane_fuzzer triangle_fuzzer box_fuzzer parsers_fuzzer
 fuzz-smoke:
 	@bash scripts/install-deps.sh fuzz
-	@cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+	@cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
 	  -DRAYPROOF_LIBFUZZER=ON -DRAYPROOF_BUILD_TESTS=OFF -DRAYPROOF_BUILD_BENCH=OFF > /dev/null
 	@cmake --build build-fuzz -j$(JOBS) --target $(FUZZERS)
 	@for f in $(FUZZERS); do \

@@ -51,7 +51,7 @@ std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
 struct FuzzOptions {
   ExternalFlags ext;
   std::vector<std::string> families{"all"}, shapes{"all"}, variants;
-  std::string shard = "0/1", output, rule = "nearest", summary, format = "table", spawn_csv;
+  std::string shard = "0/1", output, rule = "nearest", summary, format = "table", spawn_csv, construction = "both";
   std::uint64_t count = 100000, seed = 1, max_findings = 1000, batch = 8192;
   int threads = 0;
   bool resume = false, no_shrink = false, keep_checkpoint = false;
@@ -61,6 +61,8 @@ struct FuzzOptions {
 fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
   fuzz::CampaignOptions o;
   o.families = parse_families(opts.families);
+  if (opts.construction == "exact") o.constructions = {fuzz::Construction::exact};
+  if (opts.construction == "full") o.constructions = {fuzz::Construction::full};
   o.shapes = parse_shapes(opts.shapes);
   if (!opts.variants.empty()) o.variants = parse_variants(opts.variants, o.shapes);
   std::tie(o.shard, o.shards) = parse_shard(opts.shard);
@@ -113,6 +115,10 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--variants,--variant", opts->variants,
                   "variants to judge (default: all but the oracle's own certified-*, which always agree)");
   add_external_flags(cmd, opts->ext);
+  cmd->add_option("--construction", opts->construction,
+                  "exact (small integers, nudged), full (53-bit mantissas, features computed in double) or both "
+                  "(default; tallied apart as FAMILY and FAMILY-full)")
+      ->check(CLI::IsMember({"exact", "full", "both"}));
   add_count_flag(cmd, opts->count, "cases per family and shape (before sharding)", std::uint64_t(1) << 50);
   add_seed_flag(cmd, opts->seed);
   cmd->add_option("--shard", opts->shard,

@@ -45,6 +45,35 @@ std::map<ReportKey, Value> keyed_from_json(const json& j, FromJson from_json) {
 }
 }  // namespace
 
+json CampaignReport::coverage() const {
+  // Every kind a variant could get wrong on its shape: an exact class it can be (cases.md) and
+  // another class it can answer. A kind no family found is where the next family should aim.
+  std::map<std::string, std::map<std::string, json>> found;  // variant → kind → family → count
+  for (const auto& [key, tally] : tallies)
+    for (const auto& [kind, n] : tally.confusion) found[key.name][kind][key.family] = n;
+  json out = json::object();
+  for (const auto& [key, tally] : tallies) {
+    if (out.contains(key.name)) continue;
+    const Variant* v = find_variant(key.name);
+    const ShapeKind shape = v ? v->shape : ShapeKind::sphere;
+    std::vector<HitClass> exact = {HitClass::miss, HitClass::enter, HitClass::exit, HitClass::tangent};
+    if (shape == ShapeKind::triangle) exact.push_back(HitClass::boundary);
+    std::vector<HitClass> answers = exact;
+    if (v && v->external) answers.push_back(HitClass::hit);
+    json never = json::array();
+    for (HitClass e : exact)
+      for (HitClass a : answers) {
+        if (agreement_of(e, a) == Agreement::agrees) continue;
+        const std::string kind = std::string(rayproof::to_string(e)) + "->" + std::string(rayproof::to_string(a));
+        if (!found[key.name].contains(kind)) never.push_back(kind);
+      }
+    json kinds = json::object();
+    for (const auto& [kind, by_family] : found[key.name]) kinds[kind] = by_family;
+    out[key.name] = {{"found", kinds}, {"never_found", never}};
+  }
+  return out;
+}
+
 json CampaignReport::to_json() const {
   auto plain = [](const auto& v) { return json(v); };
   return {{"tallies", keyed_to_json(tallies, [](const Tally& t) {
@@ -54,7 +83,8 @@ json CampaignReport::to_json() const {
            })},
           {"seconds", keyed_to_json(seconds, plain)},
           {"cases", keyed_to_json(cases, plain)},
-          {"findings_written", findings_written}};
+          {"findings_written", findings_written},
+          {"coverage", coverage()}};
 }
 
 CampaignReport CampaignReport::from_json(const json& j) {
@@ -72,10 +102,12 @@ namespace {
 json fingerprint(const CampaignOptions& o) {
   json f = json::array(), s = json::array();
   for (Family x : o.families) f.push_back(std::string(to_string(x)));
+  json c = json::array();
+  for (Construction x : o.constructions) c.push_back(std::string(to_string(x)));
   for (ShapeKind x : o.shapes) s.push_back(std::string(to_string(x)));
   json v = json::array();
   for (const Variant* x : o.variants) v.push_back(std::string(x->name));
-  return {{"families", f}, {"shapes", s}, {"variants", v}, {"count", o.count}, {"seed", o.seed}, {"shard", o.shard},
+  return {{"families", f}, {"constructions", c}, {"shapes", s}, {"variants", v}, {"count", o.count}, {"seed", o.seed}, {"shard", o.shard},
           {"shards", o.shards}, {"rule", std::string(to_string(o.rule))}, {"shrink", o.shrink},
           {"max_findings", o.max_findings}, {"batch", o.batch}};
 }
@@ -205,6 +237,7 @@ std::pair<std::uint64_t, std::uint64_t> shard_range(const CampaignOptions& o) {
 // ----------------------------------------------------------------------------- one batch
 struct Batch {
   Family family;
+  Construction construction;
   ShapeKind shape;
   std::uint64_t start, end;
   std::uint64_t size() const { return end - start; }
@@ -272,7 +305,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
       const size_t n = static_cast<size_t>(std::min<std::uint64_t>(chunk_size, hi - chunk));
       cases.clear(), queries.clear(), exact.clear();
       for (size_t k = 0; k < n; ++k) {
-        cases.push_back(generate(b.family, b.shape, o.seed, chunk + k));
+        cases.push_back(generate(b.family, b.shape, o.seed, chunk + k, b.construction));
         if (external) queries.push_back(cases.back());
         exact.push_back(me.oracle.judge(cases.back().ray, cases.back().shape, o.rule));
       }
@@ -326,7 +359,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
   });
   for (Worker& w : workers) {
     for (size_t vi = 0; vi < variants.size(); ++vi)
-      report.tallies[{std::string(to_string(b.family)), std::string(variants[vi]->name)}].merge(w.tallies[vi]);
+      report.tallies[{family_label(b.family, b.construction), std::string(variants[vi]->name)}].merge(w.tallies[vi]);
     for (Finding& f : w.findings) judged.findings.push_back(std::move(f));
   }
   std::sort(judged.findings.begin(), judged.findings.end(),
@@ -342,7 +375,7 @@ void count_shared_edge_holes(const Batch& b, const Judged& judged, const std::ve
     if (!first.shared_edge || !crosses_shared_edge(first.exact, second.exact)) continue;
     for (size_t vi = 0; vi < variants.size(); ++vi)
       if (!first.variant_hit[vi] && !second.variant_hit[vi])
-        ++report.tallies[{std::string(to_string(b.family)), std::string(variants[vi]->name)}].shared_edge_holes;
+        ++report.tallies[{family_label(b.family, b.construction), std::string(variants[vi]->name)}].shared_edge_holes;
   }
 }
 
@@ -371,7 +404,7 @@ json disagreeing_answers(const std::vector<const Variant*>& variants, Oracle& or
 std::string finding_line(const Batch& b, const Finding& f, const std::vector<const Variant*>& variants,
                          const CampaignOptions& o, Oracle& oracle) {
   Case c;
-  c.id = std::string(to_string(b.family)) + "/" + std::string(to_string(b.shape)) + "/" + std::to_string(o.seed) + "/" +
+  c.id = family_label(b.family, b.construction) + "/" + std::string(to_string(b.shape)) + "/" + std::to_string(o.seed) + "/" +
          std::to_string(f.index);
   c.ray = f.generated.ray;
   c.shape = f.generated.shape;
@@ -384,6 +417,7 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
   const Verdict exact = oracle.judge(c.ray, c.shape, HitRule::nearest_contact);
   c.expect = Expectation{exact.cls, exact.t};
   c.found = {{"family", std::string(to_string(b.family))},
+             {"construction", std::string(to_string(has_full_construction(b.family) ? b.construction : Construction::full))},
              {"seed", o.seed},
              {"index", f.index},
              {"detail", f.generated.detail},
@@ -424,9 +458,17 @@ CampaignReport run_campaign(const CampaignOptions& o) {
   if (o.families.empty() || o.shapes.empty()) throw std::runtime_error("no family or shape chosen");
   if (o.shards == 0 || o.shard >= o.shards) throw std::runtime_error("--shard must be i/n with i < n");
   const std::string checkpoint_path = o.output + ".checkpoint";
-  std::vector<std::pair<Family, ShapeKind>> pairs;
+  struct Pair {
+    Family family;
+    Construction construction;
+    ShapeKind shape;
+  };
+  std::vector<Pair> pairs;  // family × construction × shape; random and near-origin have one construction
   for (Family f : o.families)
-    for (ShapeKind s : o.shapes) pairs.push_back({f, s});
+    for (Construction c : o.constructions) {
+      if (c == Construction::full && !has_full_construction(f) && o.constructions.size() > 1) continue;
+      for (ShapeKind s : o.shapes) pairs.push_back({f, c, s});
+    }
   const auto [lo, hi] = shard_range(o);
   const std::uint64_t batch = std::max<std::uint64_t>(2, o.batch & ~std::uint64_t(1));
   const FindingsLock lock(o.output);
@@ -435,15 +477,15 @@ CampaignReport run_campaign(const CampaignOptions& o) {
   std::vector<Worker> workers(std::max(1, o.threads));
   long batches_done = 0;
   for (; cp.pair < pairs.size(); ++cp.pair, cp.pair_started = false, cp.findings_in_pair = 0) {
-    const auto [family, shape] = pairs[cp.pair];
+    const auto [family, construction, shape] = pairs[cp.pair];
     std::vector<const Variant*> variants = variants_for(shape);
     std::erase_if(variants, [&](const Variant* v) {
       return o.variants.empty() ? v->is_oracle : std::find(o.variants.begin(), o.variants.end(), v) == o.variants.end();
     });
-    const ReportKey pair_key{std::string(to_string(family)), std::string(to_string(shape))};
+    const ReportKey pair_key{family_label(family, construction), std::string(to_string(shape))};
     if (!cp.pair_started) cp.next = lo, cp.pair_started = true;
     for (std::uint64_t start = cp.next; start < hi; start += batch) {
-      const Batch b{family, shape, start, std::min(hi, start + batch)};
+      const Batch b{family, construction, shape, start, std::min(hi, start + batch)};
       // Throughput counts generating and checking; shrinking findings is reported apart.
       const auto t0 = std::chrono::steady_clock::now();
       Judged judged = judge_batch(b, variants, o, workers, cp.report);
@@ -480,10 +522,19 @@ void print_report(const CampaignReport& r, int threads, TableFormat format, std:
     const Variant* v = find_variant(k.name);
     rows.push_back({k.family, k.name, v ? v->shape : ShapeKind::sphere, t});
   }
-  std::vector<std::string> families;
-  for (Family f : kAllFamilies) families.push_back(std::string(to_string(f)));
+  std::vector<std::string> families;  // table order: each family, its full construction after it
+  for (Family f : kAllFamilies)
+    for (Construction c : {Construction::exact, Construction::full})
+      if (c == Construction::exact || has_full_construction(f)) families.push_back(family_label(f, c));
   write_tally_table(std::move(rows), format, out, families);
   if (format == TableFormat::json) return;
+  const json coverage = r.coverage();
+  for (const auto& [name, c] : coverage.items())  // what no family found, per variant
+    if (!c["never_found"].empty()) {
+      out << "coverage " << name << ": never found";
+      for (const json& kind : c["never_found"]) out << " " << kind.get<std::string>();
+      out << "\n";
+    }
   for (const auto& [k, seconds] : r.seconds) {
     const std::uint64_t n = r.cases.at(k);
     out << "throughput " << k.family << "/" << k.name << ": " << n << " cases checked in " << std::fixed

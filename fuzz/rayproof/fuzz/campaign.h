@@ -20,6 +20,8 @@ namespace rayproof::fuzz {
 
 struct CampaignOptions {
   std::vector<Family> families;
+  // Each adversarial family in each construction, tallied apart ("tangent", "tangent-full").
+  std::vector<Construction> constructions = {Construction::exact, Construction::full};
   std::vector<ShapeKind> shapes;
   // Variants judged (those of each shape); empty: every variant but the oracle's own (certified-*).
   std::vector<const Variant*> variants;
@@ -52,6 +54,9 @@ struct CampaignReport {
   std::map<ReportKey, double> seconds;            // family × shape
   std::map<ReportKey, std::uint64_t> cases;       // family × shape
   std::uint64_t findings_written = 0;
+  // Per variant: {"found": {"exact->reported": {family: count}}, "never_found": [kinds]}, the
+  // kinds of disagreement each family finds, and those none found.
+  json coverage() const;
   json to_json() const;
   static CampaignReport from_json(const json& j);
 };

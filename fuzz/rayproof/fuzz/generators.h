@@ -1,7 +1,7 @@
 // Deterministic, seeded families of cases for every shape. The interesting geometry (a
-// tangent, an edge, a point on a surface) is built exactly — small integers and dyadic
-// fractions scaled by powers of two, so every relation holds in rationals — and then nudged by
-// a chosen number of ULPs. Case `index` of a family is a pure function of (seed, family, shape,
+// tangent, an edge, a point on a surface) is built in one of two constructions (below): exactly,
+// from small integers and dyadic fractions nudged by a chosen number of ULPs, or at full
+// precision, computed in double from random 53-bit coordinates. Case `index` of a family is a pure function of (seed, family, shape,
 // index): any shard, thread count or machine produces the same case.
 #pragma once
 
@@ -23,6 +23,19 @@ inline constexpr Family kAllFamilies[] = {Family::random,      Family::tangent, 
 std::string_view to_string(Family f);
 std::optional<Family> family_from_string(std::string_view s);
 
+// How an adversarial family builds its geometry. `exact`: small integers and dyadic fractions
+// scaled by powers of two, the feature exact in rationals, then nudged by ±3 ulps — the answer
+// is easy to know, and much of the double arithmetic is exact too. `full`: random 53-bit
+// mantissas over a wide exponent range, the feature (tangent point, edge or vertex point,
+// on-surface origin) computed in double, so the exact ray passes within rounding of it and the
+// variants' arithmetic rounds everywhere. `random` and `near-origin` are full precision by
+// construction and have only the one.
+enum class Construction { exact, full };
+std::string_view to_string(Construction c);
+bool has_full_construction(Family f);
+// The name a family's tallies and findings go by: "tangent", "tangent-full".
+std::string family_label(Family f, Construction c);
+
 struct GeneratedCase : Query {
   GeneratedCase() = default;
   GeneratedCase(const Ray& r, const Shape& s, std::string how) : Query{r, s, {}}, detail(std::move(how)) {}
@@ -34,7 +47,8 @@ struct GeneratedCase : Query {
 // Case 2k and 2k + 1 of the family form the pair.
 bool is_shared_edge_pair(const GeneratedCase& c);
 
-GeneratedCase generate(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index);
+GeneratedCase generate(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index,
+                       Construction construction = Construction::exact);
 
 // The exact construction before nudging, for tests: the same as generate() with every ULP
 // nudge set to zero (tangent family: the ray is exactly tangent; grazing: exactly through an
