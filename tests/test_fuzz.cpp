@@ -164,6 +164,69 @@ TEST(Campaign, WatertightHasNoHoleOnSharedEdgesWhereMollerTrumboreDoes) {
   EXPECT_GT(r.tallies.at({"grazing", "moller-trumbore"}).shared_edge_holes, 0u);
 }
 
+// The full-precision construction (issue: "the families are too clean"): 53-bit mantissas,
+// features computed in double. Every variant of every shape must be caught on it.
+TEST(FullPrecision, EveryVariantIsCaughtOnGrazingAndTangent) {
+  CampaignOptions o;
+  o.families = {Family::tangent, Family::grazing};
+  o.constructions = {Construction::full};
+  o.shapes = {kAllShapeKinds.begin(), kAllShapeKinds.end()};
+  o.count = 20000;
+  o.threads = 2;
+  o.shrink = false;
+  o.max_findings = 0;
+  o.output = rayproof::testing_support::test_dir() + "/full.jsonl";
+  const CampaignReport r = run_campaign(o);
+  int checked = 0;
+  for (const Variant& v : all_variants()) {
+    if (v.is_oracle || v.external) continue;
+    for (const char* family : {"tangent-full", "grazing-full"}) {
+      const Tally& t = r.tallies.at({family, std::string(v.name)});
+      EXPECT_EQ(t.cases, 20000u) << family << " " << v.name;
+      EXPECT_GT(t.disagreements(), 0u) << family << " catches nothing of " << v.name;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 18);
+  EXPECT_EQ(r.tallies.at({"grazing-full", "watertight"}).shared_edge_holes, 0u);
+  EXPECT_GT(r.tallies.at({"grazing-full", "moller-trumbore"}).shared_edge_holes, 0u);
+  EXPECT_FALSE(r.tallies.contains({"tangent", "textbook"}));  // only the construction asked for
+}
+
+TEST(FullPrecision, ConstructionsAreSeparateAndTheExactOneIsUnchanged) {
+  for (ShapeKind shape : kAllShapeKinds)
+    for (Family f : kAllFamilies)
+      for (std::uint64_t i = 0; i < 50; ++i) {
+        const GeneratedCase exact = generate(f, shape, 3, i), again = generate(f, shape, 3, i, Construction::exact);
+        EXPECT_EQ(exact.detail, again.detail);
+        const GeneratedCase full = generate(f, shape, 3, i, Construction::full);
+        EXPECT_TRUE(is_valid_query(full.ray, full.shape)) << full.detail;
+        if (!has_full_construction(f)) {
+          EXPECT_EQ(full.detail, exact.detail);  // random and near-origin have one construction
+          continue;
+        }
+        if (f == Family::extremes) continue;  // its random, subnormal and overflow modes are the same in both
+        EXPECT_NE(full.detail.find("full"), std::string::npos) << full.detail;
+      }
+  EXPECT_EQ(family_label(Family::tangent, Construction::full), "tangent-full");
+  EXPECT_EQ(family_label(Family::random, Construction::full), "random");
+}
+
+TEST(FullPrecision, SharedEdgePairsShareTheirEdgeExactly) {
+  int pairs = 0;
+  for (std::uint64_t i = 0; i < 400; i += 2) {
+    const GeneratedCase a = generate(Family::grazing, ShapeKind::triangle, 5, i, Construction::full);
+    const GeneratedCase b = generate(Family::grazing, ShapeKind::triangle, 5, i + 1, Construction::full);
+    EXPECT_EQ(a.ray.origin, b.ray.origin);
+    EXPECT_EQ(a.ray.direction, b.ray.direction);
+    const Triangle &ta = std::get<Triangle>(a.shape), &tb = std::get<Triangle>(b.shape);
+    EXPECT_EQ(ta.v[0], tb.v[1]);
+    EXPECT_EQ(ta.v[1], tb.v[0]);
+    pairs += is_shared_edge_pair(a);
+  }
+  EXPECT_GT(pairs, 100);
+}
+
 TEST(Campaign, ShardsPartitionTheCases) {
   CampaignOptions whole = small_campaign(rayproof::testing_support::test_dir() + "/shard-all.jsonl", 2);
   whole.shrink = false;
