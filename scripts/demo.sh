@@ -14,7 +14,13 @@ if "$rp" check --help > /dev/null 2>&1 && [ -d scenes/cases ]; then
 fi
 echo "rayproof fuzz: a short campaign, every family and shape (shrunk findings, replayable by check):"
 "$rp" fuzz --count 20000 --max-findings 10 --seed 1 -o "$out/fuzz-findings.jsonl" --summary "$out/fuzz-summary.json" \
-  2>&1 | grep -E "^(family|tangent +textbook|grazing +(moller-trumbore|watertight)|extremes +(textbook|hearn-baker))|^t error|findings in" || true
+  2>&1 | grep -E "^(family|tangent(-full)? +textbook|grazing(-full)? +(moller-trumbore|watertight)|extremes +(textbook|hearn-baker))|^t error|findings in" || true
+if [ -f "$build/plugins/weekend_sphere.so" ]; then
+  echo "your own code: the Ray Tracing in One Weekend sphere as a plugin (examples/plugins), fuzzed on tangents:"
+  "$rp" fuzz --plugin "$build/plugins/weekend_sphere.so" --variants weekend-sphere --shapes sphere \
+    --families tangent,near-origin --count 20000 --max-findings 10 -o "$out/plugin-findings.jsonl" 2>&1 \
+    | grep -E "^(family|(tangent|near-origin)(-full)? +weekend)|findings in" || true
+fi
 echo
 echo "rayproof demo: results are in $(cd "$out" && pwd)/"
 ls -1 "$out" | sed 's/^/  /'

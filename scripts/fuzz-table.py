@@ -14,29 +14,45 @@ VARIANTS = ["textbook", "stable", "stable-fma", "hearn-baker", "certified-sphere
 SHAPES = ["sphere", "plane", "triangle", "box"]
 
 
+FULL = ["tangent-full", "grazing-full", "exit-entry-full", "extremes-full"]  # random, near-origin: one construction
+
+
 def main(path, threads):
     s = json.load(open(path))
     tallies = s["tallies"]
-    print("| variant | " + " | ".join(FAMILIES) + " |")
-    print("|---|" + "---|" * len(FAMILIES))
+    rates(tallies, FAMILIES)
+    if any(k.split("\t")[0].endswith("-full") for k in tallies):
+        print()
+        print("Full-precision construction (`--construction full`):")
+        print()
+        rates(tallies, FULL)
+    throughput(s, threads, FAMILIES + [f for f in FULL if any(k.startswith(f + "\t") for k in s["cases"])])
+
+
+def rates(tallies, families):
+    print("| variant | " + " | ".join(families) + " |")
+    print("|---|" + "---|" * len(families))
     for v in VARIANTS:
         cells = []
-        for f in FAMILIES:
+        for f in families:
             t = tallies.get(f"{f}\t{v}")
             if not t:
                 cells.append("-")
                 continue
             cell = f"{100 * t['wrong'] / t['cases']:.3f} / {100 * t['cannot_tell'] / t['cases']:.3f}"
-            if f == "grazing" and v in ("moller-trumbore", "watertight", "certified-triangle"):
+            if f.startswith("grazing") and v in ("moller-trumbore", "watertight", "certified-triangle"):
                 cell += f" · {t['shared_edge_holes']} holes"
             cells.append(cell)
         print(f"| `{v}` | " + " | ".join(cells) + " |")
+
+
+def throughput(s, threads, families):
     print()
-    print("| cases/s per core | " + " | ".join(FAMILIES) + " |")
-    print("|---|" + "---|" * len(FAMILIES))
+    print("| cases/s per core | " + " | ".join(families) + " |")
+    print("|---|" + "---|" * len(families))
     for shape in SHAPES:
         cells = []
-        for f in FAMILIES:
+        for f in families:
             key = f"{f}\t{shape}"
             seconds, cases = s["seconds"].get(key), s["cases"].get(key)
             cells.append("-" if not seconds else f"{cases / seconds / threads / 1000:.0f}k")
