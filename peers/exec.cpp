@@ -22,6 +22,7 @@
 
 #include "rayproof/core/json_fields.h"
 #include "rayproof/peers/external.h"
+#include "rayproof/peers/process_pool.h"
 
 extern char** environ;
 
@@ -319,27 +320,16 @@ class ExecVariant final : public ExternalIntersector {
 
  private:
   std::unique_ptr<ExecProcess> take() {
-    {
-      std::lock_guard lock(mutex_);
-      if (!idle_.empty()) {
-        auto p = std::move(idle_.back());
-        idle_.pop_back();
-        return p;
-      }
-    }
-    return std::make_unique<ExecProcess>(command_);
+    return processes_.take([this] { return std::make_unique<ExecProcess>(command_); });
   }
-  void give_back(std::unique_ptr<ExecProcess> p) {
-    std::lock_guard lock(mutex_);
-    idle_.push_back(std::move(p));
-  }
+  void give_back(std::unique_ptr<ExecProcess> p) { processes_.give_back(std::move(p)); }
   std::string command_;
   ExternalOptions options_;
   std::atomic<bool> stopped_{false};
   std::atomic<std::uint64_t> next_id_{0};
   mutable std::mutex mutex_;
   std::string reason_;
-  std::vector<std::unique_ptr<ExecProcess>> idle_;
+  ProcessPool<ExecProcess> processes_;
 };
 
 std::deque<std::unique_ptr<ExecVariant>>& exec_variants() {

@@ -27,6 +27,7 @@
 #include <type_traits>
 
 #include "rayproof/peers/external.h"
+#include "rayproof/peers/process_pool.h"
 #include "rayproof/plugin.h"
 
 extern char** environ;
@@ -226,25 +227,13 @@ class Plugin {
   explicit Plugin(std::string path) : path_(std::move(path)) {}
   const std::string& path() const { return path_; }
   std::unique_ptr<WorkerProcess> take() {
-    {
-      std::lock_guard lock(mutex_);
-      if (!idle_.empty()) {
-        auto w = std::move(idle_.back());
-        idle_.pop_back();
-        return w;
-      }
-    }
-    return std::make_unique<WorkerProcess>(path_);
+    return workers_.take([this] { return std::make_unique<WorkerProcess>(path_); });
   }
-  void give_back(std::unique_ptr<WorkerProcess> w) {
-    std::lock_guard lock(mutex_);
-    idle_.push_back(std::move(w));
-  }
+  void give_back(std::unique_ptr<WorkerProcess> w) { workers_.give_back(std::move(w)); }
 
  private:
   std::string path_;
-  std::mutex mutex_;
-  std::vector<std::unique_ptr<WorkerProcess>> idle_;
+  ProcessPool<WorkerProcess> workers_;
 };
 
 class PluginVariant final : public ExternalIntersector {
