@@ -59,6 +59,12 @@ void add_render_command(CLI::App& app, int& exit_code) {
     std::cerr << "rayproof render: " << opts->output << " (" << image.width << "x" << image.height << ", "
               << seconds << " s)\n";
     exit_code = 0;
+    for (const Variant* v : ro.intersectors.by_shape)  // external code that stopped drew misses from then on
+      if (v && v->external && !v->external->stop_reason().empty()) {
+        std::cerr << "rayproof render: " << v->name << " stopped (" << v->external->stop_reason()
+                  << "): pixels after that point show misses for it\n";
+        exit_code = 1;
+      }
   });
 }
 

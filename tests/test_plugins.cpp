@@ -187,6 +187,19 @@ TEST(Plugins, FuzzCampaignKeepsEverythingWhenAPluginCrashes) {
   EXPECT_GE(s["tallies"]["random\ttest-crash-often"]["crashes"], 1);
 }
 
+TEST(Plugins, RenderSaysWhenThePluginItDrawsWithStopped) {
+  const std::string scene = write("scene.json", R"({"camera": {"eye": [1, 0, 5], "look_at": [1, 0, 0], "up": [0, 1, 0],
+    "fov_deg": 40, "width": 32, "height": 24}, "shading": "flat", "background": [0, 0, 0],
+    "objects": [{"type": "sphere", "center": [1, 0, 0], "radius": 1, "color": [1, 0, 0]}]})");
+  const std::string png = test_dir() + "/out.png";
+  const CliRun crashed = run("render " + scene + kPlugin + "--variants test-crash-often -o " + png);
+  EXPECT_EQ(crashed.status, 1);
+  EXPECT_NE(crashed.err.find("test-crash-often stopped (killed by SIGSEGV)"), std::string::npos) << crashed.err;
+  EXPECT_TRUE(std::ifstream(png).good());  // the image is still written
+  const CliRun fine = run("render " + scene + kPlugin + "--variants test-float -o " + png);
+  EXPECT_EQ(fine.status, 0) << fine.err;
+}
+
 TEST(Exec, PythonIntersectorIsJudgedLikeAPlugin) {
   const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
   const std::string cases = std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl";
