@@ -34,9 +34,9 @@ class AnswersFile final : public ExternalIntersector {
         if (!fresh)
           problems_.push_back(where(line) + ": id '" + printable(a.id) + "' repeats line " + std::to_string(it->second.line));
       } catch (const FieldError& e) {
-        problems_.push_back(where(line) + ": " + (e.field.empty() ? "" : e.field + ": ") + e.what());
+        problems_.push_back(where(line) + ": " + (e.field.empty() ? "" : e.field + ": ") + printable(e.what()));
       } catch (const std::exception& e) {
-        problems_.push_back(where(line) + ": " + e.what());
+        problems_.push_back(where(line) + ": " + printable(e.what()));  // a parse error quotes the raw bytes
       }
     }
   }
@@ -84,9 +84,9 @@ class AnswersFile final : public ExternalIntersector {
       if (p != "float" && p != "double") throw FieldError("precision", "must be \"float\" or \"double\"");
       precision_ = p == "float" ? Precision::f32 : Precision::f64;
     } catch (const FieldError& e) {
-      problems_.push_back(where(1) + ": " + (e.field.empty() ? "" : e.field + ": ") + e.what());
+      problems_.push_back(where(1) + ": " + (e.field.empty() ? "" : e.field + ": ") + printable(e.what()));
     } catch (const std::exception& e) {
-      problems_.push_back(where(1) + ": " + e.what());
+      problems_.push_back(where(1) + ": " + printable(e.what()));
     }
   }
   std::string path_;

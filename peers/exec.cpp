@@ -299,7 +299,7 @@ class ExecVariant final : public ExternalIntersector {
       } catch (const std::exception& e) {
         const auto* f = dynamic_cast<const FieldError*>(&e);
         why = "unreadable answer line '" + printable(lines[i].substr(0, 200)) + "'" +
-              (f && !f->field.empty() ? ": " + f->field : std::string()) + ": " + e.what();
+              (f && !f->field.empty() ? ": " + f->field : std::string()) + ": " + printable(e.what());
         break;
       }
     }
