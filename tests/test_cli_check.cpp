@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "cli_run.h"
 #include "test_dir.h"
 #include <sys/wait.h>
 
@@ -15,26 +16,8 @@
 namespace rayproof {
 namespace {
 
-struct CliRun {
-  int status;
-  std::string out, err;
-};
-
-CliRun run(const std::string& args) {
-  // Per test: ctest runs the tests of this file in parallel processes.
-  const std::string err_path = rayproof::testing_support::test_dir() + "/" +
-                               testing::UnitTest::GetInstance()->current_test_info()->name() + "-stderr.txt";
-  const std::string cmd = std::string(RAYPROOF_CLI) + " " + args + " 2>" + err_path;
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
-  const int status = pclose(p);
-  std::ifstream e(err_path);
-  std::stringstream ss;
-  ss << e.rdbuf();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, ss.str()};
-}
+using testing_support::CliRun;
+CliRun run(const std::string& args) { return testing_support::run_cli(args); }
 
 std::string write(const std::string& name, const std::string& text) {
   const std::string path = rayproof::testing_support::test_dir() + "/" + name;

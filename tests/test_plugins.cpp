@@ -14,6 +14,7 @@
 #include "rayproof/core/json_fields.h"
 #include "rayproof/peers/external.h"
 #include "rayproof/verify/oracle.h"
+#include "cli_run.h"
 #include "test_dir.h"
 
 namespace rayproof {
@@ -21,23 +22,8 @@ namespace {
 
 using testing_support::test_dir;
 
-struct CliRun {
-  int status;
-  std::string out, err;
-};
-
-CliRun run(const std::string& args) {
-  const std::string err_path = test_dir() + "/stderr.txt";
-  const std::string cmd = std::string(RAYPROOF_CLI) + " " + args + " 2>" + err_path;
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
-  const int status = pclose(p);
-  std::stringstream err;
-  err << std::ifstream(err_path).rdbuf();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
-}
+using testing_support::CliRun;
+CliRun run(const std::string& args) { return testing_support::run_cli(args); }
 
 std::string write(const std::string& name, const std::string& text) {
   const std::string path = test_dir() + "/" + name;
