@@ -21,11 +21,10 @@ const Variant& same_as_builtin() {
   return *v;
 }
 
-// The built-in textbook formula, the loop `trade` and the campaigns run for a built-in.
-void BM_builtin_textbook_batch(benchmark::State& state) {
+// One batch of state.range(0) random sphere queries per iteration through v.intersect_all.
+void answer_batches(benchmark::State& state, const Variant& v) {
   const std::vector<Query> qs = random_spheres(state.range(0));
   std::vector<Hit> out(qs.size());
-  const Variant& v = *find_variant("textbook");
   for (auto _ : state) {
     v.intersect_all(qs, HitRule::nearest_contact, out);
     benchmark::DoNotOptimize(out.data());
@@ -33,33 +32,19 @@ void BM_builtin_textbook_batch(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * qs.size());
   state.counters["per_test"] = benchmark::Counter(qs.size(), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
+
+// The built-in textbook formula, the loop `trade` and the campaigns run for a built-in.
+void BM_builtin_textbook_batch(benchmark::State& state) { answer_batches(state, *find_variant("textbook")); }
 BENCHMARK(BM_builtin_textbook_batch)->Name("external/builtin-textbook/batch")->Arg(512)->Arg(4096);
 
 // The same formula as a plugin: one round trip to its worker process per batch (isolation included).
-void BM_plugin_textbook_batch(benchmark::State& state) {
-  const std::vector<Query> qs = random_spheres(state.range(0));
-  std::vector<Hit> out(qs.size());
-  const Variant& v = same_as_builtin();
-  for (auto _ : state) {
-    v.intersect_all(qs, HitRule::nearest_contact, out);
-    benchmark::DoNotOptimize(out.data());
-  }
-  state.SetItemsProcessed(state.iterations() * qs.size());
-  state.counters["per_test"] = benchmark::Counter(qs.size(), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-}
+void BM_plugin_textbook_batch(benchmark::State& state) { answer_batches(state, same_as_builtin()); }
 BENCHMARK(BM_plugin_textbook_batch)->Name("external/plugin-textbook/batch")->Arg(512)->Arg(4096)->UseRealTime();
 
 // The exec protocol: cases written as hex-float JSON lines, answers parsed, ids checked.
 void BM_exec_responder(benchmark::State& state) {
-  const std::vector<Query> qs = random_spheres(state.range(0));
-  std::vector<Hit> out(qs.size());
   static const Variant& v = peers::add_exec_variant("bench-responder", RAYPROOF_BENCH_RESPONDER, {});
-  for (auto _ : state) {
-    v.intersect_all(qs, HitRule::nearest_contact, out);
-    benchmark::DoNotOptimize(out.data());
-  }
-  state.SetItemsProcessed(state.iterations() * qs.size());
-  state.counters["per_test"] = benchmark::Counter(qs.size(), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  answer_batches(state, v);
 }
 BENCHMARK(BM_exec_responder)->Name("external/exec-responder/batch")->Arg(512)->Arg(8192)->UseRealTime();
 

@@ -25,10 +25,9 @@ using fuzz::Family;
 struct Prepared {
   std::function<void()> run;
   std::function<Hit(size_t)> answer;
-  // Code behind a process boundary times itself where it runs: seconds of the last run, so the
-  // transport is not charged to the formula. Empty: run is timed from outside.
-  std::function<double()> inner_seconds;
-  ExternalIntersector* external = nullptr;  // code that can repeat a batch where it runs (timing)
+  // Code behind a process boundary: it repeats the batch and times itself where it runs, so the
+  // transport is not charged to the formula (ExternalIntersector::set_timing_repeats).
+  ExternalIntersector* external = nullptr;
 };
 
 // Something to measure: readies a whole batch of queries of one shape in its own layout (so
