@@ -7,7 +7,9 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 
 #include "rayproof/core/atomic_file.h"
@@ -30,39 +32,66 @@ bool Intersectors::use(std::string_view name) {
   return true;
 }
 
-SceneHit trace(const Scene& scene, const Intersectors& isect, const Ray& ray) {
+SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray) {
   SceneHit best;
-  for (size_t i = 0; i < scene.objects.size(); ++i) {
-    const Shape& shape = scene.objects[i].shape;
-    const Hit h = isect.by_shape[shape.index()]->intersect(ray, shape, isect.rule);
+  double t_limit = std::numeric_limits<double>::infinity();
+  index.traverse(kind, ray, t_limit, [&](std::int32_t id) {
+    const Primitive& p = index.primitive(id);
+    const Hit h = variant.intersect(ray, p.shape, rule);
     // A contact without t (a ray lying in a plane) has no point to show.
-    if (h.cls == HitClass::miss || !h.has_t()) continue;
-    if (best.object < 0 || h.t < best.hit.t) best = {static_cast<int>(i), h};
+    if (h.cls == HitClass::miss || !h.has_t() || !(h.t >= 0)) return false;
+    if (nearer(h.t, id, p, best, index)) {
+      best = {p.object, id, h};
+      t_limit = h.t;
+    }
+    return false;
+  });
+  return best;
+}
+
+SceneHit trace(const SceneIndex& index, const Intersectors& isect, const Ray& ray) {
+  SceneHit best;
+  for (ShapeKind kind : kAllShapeKinds) {
+    if (index.count(kind) == 0) continue;
+    const SceneHit h = trace_kind(index, kind, *isect.by_shape[static_cast<int>(kind)], isect.rule, ray);
+    if (h.primitive >= 0 && nearer(h.hit.t, h.primitive, index.primitive(h.primitive), best, index)) best = h;
   }
   return best;
 }
 
 namespace {
 
-// Whether anything but object `self` blocks the segment from `start` (the hit point moved off
-// the surface by core/offset.h's error bound) to the light. `self` itself is skipped: every shape
-// here is convex or flat, so a point lit from the side its normal faces cannot be shadowed by its
-// own object.
-bool in_shadow(const Scene& scene, const Intersectors& isect, int self, const Vec3& start, const Vec3& light) {
+// Whether anything but primitive `self` blocks the segment from `start` (the hit point moved off
+// the surface by core/offset.h's error bound) to the light. `self` itself is skipped: every
+// primitive is convex or flat, so a point lit from the side its normal faces cannot be shadowed
+// by the primitive it lies on (a mesh's other triangles can shadow it).
+bool in_shadow(const SceneIndex& index, const Intersectors& isect, int self, const Vec3& start, const Vec3& light) {
   const Ray shadow{start, light - start};
-  for (size_t i = 0; i < scene.objects.size(); ++i) {
-    if (static_cast<int>(i) == self) continue;
-    const Shape& shape = scene.objects[i].shape;
-    const Hit h = isect.by_shape[shape.index()]->intersect(shadow, shape, HitRule::nearest_contact);
-    if (h.cls != HitClass::miss && h.has_t() && h.t < 1) return true;
+  bool blocked = false;
+  for (ShapeKind kind : kAllShapeKinds) {
+    if (blocked || index.count(kind) == 0) continue;
+    const Variant& v = *isect.by_shape[static_cast<int>(kind)];
+    double t_limit = 1;
+    index.traverse(kind, shadow, t_limit, [&](std::int32_t id) {
+      if (id == self) return false;
+      const Hit h = v.intersect(shadow, index.primitive(id).shape, HitRule::nearest_contact);
+      blocked = h.cls != HitClass::miss && h.has_t() && h.t < 1;
+      return blocked;
+    });
   }
-  return false;
+  return blocked;
 }
 
 }  // namespace
 
-Vec3 shade(const Scene& scene, const Intersectors& isect, const Ray& ray) {
-  const SceneHit sh = trace(scene, isect, ray);
+double diffuse_cosine(const Vec3& p, const Vec3& n, const PointLight& light) {
+  const Vec3 w = normalized(p - light.position);
+  return std::max(-dot(n, w), 0.0);
+}
+
+Vec3 shade(const SceneIndex& index, const Intersectors& isect, const Ray& ray) {
+  const Scene& scene = index.scene();
+  const SceneHit sh = trace(index, isect, ray);
   if (sh.object < 0) return scene.background;
   const SceneObject& obj = scene.objects[sh.object];
   const Vec3 p = ray.at(sh.hit.t);
@@ -74,15 +103,13 @@ Vec3 shade(const Scene& scene, const Intersectors& isect, const Ray& ray) {
       return Vec3::Constant(std::clamp(grey, 0.0, 1.0));
     }
     case Shading::diffuse: {
-      Vec3 n = outward_normal(obj.shape, p);
+      Vec3 n = outward_normal(index.primitive(sh.primitive).shape, p);
       if (dot(n, ray.direction) > 0) n = -n;  // the side the ray arrived from
       const Vec3 start = offset_by_error_bound(ray, sh.hit.t, p, n);
       double light_sum = 0;
       for (const PointLight& light : scene.lights) {
-        const Vec3 w = normalized(p - light.position);
-        const double c = std::max(-dot(n, w), 0.0);
-        if (c > 0 && !in_shadow(scene, isect, sh.object, start, light.position))
-          light_sum += light.intensity * c;
+        const double c = diffuse_cosine(p, n, light);
+        if (c > 0 && !in_shadow(index, isect, sh.primitive, start, light.position)) light_sum += light.intensity * c;
       }
       return obj.color * light_sum;
     }
@@ -93,6 +120,7 @@ Vec3 shade(const Scene& scene, const Intersectors& isect, const Ray& ray) {
 Image render(const Scene& scene, const RenderOptions& options) {
   const Camera& cam = scene.camera;
   Image image{cam.width, cam.height, std::vector<std::uint8_t>(3 * size_t(cam.width) * cam.height)};
+  const SceneIndex index(scene);
   const int grid = static_cast<int>(std::lround(std::sqrt(scene.samples)));
   std::atomic<int> next_row{0}, rows_done{0};
   auto worker = [&](int) {
@@ -101,7 +129,7 @@ Image render(const Scene& scene, const RenderOptions& options) {
         Vec3 sum = Vec3::Zero();
         for (int sy = 0; sy < grid; ++sy)
           for (int sx = 0; sx < grid; ++sx)
-            sum += shade(scene, options.intersectors,
+            sum += shade(index, options.intersectors,
                          cam.ray_through(x + (sx + 0.5) / grid, y + (sy + 0.5) / grid));
         const Vec3 c = sum / (grid * grid);
         for (int k = 0; k < 3; ++k)
@@ -142,6 +170,12 @@ void write_png(const Image& image, std::ostream& out) {
 }
 
 }  // namespace
+
+std::string encode_png(const Image& image) {
+  std::ostringstream out;
+  write_png(image, out);
+  return std::move(out).str();
+}
 
 bool is_image_path(const std::string& path) {
   const std::string ext = std::filesystem::path(path).extension().string();

@@ -80,7 +80,30 @@ Camera read_camera(const json& j) {
   return cam;
 }
 
-Scene read_scene(const json& j) {
+// A "mesh" object: the file is relative to the scene file's folder.
+SceneObject read_mesh_object(const json& j, const std::string& field, const std::string& scene_dir,
+                             std::vector<std::string>& warnings) {
+  check_keys(j, field, {"type", "file", "color", "id", "scale", "translate"}, {"type", "file"});
+  if (!j["file"].is_string() || j["file"].get<std::string>().empty())
+    throw FieldError(field + ".file", "expected a file name");
+  SceneObject obj;
+  obj.file = j["file"];
+  const double scale = j.contains("scale") ? read_number(j["scale"], field + ".scale") : 1.0;
+  if (!(scale != 0)) throw FieldError(field + ".scale", "must be non-zero");
+  const Vec3 translate = j.contains("translate") ? read_vec3(j["translate"], field + ".translate") : Vec3(Vec3::Zero());
+  const std::string path = obj.file.front() == '/' || scene_dir.empty() ? obj.file : scene_dir + "/" + obj.file;
+  try {
+    obj.mesh = std::make_shared<const Mesh>(load_mesh(path, scale, translate));
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(std::string(e.what()) + " (" + field + ".file)");
+  }
+  if (obj.mesh->degenerate_skipped > 0)
+    warnings.push_back(printable(path) + ": " + std::to_string(obj.mesh->degenerate_skipped) +
+                       " degenerate (exactly collinear) triangles skipped");
+  return obj;
+}
+
+Scene read_scene(const json& j, const std::string& scene_dir) {
   check_keys(j, "", {"camera", "shading", "background", "lights", "objects", "depth", "samples"},
              {"camera", "objects"});
   Scene scene;
@@ -114,7 +137,9 @@ Scene read_scene(const json& j) {
   for (size_t i = 0; i < objects.size(); ++i) {
     const std::string f = "objects[" + std::to_string(i) + "]";
     SceneObject obj;
-    obj.shape = read_shape(objects[i], f, {"color", "id"});
+    const bool is_mesh = objects[i].is_object() && objects[i].contains("type") && objects[i]["type"] == "mesh";
+    if (is_mesh) obj = read_mesh_object(objects[i], f, scene_dir, scene.warnings);
+    else obj.shape = read_shape(objects[i], f, {"color", "id"});
     if (objects[i].contains("color")) obj.color = read_color(objects[i]["color"], f + ".color");
     if (objects[i].contains("id")) {
       if (!objects[i]["id"].is_string()) throw FieldError(f + ".id", "expected a string");
@@ -151,7 +176,8 @@ long line_of(const std::string& text, size_t byte) {
 Scene parse_scene(const std::string& text, const std::string& file_name) {
   const std::string file = printable(file_name);
   try {
-    return read_scene(parse_json_text(text));
+    const size_t slash = file_name.find_last_of('/');
+    return read_scene(parse_json_text(text), slash == std::string::npos ? "." : file_name.substr(0, slash));
   } catch (const json::parse_error& e) {
     throw std::runtime_error(file + ":" + std::to_string(line_of(text, e.byte)) + ": malformed JSON: " + e.what());
   } catch (const FieldError& e) {
@@ -174,6 +200,47 @@ Scene load_scene(const std::string& path) {
   if (buf.str().find_first_not_of(" \t\r\n") == std::string::npos)
     throw std::runtime_error(path + ": empty file");
   return parse_scene(buf.str(), path);
+}
+
+Scene translated(const Scene& scene, const Vec3& by) {
+  Scene out = scene;
+  out.warnings.clear();
+  out.camera.eye = scene.camera.eye + by;
+  for (PointLight& light : out.lights) light.position += by;
+  for (SceneObject& obj : out.objects) {
+    if (obj.mesh) {
+      auto mesh = std::make_shared<Mesh>();
+      mesh->vertex_count = obj.mesh->vertex_count;
+      for (size_t e = 0; e < obj.mesh->triangles.size(); ++e) {
+        Triangle tri = obj.mesh->triangles[e];
+        for (Vec3& v : tri.v) v += by;
+        if (degenerate_reason(tri)) {
+          ++mesh->degenerate_skipped;
+          continue;
+        }
+        mesh->triangles.push_back(tri);
+        mesh->corners.push_back(obj.mesh->corners[e]);
+      }
+      if (mesh->degenerate_skipped > 0)
+        out.warnings.push_back(obj.file + ": " + std::to_string(mesh->degenerate_skipped) +
+                               " triangles became degenerate when translated and were dropped");
+      obj.mesh = std::move(mesh);
+      continue;
+    }
+    std::visit(
+        [&](auto& s) {
+          using S = std::decay_t<decltype(s)>;
+          if constexpr (std::is_same_v<S, Sphere>) s.center += by;
+          else if constexpr (std::is_same_v<S, Plane>) s.offset = s.offset + dot(s.normal, by);
+          else if constexpr (std::is_same_v<S, Triangle>) for (Vec3& v : s.v) v += by;
+          else {
+            s.min += by;
+            s.max += by;
+          }
+        },
+        obj.shape);
+  }
+  return out;
 }
 
 }  // namespace rayproof

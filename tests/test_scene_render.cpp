@@ -49,6 +49,7 @@ TEST(Seed1, DiskHasTheAnalyticSilhouetteArea) {
 
 TEST(Seed2, OnlyTheUpperHalfIsLitAndTheBrightestPixelIsNearTheTop) {
   const Scene scene = load_scene(kScenes + "/seed2-diffuse.json");
+  const SceneIndex index(scene);
   const Image img = render(scene);
   const double centre_row = img.height / 2.0;  // the sphere's centre lies on the view axis
   long lit = 0, unlit_sphere_pixels = 0;
@@ -62,7 +63,7 @@ TEST(Seed2, OnlyTheUpperHalfIsLitAndTheBrightestPixelIsNearTheTop) {
         if (red > best) best = red, best_row = y;
       }
       // A pixel whose ray hits the sphere but is dark: the lower half.
-      const SceneHit h = trace(scene, Intersectors::defaults(), scene.camera.ray_through(x + 0.5, y + 0.5));
+      const SceneHit h = trace(index, Intersectors::defaults(), scene.camera.ray_through(x + 0.5, y + 0.5));
       if (h.object >= 0 && red == 0) ++unlit_sphere_pixels;
     }
   EXPECT_GT(lit, 1000);

@@ -531,6 +531,22 @@ int compare(const ExactParameter& t, const mpq_class& m) {
   return *sign_plus_root(mpq_class(t.p - m * t.q), t.s, t.radicand);
 }
 
+int compare(const ExactParameter& a, const ExactParameter& b) {
+  // sign(a − b) = sign(X + y√Da + z√Db) with X = qb·pa − qa·pb, y = qb·sa, z = −qa·sb (q > 0).
+  // First S = sign(X + y√Da); where S and z's sign differ, compare the squares:
+  // (X + y√Da)² − z²·Db = (X² + y²Da − z²Db) + 2Xy·√Da.
+  const mpq_class x = b.q * a.p - a.q * b.p;
+  const mpq_class y = b.q * a.s, z = -a.q * b.s;
+  const int sign_y = sgn(y), sign_z = sgn(b.radicand) == 0 ? 0 : sgn(z);
+  const int s = *sign_plus_root(x, sign_y, mpq_class(y * y * a.radicand));
+  if (sign_z == 0 || s == sign_z) return s;
+  if (s == 0) return sign_z;
+  const mpq_class cross = 2 * x * y;
+  const int c = *sign_plus_root(mpq_class(x * x + y * y * a.radicand - z * z * b.radicand), sgn(cross),
+                                mpq_class(cross * cross * a.radicand));
+  return c == 0 ? 0 : (c > 0 ? s : sign_z);
+}
+
 namespace {
 
 // Lower and upper MPFR bounds of a non-negative quantity (only non-negative terms are ever

@@ -10,6 +10,7 @@
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/hit.h"
 #include "rayproof/core/scene.h"
+#include "rayproof/core/scene_index.h"
 #include "rayproof/core/variants.h"
 
 namespace rayproof {
@@ -38,15 +39,29 @@ struct RenderOptions {
   std::function<void(int rows_done, int rows)> progress;  // called from worker threads
 };
 
-// The nearest hit of a ray among the scene's objects (object index, or -1).
+// The nearest hit of a ray among the scene's primitives (object and primitive index, or -1).
 struct SceneHit {
   int object = -1;
+  int primitive = -1;
   Hit hit;
 };
-SceneHit trace(const Scene& scene, const Intersectors& isect, const Ray& ray);
+// The nearest hit among the primitives of one kind, by that kind's variant.
+SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray);
+// The nearest over all kinds; on equal t the object listed first.
+SceneHit trace(const SceneIndex& index, const Intersectors& isect, const Ray& ray);
+// Whether t is nearer than `best` (the scene's order: smaller t, then the object listed first,
+// then the lower primitive).
+inline bool nearer(double t, int primitive, const Primitive& p, const SceneHit& best, const SceneIndex& index) {
+  if (best.primitive < 0) return true;
+  if (t != best.hit.t) return t < best.hit.t;
+  const Primitive& b = index.primitive(best.primitive);
+  return p.object != b.object ? p.object < b.object : primitive < best.primitive;
+}
 
 // Linear 0..1 colour of one primary ray (scene.md's shading rules).
-Vec3 shade(const Scene& scene, const Intersectors& isect, const Ray& ray);
+Vec3 shade(const SceneIndex& index, const Intersectors& isect, const Ray& ray);
+// The diffuse term of one light at p with unit normal n (facing the viewer): max(−n·w, 0).
+double diffuse_cosine(const Vec3& p, const Vec3& n, const PointLight& light);
 
 Image render(const Scene& scene, const RenderOptions& options = {});
 
@@ -59,6 +74,8 @@ bool is_image_path(const std::string& path);
 void write_image(const Image& image, const std::string& path);
 // The same into an output opened before the work (PPM for a .ppm path, else PNG); commits it.
 void write_image(const Image& image, AtomicFile& file);
+// The PNG file's bytes (for pages that inline their images).
+std::string encode_png(const Image& image);
 // Reads a PNG written by write_image (8-bit RGB); for tests and audits.
 Image read_png(const std::string& path);
 

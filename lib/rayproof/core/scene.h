@@ -1,10 +1,12 @@
 // Scene files (docs/spec/scene.md) and the camera's pixel-to-ray mapping.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "rayproof/core/geometry.h"
+#include "rayproof/core/mesh.h"
 #include "rayproof/core/shapes.h"
 
 namespace rayproof {
@@ -28,9 +30,11 @@ struct PointLight {
 };
 
 struct SceneObject {
-  Shape shape;
+  Shape shape;                       // unused when `mesh` is set
+  std::shared_ptr<const Mesh> mesh;  // a "mesh" object (docs/spec/audit.md): its triangles, placed
   Vec3 color = Vec3(1, 1, 1);
   std::string id;
+  std::string file;  // a mesh's file as the scene names it
 };
 
 struct Scene {
@@ -41,10 +45,16 @@ struct Scene {
   std::vector<SceneObject> objects;
   double depth_near = 0, depth_far = 1;
   int samples = 1;  // per pixel, a perfect square: a √n × √n grid of sub-pixel centres
+  std::vector<std::string> warnings;  // e.g. degenerate mesh triangles skipped, naming the file
 };
 
 // Parses a scene; throws std::runtime_error naming the file and the field.
 Scene parse_scene(const std::string& json_text, const std::string& file_name);
 Scene load_scene(const std::string& path);
+
+// The scene moved by `offset` (docs/spec/audit.md, headroom): camera eye, lights and every
+// object, each coordinate rounded to double (a plane's offset becomes offset + n·by). Mesh
+// triangles that the rounding makes degenerate are dropped and counted in `warnings`.
+Scene translated(const Scene& scene, const Vec3& by);
 
 }  // namespace rayproof

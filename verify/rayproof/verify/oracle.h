@@ -35,6 +35,8 @@ using ExactParameter = ParameterOf<mpq_class>;
 
 // sign(t − m), decided exactly by signs of rational expressions (never a floating √).
 int compare(const ExactParameter& t, const mpq_class& m);
+// sign(a − b) for two exact parameters (two quadratic roots included), likewise exact.
+int compare(const ExactParameter& a, const ExactParameter& b);
 
 struct RoundingStats {
   std::uint64_t rounded = 0;          // correctly rounded t values produced

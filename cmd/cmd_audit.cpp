@@ -1,0 +1,87 @@
+// rayproof audit SCENE -o DIR: which variant does this scene require (docs/spec/audit.md).
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "commands.h"
+#include "rayproof/core/atomic_file.h"
+#include "rayproof/core/json_fields.h"
+#include "rayproof/studies/scene_audit.h"
+
+namespace rayproof::cli {
+
+void add_audit_command(CLI::App& app, int& exit_code) {
+  struct Options {
+    std::string scene, dir;
+    std::vector<std::string> variants;
+    bool headroom = false;
+    int threads = 0;
+    ExternalFlags ext;
+  };
+  auto opts = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand("audit", "Render a scene exactly and with every variant of its shapes: which variant does it require?");
+  cmd->add_option("scene", opts->scene, "scene file (docs/spec/scene.md, meshes as docs/spec/audit.md)")->required();
+  cmd->add_option("-o,--output", opts->dir, "output directory: audit.json, exact.png, VARIANT.png, VARIANT-diff.png, report.html")
+      ->required();
+  add_variants_flag(cmd, opts->variants);
+  cmd->add_flag("--headroom", opts->headroom, "also translate the scene by 2^k·(1, 0.75, 0.5), k = 0, 2, …, 62");
+  add_external_flags(cmd, opts->ext);
+  add_threads_flag(cmd, opts->threads);
+  cmd->callback([opts, &exit_code] {
+    load_externals(opts->ext);
+    const Scene scene = load_scene(opts->scene);
+    for (const std::string& w : scene.warnings) std::cerr << "rayproof audit: warning: " << printable(w) << "\n";
+    if (std::filesystem::exists(opts->dir) && !std::filesystem::is_directory(opts->dir))
+      throw std::runtime_error(printable(opts->dir) + ": exists and is not a directory");
+    std::filesystem::create_directories(opts->dir);
+    {  // a directory that cannot be written fails now, not after the renders
+      AtomicFile probe(opts->dir + "/.rayproof-write-test");
+      probe.commit();
+      std::filesystem::remove(opts->dir + "/.rayproof-write-test");
+    }
+    studies::SceneAuditOptions ao;
+    ao.variants = parse_variants(opts->variants);
+    ao.headroom = opts->headroom;
+    ao.threads = opts->threads;
+    std::unique_ptr<Progress> progress;
+    std::string stage;
+    ao.progress = [&](const std::string& s, long done, long total) {
+      if (s != stage) {
+        if (progress) progress->finish();
+        stage = s;
+        progress = std::make_unique<Progress>("audit: " + s);
+      }
+      progress->update(done, total);
+    };
+    const studies::SceneAudit audit = studies::audit_scene(scene, ao);
+    if (progress) progress->finish();
+    studies::write_scene_audit(audit, opts->scene, opts->dir);
+
+    std::cerr << "rayproof audit: " << printable(opts->scene) << ", " << audit.width << "x" << audit.height << ": exact render "
+              << audit.exact_seconds << " s, " << audit.rays_beyond_intervals << " of " << audit.primary_rays
+              << " pixels needed expansions or rationals\n";
+    std::fprintf(stderr, "%-24s %-9s %9s %7s %7s %7s %7s %6s %s\n", "variant", "shape", "ns/ray", "wrong", "holes",
+                 "false", "shadow", "acne", audit.headroom ? "exact  headroom k" : "exact");
+    for (const studies::VariantAudit& va : audit.variants) {
+      std::string headroom;
+      if (audit.headroom)
+        headroom = va.exact_up_to_log2_translate ? "  " + std::to_string(*va.exact_up_to_log2_translate) : "  none";
+      std::fprintf(stderr, "%-24s %-9s %9.1f %7ld %7ld %7ld %7ld %6ld %s%s\n", std::string(va.variant->name).c_str(),
+                   std::string(to_string(va.variant->shape)).c_str(), va.ns_per_ray, va.counts.wrong, va.counts.holes,
+                   va.counts.false_hits, va.counts.shadow_wrong, va.counts.acne, va.exact_for_scene() ? "yes" : "no ",
+                   headroom.c_str());
+    }
+    for (const auto& [kind, best] : audit.recommendation)
+      std::cerr << "recommendation: " << to_string(kind) << ": "
+                << (best ? std::string(best->variant->name) : std::string("none exact for this scene")) << "\n";
+    std::cerr << "rayproof audit: report " << (std::filesystem::absolute(opts->dir) / "report.html").string() << "\n";
+    exit_code = 0;
+    for (const studies::VariantAudit& va : audit.variants)
+      if (!va.stopped.empty()) {
+        std::cerr << "rayproof audit: " << va.variant->name << " stopped (" << va.stopped << ")\n";
+        exit_code = 1;
+      }
+  });
+}
+
+}  // namespace rayproof::cli

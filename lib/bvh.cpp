@@ -1,0 +1,117 @@
+#include "rayproof/core/bvh.h"
+
+#include <algorithm>
+#include <array>
+#include <numeric>
+
+namespace rayproof {
+
+namespace {
+
+double half_area(const Bounds& b) {
+  if (b.empty()) return 0;
+  const Vec3 e = b.hi - b.lo;
+  return e.x() * e.y() + e.y() * e.z() + e.z() * e.x();
+}
+
+// Past this depth a node becomes a leaf whatever its size, so traversal's fixed stack holds.
+constexpr int kMaxDepth = 100;
+
+struct Builder {
+  std::span<const Bounds> boxes;
+  std::vector<Vec3> centroids;
+  std::vector<std::int32_t>& order;
+  std::vector<Bvh::Node>& nodes;
+  int max_depth = 0;
+
+  // Builds the node for order[begin, end) at nodes[index].
+  void build(std::int32_t index, std::int32_t begin, std::int32_t end, int depth) {
+    max_depth = std::max(max_depth, depth);
+    Bounds box, centre_box;
+    for (std::int32_t i = begin; i < end; ++i) {
+      box.grow(boxes[order[i]]);
+      centre_box.grow(centroids[order[i]]);
+    }
+    nodes[index].box = box;
+    const std::int32_t n = end - begin;
+    auto make_leaf = [&] {
+      nodes[index].first = begin;
+      nodes[index].count = n;
+    };
+    if (n <= Bvh::kLeafSize || depth >= kMaxDepth) return make_leaf();
+
+    // Binned SAH (Wald 2007): kBins bins along each axis of the centroid box, the cheapest plane.
+    int best_axis = -1, best_plane = 0;
+    double best_cost = half_area(box) * n;  // the cost of not splitting, in the same units
+    for (int axis = 0; axis < 3; ++axis) {
+      const double lo = centre_box.lo[axis], extent = centre_box.hi[axis] - lo;
+      if (!(extent > 0)) continue;
+      std::array<Bounds, Bvh::kBins> bin_box;
+      std::array<int, Bvh::kBins> bin_count{};
+      for (std::int32_t i = begin; i < end; ++i) {
+        const int b = std::min(Bvh::kBins - 1, static_cast<int>((centroids[order[i]][axis] - lo) / extent * Bvh::kBins));
+        bin_box[b].grow(boxes[order[i]]);
+        ++bin_count[b];
+      }
+      std::array<double, Bvh::kBins> right_cost{};
+      Bounds acc;
+      int count = 0;
+      for (int b = Bvh::kBins - 1; b > 0; --b) {
+        acc.grow(bin_box[b]);
+        count += bin_count[b];
+        right_cost[b] = half_area(acc) * count;
+      }
+      acc = Bounds{};
+      count = 0;
+      for (int b = 0; b < Bvh::kBins - 1; ++b) {
+        acc.grow(bin_box[b]);
+        count += bin_count[b];
+        const double cost = 0.5 * half_area(box) + half_area(acc) * count + right_cost[b + 1];
+        if (count > 0 && count < n && cost < best_cost) {
+          best_cost = cost;
+          best_axis = axis;
+          best_plane = b + 1;
+        }
+      }
+    }
+    std::int32_t mid;
+    if (best_axis >= 0) {
+      const double lo = centre_box.lo[best_axis], extent = centre_box.hi[best_axis] - lo;
+      auto left_of_plane = [&](std::int32_t p) {
+        return std::min(Bvh::kBins - 1, static_cast<int>((centroids[p][best_axis] - lo) / extent * Bvh::kBins)) < best_plane;
+      };
+      mid = static_cast<std::int32_t>(std::stable_partition(order.begin() + begin, order.begin() + end, left_of_plane) -
+                                      order.begin());
+    } else if (n > 4 * Bvh::kLeafSize) {
+      // No plane pays (all centroids equal, or one huge box): split by index so leaves stay small.
+      mid = begin + n / 2;
+    } else {
+      return make_leaf();
+    }
+    const std::int32_t left = static_cast<std::int32_t>(nodes.size());
+    nodes.emplace_back();
+    build(left, begin, mid, depth + 1);
+    const std::int32_t right = static_cast<std::int32_t>(nodes.size());
+    nodes.emplace_back();
+    nodes[index].first = right;
+    nodes[index].count = 0;
+    build(right, mid, end, depth + 1);
+  }
+};
+
+}  // namespace
+
+Bvh::Bvh(std::span<const Bounds> boxes) {
+  if (boxes.empty()) return;
+  order_.resize(boxes.size());
+  std::iota(order_.begin(), order_.end(), 0);
+  std::vector<Vec3> centroids(boxes.size());
+  for (size_t i = 0; i < boxes.size(); ++i) centroids[i] = 0.5 * boxes[i].lo + 0.5 * boxes[i].hi;
+  nodes_.reserve(2 * boxes.size() / kLeafSize + 1);
+  nodes_.emplace_back();
+  Builder builder{boxes, std::move(centroids), order_, nodes_};
+  builder.build(0, 0, static_cast<std::int32_t>(boxes.size()), 0);
+  depth_ = builder.max_depth;
+}
+
+}  // namespace rayproof

@@ -1,0 +1,62 @@
+// A scene as the tracers see it: every object's primitives (a mesh's triangles one by one) and,
+// per shape kind, a BVH over them, so the renderer, the exact tracer and the audit ask for the
+// candidates of one kind at a time (an audited variant meets only its own shape).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "rayproof/core/bvh.h"
+#include "rayproof/core/scene.h"
+
+namespace rayproof {
+
+struct Primitive {
+  Shape shape;
+  std::int32_t object = 0;   // index into Scene::objects: what visibility is about
+  std::int32_t element = 0;  // the triangle's index within its mesh, else 0
+};
+
+class SceneIndex {
+ public:
+  // Keeps a reference to `scene`, which must outlive the index.
+  explicit SceneIndex(const Scene& scene);
+
+  const Scene& scene() const { return *scene_; }
+  std::span<const Primitive> primitives() const { return primitives_; }
+  const Primitive& primitive(std::int32_t i) const { return primitives_[i]; }
+  // The kinds the scene has primitives of, in kAllShapeKinds order.
+  std::vector<ShapeKind> shapes_used() const;
+  std::size_t count(ShapeKind kind) const { return by_kind_[static_cast<int>(kind)].size(); }
+
+  // Calls visit(primitive id) for each primitive of `kind` that the ray may meet at
+  // 0 ≤ t ≤ t_limit (conservatively: Bvh), nearer boxes first; planes, which no box holds, are
+  // all visited. visit returns true to stop and may lower t_limit.
+  template <class Visit>
+  void traverse(ShapeKind kind, const Ray& ray, double& t_limit, Visit&& visit) const {
+    const std::vector<std::int32_t>& ids = by_kind_[static_cast<int>(kind)];
+    if (kind == ShapeKind::plane) {
+      for (std::int32_t id : ids)
+        if (visit(id)) return;
+      return;
+    }
+    bvh_[static_cast<int>(kind)].traverse(ray, t_limit, [&](std::int32_t i) { return visit(ids[i]); });
+  }
+
+  // Whether primitive b is a (the acne test's) neighbour of a: the same primitive, or a
+  // triangle of the same mesh sharing a vertex with it.
+  bool same_or_adjacent(std::int32_t a, std::int32_t b) const;
+
+ private:
+  const Scene* scene_;
+  std::vector<Primitive> primitives_;
+  std::array<std::vector<std::int32_t>, 4> by_kind_;
+  std::array<Bvh, 4> bvh_;
+};
+
+// A box certainly holding the shape (sphere: centre ± radius rounded outward); planes have none.
+Bounds bounds_of(const Shape& shape);
+
+}  // namespace rayproof

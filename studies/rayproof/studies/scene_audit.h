@@ -1,0 +1,85 @@
+// rayproof audit (docs/spec/audit.md): a scene rendered with the exact oracle and with every
+// variant of every shape it uses, each variant's shape by that variant and the other shapes
+// judged exactly, so every count belongs to that variant alone; the cheapest variant exact for
+// the scene per shape; and, with headroom, how far the scene may move from the origin.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rayproof/core/render.h"
+#include "rayproof/core/scene.h"
+#include "rayproof/core/variants.h"
+
+namespace rayproof::studies {
+
+// The headroom translations: 2^k·(1, 0.75, 0.5) for k = 0, 2, …, 62.
+std::vector<int> headroom_exponents();
+Vec3 headroom_offset(int k);
+
+struct SceneAuditOptions {
+  std::vector<const Variant*> variants;  // those of shapes the scene does not use are left out
+  bool headroom = false;
+  int threads = 0;  // 0: every hardware thread
+  // Called from the calling thread between and within stages (for a progress line).
+  std::function<void(const std::string& stage, long done, long total)> progress;
+};
+
+// The pixel counts of one variant (audit.md, "What is compared"). Each wrong pixel is a hole or a
+// false hit (the variant's nearest t at or beyond the exact one, or the background: hole; nearer,
+// or where the exact ray meets nothing: false hit). Shadows are compared on pixels whose visible
+// object is right, for each light the exact hit point faces; acne is the part of shadow_wrong
+// where the variant's ray is blocked by the primitive it left or a neighbour and the exact one
+// is not blocked.
+struct PixelCounts {
+  long wrong = 0, holes = 0, false_hits = 0, shadow_wrong = 0, acne = 0;
+};
+
+struct VariantAudit {
+  const Variant* variant = nullptr;
+  PixelCounts counts;
+  double ns_per_ray = 0;      // primary rays against the scene's primitives of its shape, one thread
+  Image render, diff;         // the variant's render; wrong pixels over the dimmed exact render
+  std::string stopped;        // external code that stopped: why (its later answers are misses)
+  bool exact_for_scene() const { return counts.wrong == 0 && counts.shadow_wrong == 0; }
+  // Headroom: wrong pixels per exponent of headroom_exponents() (−1: not rendered, because an
+  // earlier exponent already had wrong pixels).
+  std::vector<long> headroom_wrong;
+  std::optional<int> exact_up_to_log2_translate, first_wrong_log2_translate;
+};
+
+struct SceneAudit {
+  int width = 0, height = 0;
+  std::vector<ShapeKind> shapes;
+  long primary_rays = 0, shadow_rays = 0;
+  double exact_seconds = 0;
+  // Exact rays whose decisions needed more than the static filter and intervals (expansions or
+  // rationals), primary and shadow; hit points for shading are always computed in rationals.
+  long rays_beyond_intervals = 0;
+  Image exact;
+  std::vector<VariantAudit> variants;
+  std::vector<std::pair<ShapeKind, const VariantAudit*>> recommendation;  // nullptr: none exact
+  bool headroom = false;
+  std::vector<std::string> warnings;
+};
+
+// Throws std::runtime_error for a scene the audit cannot take (more than 64 lights).
+SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options);
+
+// DIR/audit.json, DIR/exact.png, DIR/VARIANT.png, DIR/VARIANT-diff.png and DIR/report.html, each
+// written atomically. `scene_path` is what audit.json's "scene" says.
+void write_scene_audit(const SceneAudit& audit, const std::string& scene_path, const std::string& dir);
+
+// The marks of the diff images (distinct from any dimmed pixel: each has a channel of 255,
+// the dimmed exact render stays below 80).
+inline constexpr std::array<std::uint8_t, 3> kHoleColour{255, 0, 0}, kFalseHitColour{0, 160, 255},
+    kShadowColour{255, 255, 0}, kAcneColour{255, 128, 0};
+inline constexpr double kDiffDimming = 0.3;
+
+// The report page alone (self-contained HTML, images inline as data: URIs).
+std::string scene_audit_html(const SceneAudit& audit, const std::string& scene_path);
+
+}  // namespace rayproof::studies

@@ -1,0 +1,399 @@
+#include "rayproof/studies/scene_audit.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <stdexcept>
+
+#include "rayproof/core/offset.h"
+#include "rayproof/core/parallel.h"
+#include "rayproof/verify/exact_scene.h"
+
+namespace rayproof::studies {
+
+std::vector<int> headroom_exponents() {
+  std::vector<int> k;
+  for (int e = 0; e <= 62; e += 2) k.push_back(e);
+  return k;
+}
+
+Vec3 headroom_offset(int k) { return std::ldexp(1.0, k) * Vec3(1, 0.75, 0.5); }
+
+namespace {
+
+constexpr int kMaxLights = 64;
+
+// What the exact render knows of one pixel.
+struct ExactPixel {
+  std::array<ExactContact, 4> by_kind;  // the nearest exact contact among each kind's primitives
+  ExactContact visible;                 // the nearest of those
+  std::uint64_t facing = 0;             // lights the exact hit point faces (cosine > 0)
+  std::uint64_t lit = 0;                // ... of those, the ones whose segment is not blocked
+};
+
+int object_of(const SceneIndex& index, const ExactContact& c) {
+  return c.found() ? index.primitive(c.primitive).object : -1;
+}
+
+std::uint8_t to_byte(double c) { return static_cast<std::uint8_t>(std::lround(std::clamp(c, 0.0, 1.0) * 255)); }
+void put(Image& img, size_t px, const Vec3& c) {
+  for (int k = 0; k < 3; ++k) img.rgb[3 * px + k] = to_byte(c[k]);
+}
+void put(Image& img, size_t px, const std::array<std::uint8_t, 3>& c) {
+  for (int k = 0; k < 3; ++k) img.rgb[3 * px + k] = c[k];
+}
+
+// The normal at p facing the ray's side (scene.md's diffuse rule).
+Vec3 facing_normal(const Shape& shape, const Vec3& p, const Ray& ray) {
+  Vec3 n = outward_normal(shape, p);
+  return dot(n, ray.direction) > 0 ? Vec3(-n) : n;
+}
+
+// Rows in parallel, each worker with its own state (an ExactTracer owns counting oracles).
+template <class State, class Row>
+void for_rows(int threads, int height, const std::function<State()>& make_state, Row&& row,
+              const std::function<void(long, long)>& progress) {
+  std::atomic<int> next{0}, done{0};
+  std::mutex mutex;
+  run_workers(threads, [&](int worker) {
+    State state = make_state();
+    for (int y; (y = next.fetch_add(1)) < height;) {
+      row(state, y);
+      const int d = ++done;
+      if (worker == 0 && progress) progress(d, height);
+    }
+    std::lock_guard lock(mutex);
+    state.finish();
+  });
+}
+
+class Auditor {
+ public:
+  Auditor(const Scene& scene, const SceneAuditOptions& options)
+      : scene_(scene), index_(scene), options_(options),
+        threads_(std::clamp(options.threads > 0 ? options.threads : default_threads(), 1, 256)) {}
+
+  const SceneIndex& index() const { return index_; }
+
+  // The exact render: per pixel the nearest exact contact per kind and overall, and (shaded)
+  // the exact shadow status of each light and the colour.
+  void exact_pass(bool shaded, SceneAudit* out) {
+    const Camera& cam = scene_.camera;
+    exact_.assign(size_t(cam.width) * cam.height, ExactPixel{});
+    if (shaded) out->exact = Image{cam.width, cam.height, std::vector<std::uint8_t>(3 * exact_.size())};
+    struct State {
+      ExactTracer tracer;
+      long shadow_rays = 0, beyond = 0;
+      std::atomic<long>* shadow_total;
+      std::atomic<long>* beyond_total;
+      void finish() {
+        *shadow_total += shadow_rays;
+        *beyond_total += beyond;
+      }
+    };
+    std::atomic<long> shadow_total{0}, beyond_total{0};
+    const auto start = std::chrono::steady_clock::now();
+    for_rows<State>(
+        threads_, cam.height, [&] { return State{ExactTracer(index_), 0, 0, &shadow_total, &beyond_total}; },
+        [&](State& st, int y) {
+          for (int x = 0; x < cam.width; ++x) {
+            const size_t px = size_t(y) * cam.width + x;
+            const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
+            const std::uint64_t before = st.tracer.beyond_intervals();
+            ExactPixel& e = exact_[px];
+            for (ShapeKind kind : index_.shapes_used()) {
+              ExactContact& c = e.by_kind[static_cast<int>(kind)];
+              c = st.tracer.nearest(kind, ray);
+              if (st.tracer.before(ray, c, e.visible)) e.visible = c;
+            }
+            if (shaded) put(out->exact, px, exact_colour(st, ray, e));
+            if (shaded) st.shadow_rays += std::popcount(e.facing);
+            if (st.tracer.beyond_intervals() != before) ++st.beyond;
+          }
+        },
+        stage_progress("exact render"));
+    if (out) {
+      out->exact_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      out->primary_rays = static_cast<long>(exact_.size());
+      out->shadow_rays = shadow_total;
+      out->rays_beyond_intervals = beyond_total;
+    }
+  }
+
+  // One variant of one kind, the other kinds exact (from exact_pass's per-kind contacts).
+  // Shaded: colours, shadows and the diff image too.
+  PixelCounts variant_pass(const Variant& v, ShapeKind kind, bool shaded, VariantAudit* out) {
+    const Camera& cam = scene_.camera;
+    if (shaded) {
+      out->render = Image{cam.width, cam.height, std::vector<std::uint8_t>(3 * exact_.size())};
+      out->diff = out->render;
+    }
+    std::vector<PixelCounts> per_row(cam.height);
+    struct State {
+      ExactTracer tracer;
+      void finish() {}
+    };
+    for_rows<State>(
+        threads_, cam.height, [&] { return State{ExactTracer(index_)}; },
+        [&](State& st, int y) {
+          for (int x = 0; x < cam.width; ++x)
+            variant_pixel(st.tracer, v, kind, shaded, x, y, per_row[y], out);
+        },
+        stage_progress(std::string(v.name)));
+    PixelCounts total;
+    for (const PixelCounts& c : per_row) {
+      total.wrong += c.wrong;
+      total.holes += c.holes;
+      total.false_hits += c.false_hits;
+      total.shadow_wrong += c.shadow_wrong;
+      total.acne += c.acne;
+    }
+    return total;
+  }
+
+  // ns per primary ray of the variant against its shape's primitives, on one thread.
+  double time_variant(const Variant& v, ShapeKind kind) const {
+    const Camera& cam = scene_.camera;
+    long rays = 0;
+    double checksum = 0;
+    const auto start = std::chrono::steady_clock::now();
+    double seconds = 0;
+    do {  // whole frames until 0.05 s have passed (at least one)
+      for (int y = 0; y < cam.height; ++y)
+        for (int x = 0; x < cam.width; ++x) {
+          const SceneHit h = trace_kind(index_, kind, v, HitRule::nearest_contact, cam.ray_through(x + 0.5, y + 0.5));
+          checksum += h.primitive;
+          ++rays;
+        }
+      seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    } while (seconds < 0.05);
+    volatile double sink = checksum;  // keeps the traced answers alive
+    (void)sink;
+    return seconds * 1e9 / static_cast<double>(rays);
+  }
+
+ private:
+  std::function<void(long, long)> stage_progress(const std::string& stage) const {
+    if (!options_.progress) return {};
+    return [this, stage](long done, long total) { options_.progress(stage, done, total); };
+  }
+
+  Vec3 shade_colour(const SceneObject& obj, const Vec3& p, const Ray& ray, const std::vector<double>& cosines,
+                    std::uint64_t lit) const {
+    switch (scene_.shading) {
+      case Shading::flat: return obj.color;
+      case Shading::depth: {
+        const double grey = (scene_.depth_far - length(p - ray.origin)) / (scene_.depth_far - scene_.depth_near);
+        return Vec3::Constant(std::clamp(grey, 0.0, 1.0));
+      }
+      case Shading::diffuse: {
+        double sum = 0;
+        for (size_t l = 0; l < scene_.lights.size(); ++l)
+          if (lit >> l & 1) sum += scene_.lights[l].intensity * cosines[l];
+        return obj.color * sum;
+      }
+    }
+    return scene_.background;
+  }
+
+  Vec3 exact_colour(auto& st, const Ray& ray, ExactPixel& e) {
+    if (!e.visible.found()) return scene_.background;
+    const Primitive& prim = index_.primitive(e.visible.primitive);
+    const Vec3 p = st.tracer.hit_point(ray, e.visible);
+    std::vector<double> cosines(scene_.lights.size(), 0);
+    if (scene_.shading == Shading::diffuse) {
+      const Vec3 n = facing_normal(prim.shape, p, ray);
+      for (size_t l = 0; l < scene_.lights.size(); ++l) {
+        cosines[l] = diffuse_cosine(p, n, scene_.lights[l]);
+        if (!(cosines[l] > 0)) continue;
+        e.facing |= std::uint64_t{1} << l;
+        // The segment from the exact hit point (rounded) to the light: direction L − p in double.
+        const Ray segment{p, scene_.lights[l].position - p};
+        if (!st.tracer.blocked(segment, e.visible.primitive)) e.lit |= std::uint64_t{1} << l;
+      }
+    }
+    return shade_colour(scene_.objects[prim.object], p, ray, cosines, e.lit);
+  }
+
+  // Whether the variant, for its kind, and the oracle, for the others, see a blocker on the
+  // segment (0 < t < 1) other than `self`; `adjacent_blocker` tells whether a blocker of the
+  // variant's kind is `self` or its neighbour (the acne test; asked only when it matters).
+  bool variant_blocked(ExactTracer& tracer, const Variant& v, ShapeKind kind, const Ray& segment, std::int32_t self,
+                       bool* adjacent_blocker) const {
+    bool blocked = false;
+    double t_limit = 1;
+    index_.traverse(kind, segment, t_limit, [&](std::int32_t id) {
+      if (id == self) return false;
+      const Hit h = v.intersect(segment, index_.primitive(id).shape, HitRule::nearest_contact);
+      if (h.cls == HitClass::miss || !h.has_t() || !(h.t < 1)) return false;
+      blocked = true;
+      if (adjacent_blocker && index_.same_or_adjacent(self, id)) *adjacent_blocker = true;
+      return adjacent_blocker == nullptr || *adjacent_blocker;
+    });
+    if (blocked) return true;
+    for (ShapeKind other : index_.shapes_used())
+      if (other != kind && tracer.blocks(other, segment, self)) return true;
+    return false;
+  }
+
+  void variant_pixel(ExactTracer& tracer, const Variant& v, ShapeKind kind, bool shaded, int x, int y,
+                     PixelCounts& counts, VariantAudit* out) {
+    const Camera& cam = scene_.camera;
+    const size_t px = size_t(y) * cam.width + x;
+    const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
+    const ExactPixel& e = exact_[px];
+    // The variant's nearest among its kind, against the exact nearest among the other kinds.
+    const SceneHit mine = trace_kind(index_, kind, v, HitRule::nearest_contact, ray);
+    ExactContact others;
+    for (ShapeKind k : index_.shapes_used())
+      if (k != kind && tracer.before(ray, e.by_kind[static_cast<int>(k)], others)) others = e.by_kind[static_cast<int>(k)];
+    SceneHit visible = mine;
+    bool visible_is_variant = mine.primitive >= 0;
+    if (others.found()) {
+      const SceneHit theirs{index_.primitive(others.primitive).object, others.primitive, Hit{HitClass::enter, others.t}};
+      if (mine.primitive < 0 || nearer(others.t, others.primitive, index_.primitive(others.primitive), mine, index_)) {
+        visible = theirs;
+        visible_is_variant = false;
+      }
+    }
+    const int exact_object = object_of(index_, e.visible);
+    const bool wrong = visible.object != exact_object;
+    bool hole = false, false_hit = false;
+    if (wrong) {
+      ++counts.wrong;
+      false_hit = exact_object < 0 || (visible.object >= 0 && visible.hit.t < e.visible.t);
+      hole = !false_hit;
+      ++(hole ? counts.holes : counts.false_hits);
+    }
+    if (!shaded) return;
+
+    Vec3 colour = scene_.background;
+    bool shadow_wrong = false, acne = false;
+    if (visible.object >= 0) {
+      const Primitive& prim = index_.primitive(visible.primitive);
+      // The variant's own hit point and spawn (offset by the error bound) for its kind; the exact
+      // point rounded, as in the exact render, where another kind is visible.
+      const Vec3 p = visible_is_variant ? ray.at(visible.hit.t) : tracer.hit_point(ray, others);
+      const Vec3 n = facing_normal(prim.shape, p, ray);
+      const Vec3 start = visible_is_variant ? offset_by_error_bound(ray, visible.hit.t, p, n) : p;
+      std::vector<double> cosines(scene_.lights.size(), 0);
+      std::uint64_t lit = 0;
+      if (scene_.shading == Shading::diffuse) {
+        for (size_t l = 0; l < scene_.lights.size(); ++l) {
+          cosines[l] = diffuse_cosine(p, n, scene_.lights[l]);
+          const std::uint64_t bit = std::uint64_t{1} << l;
+          const bool compared = !wrong && (e.facing & bit);
+          if (!(cosines[l] > 0) && !compared) continue;
+          const Ray segment{start, scene_.lights[l].position - start};
+          bool adjacent = false;
+          const bool blocked = variant_blocked(tracer, v, kind, segment, visible.primitive, nullptr);
+          if (cosines[l] > 0 && !blocked) lit |= bit;
+          if (compared && blocked == bool(e.lit & bit)) {  // blocked here, lit exactly, or the reverse
+            shadow_wrong = true;
+            if (blocked && visible_is_variant) {
+              variant_blocked(tracer, v, kind, segment, visible.primitive, &adjacent);
+              acne = acne || adjacent;
+            }
+          }
+        }
+      }
+      colour = shade_colour(scene_.objects[prim.object], p, ray, cosines, lit);
+    }
+    put(out->render, px, colour);
+    counts.shadow_wrong += shadow_wrong;
+    counts.acne += acne;
+    if (hole) put(out->diff, px, kHoleColour);
+    else if (false_hit) put(out->diff, px, kFalseHitColour);
+    else if (acne) put(out->diff, px, kAcneColour);
+    else if (shadow_wrong) put(out->diff, px, kShadowColour);
+    else
+      for (int k = 0; k < 3; ++k)
+        out->diff.rgb[3 * px + k] = static_cast<std::uint8_t>(std::lround(kDiffDimming * out_exact_->rgb[3 * px + k]));
+  }
+
+ public:
+  const Image* out_exact_ = nullptr;  // the exact render the diff images dim
+
+ private:
+  const Scene& scene_;
+  SceneIndex index_;
+  const SceneAuditOptions& options_;
+  int threads_;
+  std::vector<ExactPixel> exact_;
+};
+
+}  // namespace
+
+SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
+  if (scene.lights.size() > kMaxLights)
+    throw std::runtime_error("the audit handles up to " + std::to_string(kMaxLights) + " lights; this scene has " +
+                             std::to_string(scene.lights.size()));
+  SceneAudit audit;
+  audit.width = scene.camera.width;
+  audit.height = scene.camera.height;
+  audit.warnings = scene.warnings;
+  Auditor auditor(scene, options);
+  audit.shapes = auditor.index().shapes_used();
+  std::vector<std::pair<const Variant*, ShapeKind>> chosen;
+  for (const Variant* v : options.variants)
+    for (ShapeKind k : audit.shapes)
+      if (v->handles(k)) chosen.emplace_back(v, k);
+
+  auditor.exact_pass(true, &audit);
+  auditor.out_exact_ = &audit.exact;
+  audit.variants.reserve(chosen.size());  // recommendation points into it
+  for (const auto& [v, kind] : chosen) {
+    VariantAudit va;
+    va.variant = v;
+    va.counts = auditor.variant_pass(*v, kind, true, &va);
+    va.ns_per_ray = auditor.time_variant(*v, kind);
+    if (v->external) va.stopped = v->external->stop_reason();
+    audit.variants.push_back(std::move(va));
+  }
+  for (ShapeKind kind : audit.shapes) {
+    const VariantAudit* best = nullptr;
+    for (size_t i = 0; i < chosen.size(); ++i) {
+      const VariantAudit& va = audit.variants[i];
+      if (chosen[i].second != kind || !va.exact_for_scene() || !va.stopped.empty()) continue;
+      if (!best || va.ns_per_ray < best->ns_per_ray) best = &va;
+    }
+    audit.recommendation.emplace_back(kind, best);
+  }
+
+  if (options.headroom) {
+    audit.headroom = true;
+    const std::vector<int> ks = headroom_exponents();
+    for (VariantAudit& va : audit.variants) va.headroom_wrong.assign(ks.size(), -1);
+    for (size_t i = 0; i < ks.size(); ++i) {
+      bool any_clean = false;
+      for (const VariantAudit& va : audit.variants) any_clean |= !va.first_wrong_log2_translate.has_value();
+      if (!any_clean) break;
+      const Scene moved = translated(scene, headroom_offset(ks[i]));
+      for (const std::string& w : moved.warnings) audit.warnings.push_back("headroom k=" + std::to_string(ks[i]) + ": " + w);
+      SceneAuditOptions quiet = options;
+      if (options.progress)
+        quiet.progress = [&, k = ks[i]](const std::string& stage, long done, long total) {
+          options.progress("headroom k=" + std::to_string(k) + " " + stage, done, total);
+        };
+      Auditor moved_auditor(moved, quiet);
+      moved_auditor.exact_pass(false, nullptr);
+      for (size_t j = 0; j < chosen.size(); ++j) {
+        VariantAudit& va = audit.variants[j];
+        if (va.first_wrong_log2_translate) continue;
+        const long wrong = moved_auditor.variant_pass(*chosen[j].first, chosen[j].second, false, nullptr).wrong;
+        va.headroom_wrong[i] = wrong;
+        if (wrong > 0) {
+          va.first_wrong_log2_translate = ks[i];
+          if (i > 0) va.exact_up_to_log2_translate = ks[i - 1];
+        }
+      }
+    }
+    for (VariantAudit& va : audit.variants)
+      if (!va.first_wrong_log2_translate) va.exact_up_to_log2_translate = ks.back();
+  }
+  return audit;
+}
+
+}  // namespace rayproof::studies

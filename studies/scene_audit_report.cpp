@@ -1,0 +1,248 @@
+// The audit's files: audit.json (docs/spec/audit.md's keys, plus compatible extras), the PNGs
+// and report.html, one self-contained page.
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "rayproof/core/atomic_file.h"
+#include "rayproof/core/json_fields.h"
+#include "rayproof/studies/scene_audit.h"
+
+namespace rayproof::studies {
+
+namespace {
+
+using nlohmann::json;
+
+// A variant's name as a file name: anything but letters, digits, '.', '_' and '-' becomes '_'.
+std::string file_stem(std::string_view name) {
+  std::string s(name);
+  for (char& c : s)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) c = '_';
+  if (s.empty() || s == "exact" || s == "report" || s == "audit" || s[0] == '.') s = "variant-" + s;
+  return s;
+}
+
+std::string base64(const std::string& bytes) {
+  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  for (size_t i = 0; i < bytes.size(); i += 3) {
+    const unsigned a = static_cast<unsigned char>(bytes[i]);
+    const unsigned b = i + 1 < bytes.size() ? static_cast<unsigned char>(bytes[i + 1]) : 0;
+    const unsigned c = i + 2 < bytes.size() ? static_cast<unsigned char>(bytes[i + 2]) : 0;
+    const unsigned n = a << 16 | b << 8 | c;
+    out += kAlphabet[n >> 18 & 63];
+    out += kAlphabet[n >> 12 & 63];
+    out += i + 1 < bytes.size() ? kAlphabet[n >> 6 & 63] : '=';
+    out += i + 2 < bytes.size() ? kAlphabet[n & 63] : '=';
+  }
+  return out;
+}
+
+std::string html_escape(std::string_view s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string fixed(double x, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, x);
+  return buf;
+}
+
+json audit_json(const SceneAudit& a, const std::string& scene_path) {
+  json j;
+  j["scene"] = scene_path;
+  j["width"] = a.width;
+  j["height"] = a.height;
+  j["shapes"] = json::array();
+  for (ShapeKind k : a.shapes) j["shapes"].push_back(std::string(to_string(k)));
+  j["exact"] = {{"primary_rays", a.primary_rays},
+                {"shadow_rays", a.shadow_rays},
+                {"seconds", a.exact_seconds},
+                {"rays_beyond_intervals", a.rays_beyond_intervals},
+                {"fraction_beyond_intervals",
+                 a.primary_rays > 0 ? double(a.rays_beyond_intervals) / double(a.primary_rays) : 0.0}};
+  j["variants"] = json::array();
+  for (const VariantAudit& va : a.variants) {
+    const Variant& v = *va.variant;
+    json e = {{"name", std::string(v.name)},
+              {"shape", std::string(to_string(v.shape))},
+              {"precision", std::string(to_string(v.precision))},
+              {"ns_per_ray", va.ns_per_ray},
+              {"wrong", va.counts.wrong},
+              {"holes", va.counts.holes},
+              {"false_hits", va.counts.false_hits},
+              {"shadow_wrong", va.counts.shadow_wrong},
+              {"acne", va.counts.acne},
+              {"exact_for_scene", va.exact_for_scene()},
+              {"origin", std::string(v.origin)},
+              {"render", file_stem(v.name) + ".png"},
+              {"diff", file_stem(v.name) + "-diff.png"}};
+    if (!va.stopped.empty()) e["stopped"] = va.stopped;
+    j["variants"].push_back(std::move(e));
+  }
+  j["recommendation"] = json::object();
+  for (const auto& [kind, best] : a.recommendation)
+    j["recommendation"][std::string(to_string(kind))] = best ? json(std::string(best->variant->name)) : json(nullptr);
+  if (a.headroom) {
+    j["headroom"] = json::object();
+    for (const VariantAudit& va : a.variants) {
+      json h;
+      h["exact_up_to_log2_translate"] = va.exact_up_to_log2_translate ? json(*va.exact_up_to_log2_translate) : json(nullptr);
+      h["first_wrong_log2_translate"] = va.first_wrong_log2_translate ? json(*va.first_wrong_log2_translate) : json(nullptr);
+      json by_k = json::object();
+      const std::vector<int> ks = headroom_exponents();
+      for (size_t i = 0; i < ks.size() && i < va.headroom_wrong.size(); ++i)
+        if (va.headroom_wrong[i] >= 0) by_k[std::to_string(ks[i])] = va.headroom_wrong[i];
+      h["wrong_by_log2_translate"] = by_k;
+      j["headroom"][std::string(va.variant->name)] = h;
+    }
+  }
+  if (!a.warnings.empty()) j["warnings"] = a.warnings;
+  return j;
+}
+
+std::string img_tag(const Image& img, const std::string& alt) {
+  return "<img alt=\"" + html_escape(alt) + "\" width=\"" + std::to_string(img.width) + "\" height=\"" +
+         std::to_string(img.height) + "\" src=\"data:image/png;base64," + base64(encode_png(img)) + "\">";
+}
+
+// Variants × translation exponent: green where exact, red where some pixel is wrong, grey where
+// not rendered (an earlier exponent already failed).
+std::string headroom_svg(const SceneAudit& a) {
+  const std::vector<int> ks = headroom_exponents();
+  const int label_w = 170, cell = 22, top = 30;
+  const int w = label_w + cell * static_cast<int>(ks.size()) + 10, h = top + cell * static_cast<int>(a.variants.size()) + 40;
+  std::ostringstream s;
+  s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "\" height=\"" << h
+    << "\" font-family=\"sans-serif\" font-size=\"11\" role=\"img\" aria-label=\"headroom chart\">";
+  for (size_t i = 0; i < ks.size(); ++i)
+    s << "<text x=\"" << label_w + cell * i + cell / 2 << "\" y=\"" << top - 8 << "\" text-anchor=\"middle\">" << ks[i]
+      << "</text>";
+  for (size_t r = 0; r < a.variants.size(); ++r) {
+    const VariantAudit& va = a.variants[r];
+    const int y = top + cell * static_cast<int>(r);
+    s << "<text x=\"" << label_w - 6 << "\" y=\"" << y + cell * 0.7 << "\" text-anchor=\"end\">"
+      << html_escape(va.variant->name) << " (" << to_string(va.variant->shape) << ")</text>";
+    for (size_t i = 0; i < ks.size(); ++i) {
+      const long wrong = i < va.headroom_wrong.size() ? va.headroom_wrong[i] : -1;
+      const char* fill = wrong < 0 ? "#dddddd" : (wrong == 0 ? "#4caf50" : "#e53935");
+      s << "<rect x=\"" << label_w + cell * i << "\" y=\"" << y << "\" width=\"" << cell - 2 << "\" height=\"" << cell - 2
+        << "\" fill=\"" << fill << "\"><title>" << html_escape(va.variant->name) << ", k = " << ks[i] << ": "
+        << (wrong < 0 ? std::string("not rendered") : std::to_string(wrong) + " wrong pixels") << "</title></rect>";
+    }
+  }
+  s << "<text x=\"" << label_w << "\" y=\"" << h - 10 << "\">translation 2^k·(1, 0.75, 0.5), k →   "
+    << "green: 0 wrong pixels · red: some wrong · grey: not rendered</text></svg>";
+  return s.str();
+}
+
+}  // namespace
+
+std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path) {
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>rayproof audit: "
+    << html_escape(scene_path) << "</title><style>"
+    << "body{font-family:sans-serif;margin:2em;max-width:1400px;color:#222}"
+    << "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
+    << "td:first-child,th:first-child{text-align:left}tr.exact td{background:#eef8ee}"
+    << ".pair{display:inline-block;margin:0 1.5em 1.5em 0;vertical-align:top}figure{display:inline-block;margin:0 .5em 0 0}"
+    << "img{image-rendering:pixelated;border:1px solid #999}.key span{display:inline-block;width:1em;height:1em;"
+    << "margin:0 .3em 0 1em;vertical-align:middle}code{background:#f4f4f4;padding:1px 4px}</style></head><body>\n";
+  h << "<h1>Which intersector does this scene require?</h1>\n<p>Scene <code>" << html_escape(scene_path) << "</code>, "
+    << a.width << "×" << a.height << " pixels, shapes: ";
+  for (size_t i = 0; i < a.shapes.size(); ++i) h << (i ? ", " : "") << to_string(a.shapes[i]);
+  h << ".</p>\n<h2>Recommendation</h2>\n<ul id=\"recommendation\">";
+  for (const auto& [kind, best] : a.recommendation) {
+    h << "<li><b>" << to_string(kind) << "</b>: ";
+    if (best)
+      h << "<b>" << html_escape(best->variant->name) << "</b>, the cheapest variant that renders this scene exactly ("
+        << fixed(best->ns_per_ray, 1) << " ns per primary ray)";
+    else
+      h << "<b>none</b> of the audited variants renders this scene exactly";
+    h << "</li>";
+  }
+  h << "</ul>\n<h2>Every variant on this scene</h2>\n"
+    << "<p>Each variant draws its own shape; the other shapes are judged exactly, so each count belongs to that "
+       "variant alone. <i>wrong</i>: the visible object differs from the exact one (<i>holes</i>: it sees something "
+       "behind or the background; <i>false hits</i>: something in front or where the exact ray meets nothing); "
+       "<i>shadow wrong</i>: a light's lit/shadowed status differs (<i>acne</i>: blocked by the triangle it left or a "
+       "neighbour). Exact for the scene = 0 wrong and 0 shadow wrong.</p>\n"
+    << "<table id=\"variants\"><tr><th>variant</th><th>shape</th><th>precision</th><th>ns/ray</th><th>wrong</th>"
+       "<th>holes</th><th>false hits</th><th>shadow wrong</th><th>acne</th><th>exact</th>";
+  if (a.headroom) h << "<th>exact up to k</th><th>first wrong k</th>";
+  h << "</tr>\n";
+  for (const VariantAudit& va : a.variants) {
+    const PixelCounts& c = va.counts;
+    h << "<tr" << (va.exact_for_scene() ? " class=\"exact\"" : "") << "><td>" << html_escape(va.variant->name)
+      << (va.variant->origin != "built-in" ? " <small>(" + html_escape(va.variant->origin) + ")</small>" : "")
+      << "</td><td>" << to_string(va.variant->shape) << "</td><td>" << to_string(va.variant->precision) << "</td><td>"
+      << fixed(va.ns_per_ray, 1) << "</td><td>" << c.wrong << "</td><td>" << c.holes << "</td><td>" << c.false_hits
+      << "</td><td>" << c.shadow_wrong << "</td><td>" << c.acne << "</td><td>"
+      << (va.exact_for_scene() ? "yes" : "no") << (va.stopped.empty() ? "" : " (stopped: " + html_escape(va.stopped) + ")")
+      << "</td>";
+    if (a.headroom) {
+      auto k = [](const std::optional<int>& x) { return x ? std::to_string(*x) : std::string("–"); };
+      h << "<td>" << k(va.exact_up_to_log2_translate) << "</td><td>" << k(va.first_wrong_log2_translate) << "</td>";
+    }
+    h << "</tr>\n";
+  }
+  h << "</table>\n<p>Exact render: " << a.primary_rays << " primary and " << a.shadow_rays << " shadow rays in "
+    << fixed(a.exact_seconds, 2) << " s; " << a.rays_beyond_intervals << " pixels ("
+    << fixed(a.primary_rays ? 100.0 * a.rays_beyond_intervals / a.primary_rays : 0, 3)
+    << "%) needed expansions or rationals beyond the double and interval filters.</p>\n";
+  if (a.headroom) {
+    h << "<h2>Headroom: how far can this scene move from the origin?</h2>\n<p>The whole scene (camera, lights, "
+         "objects) translated by 2<sup>k</sup>·(1, 0.75, 0.5), coordinates rounded to doubles, each variant "
+         "re-rendered: the largest k with 0 wrong pixels is its headroom.</p>\n<div id=\"headroom\">"
+      << headroom_svg(a) << "</div>\n";
+  }
+  h << "<h2>Images</h2>\n<p class=\"key\">Diff images, over the dimmed exact render:<span style=\"background:rgb(255,0,0)\">"
+       "</span>hole<span style=\"background:rgb(0,160,255)\"></span>false hit<span style=\"background:rgb(255,255,0)\">"
+       "</span>shadow wrong<span style=\"background:rgb(255,128,0)\"></span>acne</p>\n"
+    << "<div class=\"pair\"><figure>" << img_tag(a.exact, "exact render") << "<figcaption>exact</figcaption></figure></div>\n";
+  for (const VariantAudit& va : a.variants) {
+    const std::string name(va.variant->name);
+    h << "<div class=\"pair\"><figure>" << img_tag(va.render, name + " render") << "<figcaption>" << html_escape(name)
+      << "</figcaption></figure><figure>" << img_tag(va.diff, name + " diff") << "<figcaption>" << html_escape(name)
+      << " vs exact: " << va.counts.wrong << " wrong, " << va.counts.shadow_wrong << " shadow wrong</figcaption></figure></div>\n";
+  }
+  h << "<p>Reproduce: <code>rayproof audit " << html_escape(scene_path) << " -o DIR" << (a.headroom ? " --headroom" : "")
+    << "</code></p>\n";
+  // For automated checks (a headless browser dumps the DOM after load): how many images decoded.
+  h << "<script>window.addEventListener('load',function(){var n=0,imgs=document.images;for(var i=0;i<imgs.length;i++)"
+       "if(imgs[i].complete&&imgs[i].naturalWidth>0)n++;document.body.setAttribute('data-images-decoded',n+'/'+imgs.length);});"
+       "</script>\n</body></html>\n";
+  return h.str();
+}
+
+void write_scene_audit(const SceneAudit& a, const std::string& scene_path, const std::string& dir) {
+  std::filesystem::create_directories(dir);
+  write_image(a.exact, dir + "/exact.png");
+  for (const VariantAudit& va : a.variants) {
+    write_image(va.render, dir + "/" + file_stem(va.variant->name) + ".png");
+    write_image(va.diff, dir + "/" + file_stem(va.variant->name) + "-diff.png");
+  }
+  {
+    AtomicFile html(dir + "/report.html");
+    html.stream() << scene_audit_html(a, scene_path);
+    html.commit();
+  }
+  AtomicFile out(dir + "/audit.json");
+  out.stream() << audit_json(a, scene_path).dump(2) << "\n";
+  out.commit();
+}
+
+}  // namespace rayproof::studies
