@@ -110,6 +110,12 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
       j["headroom"][std::string(va.variant->name)] = h;
     }
   }
+  if (a.headroom) {
+    json changed = json::object();
+    const std::vector<int> ks = headroom_exponents();
+    for (size_t i = 0; i < a.headroom_scene_changed.size(); ++i) changed[std::to_string(ks[i])] = a.headroom_scene_changed[i];
+    j["headroom_scene_changed_pixels"] = changed;
+  }
   if (!a.warnings.empty()) j["warnings"] = a.warnings;
   return j;
 }
@@ -120,32 +126,47 @@ std::string img_tag(const Image& img, const std::string& alt) {
 }
 
 // Variants × translation exponent: green where exact, red where some pixel is wrong, grey where
-// not rendered (an earlier exponent already failed).
+// not rendered (an earlier exponent already failed). The first row is the scene itself: orange
+// where rounding the translated coordinates changed its exact render.
 std::string headroom_svg(const SceneAudit& a) {
   const std::vector<int> ks = headroom_exponents();
-  const int label_w = 170, cell = 22, top = 30;
-  const int w = label_w + cell * static_cast<int>(ks.size()) + 10, h = top + cell * static_cast<int>(a.variants.size()) + 40;
+  const int label_w = 190, cell = 22, top = 30, rows = static_cast<int>(a.variants.size()) + 1;
+  const int w = label_w + cell * static_cast<int>(ks.size()) + 10, h = top + cell * rows + 40;
+  const long pixels = static_cast<long>(a.width) * a.height;
   std::ostringstream s;
   s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "\" height=\"" << h
     << "\" font-family=\"sans-serif\" font-size=\"11\" role=\"img\" aria-label=\"headroom chart\">";
   for (size_t i = 0; i < ks.size(); ++i)
     s << "<text x=\"" << label_w + cell * i + cell / 2 << "\" y=\"" << top - 8 << "\" text-anchor=\"middle\">" << ks[i]
       << "</text>";
+  auto row = [&](int r, const std::string& label, auto&& cell_of) {
+    const int y = top + cell * r;
+    s << "<text x=\"" << label_w - 6 << "\" y=\"" << y + cell * 0.7 << "\" text-anchor=\"end\">" << html_escape(label)
+      << "</text>";
+    for (size_t i = 0; i < ks.size(); ++i) {
+      const auto [fill, title] = cell_of(i);
+      s << "<rect x=\"" << label_w + cell * i << "\" y=\"" << y << "\" width=\"" << cell - 2 << "\" height=\"" << cell - 2
+        << "\" fill=\"" << fill << "\" stroke=\"#bbb\"><title>" << html_escape(label) << ", k = " << ks[i] << ": "
+        << html_escape(title) << "</title></rect>";
+    }
+  };
+  row(0, "the scene itself", [&](size_t i) -> std::pair<std::string, std::string> {
+    if (i >= a.headroom_scene_changed.size()) return {"#dddddd", "not rendered"};
+    const long c = a.headroom_scene_changed[i];
+    return {c == 0 ? "#ffffff" : (c * 100 < pixels ? "#ffcc80" : "#fb8c00"),
+            std::to_string(c) + " pixels see another object than the untranslated scene"};
+  });
   for (size_t r = 0; r < a.variants.size(); ++r) {
     const VariantAudit& va = a.variants[r];
-    const int y = top + cell * static_cast<int>(r);
-    s << "<text x=\"" << label_w - 6 << "\" y=\"" << y + cell * 0.7 << "\" text-anchor=\"end\">"
-      << html_escape(va.variant->name) << " (" << to_string(va.variant->shape) << ")</text>";
-    for (size_t i = 0; i < ks.size(); ++i) {
-      const long wrong = i < va.headroom_wrong.size() ? va.headroom_wrong[i] : -1;
-      const char* fill = wrong < 0 ? "#dddddd" : (wrong == 0 ? "#4caf50" : "#e53935");
-      s << "<rect x=\"" << label_w + cell * i << "\" y=\"" << y << "\" width=\"" << cell - 2 << "\" height=\"" << cell - 2
-        << "\" fill=\"" << fill << "\"><title>" << html_escape(va.variant->name) << ", k = " << ks[i] << ": "
-        << (wrong < 0 ? std::string("not rendered") : std::to_string(wrong) + " wrong pixels") << "</title></rect>";
-    }
+    row(static_cast<int>(r) + 1, std::string(va.variant->name) + " (" + std::string(to_string(va.variant->shape)) + ")",
+        [&](size_t i) -> std::pair<std::string, std::string> {
+          const long wrong = i < va.headroom_wrong.size() ? va.headroom_wrong[i] : -1;
+          if (wrong < 0) return {"#dddddd", "not rendered"};
+          return {wrong == 0 ? "#4caf50" : "#e53935", std::to_string(wrong) + " wrong pixels"};
+        });
   }
-  s << "<text x=\"" << label_w << "\" y=\"" << h - 10 << "\">translation 2^k·(1, 0.75, 0.5), k →   "
-    << "green: 0 wrong pixels · red: some wrong · grey: not rendered</text></svg>";
+  s << "<text x=\"" << 4 << "\" y=\"" << h - 10 << "\">translation 2^k·(1, 0.75, 0.5), k →  green: 0 wrong pixels · "
+    << "red: some wrong · grey: not rendered · orange: rounding changed the scene itself</text></svg>";
   return s.str();
 }
 
@@ -213,11 +234,23 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
        "</span>hole<span style=\"background:rgb(0,160,255)\"></span>false hit<span style=\"background:rgb(255,255,0)\">"
        "</span>shadow wrong<span style=\"background:rgb(255,128,0)\"></span>acne</p>\n"
     << "<div class=\"pair\"><figure>" << img_tag(a.exact, "exact render") << "<figcaption>exact</figcaption></figure></div>\n";
-  for (const VariantAudit& va : a.variants) {
+  // The variants with something wrong first, each render beside its diff; the exact ones folded.
+  auto pair = [&](const VariantAudit& va) {
     const std::string name(va.variant->name);
     h << "<div class=\"pair\"><figure>" << img_tag(va.render, name + " render") << "<figcaption>" << html_escape(name)
       << "</figcaption></figure><figure>" << img_tag(va.diff, name + " diff") << "<figcaption>" << html_escape(name)
-      << " vs exact: " << va.counts.wrong << " wrong, " << va.counts.shadow_wrong << " shadow wrong</figcaption></figure></div>\n";
+      << " vs exact: " << va.counts.holes << " holes, " << va.counts.false_hits << " false hits, " << va.counts.shadow_wrong
+      << " shadow wrong</figcaption></figure></div>\n";
+  };
+  long exact_count = 0;
+  for (const VariantAudit& va : a.variants)
+    if (!va.exact_for_scene()) pair(va);
+    else ++exact_count;
+  if (exact_count > 0) {
+    h << "<details><summary>" << exact_count << " variants render this scene exactly: their images</summary>\n";
+    for (const VariantAudit& va : a.variants)
+      if (va.exact_for_scene()) pair(va);
+    h << "</details>\n";
   }
   h << "<p>Reproduce: <code>rayproof audit " << html_escape(scene_path) << " -o DIR" << (a.headroom ? " --headroom" : "")
     << "</code></p>\n";

@@ -63,6 +63,10 @@ struct SceneAudit {
   std::vector<VariantAudit> variants;
   std::vector<std::pair<ShapeKind, const VariantAudit*>> recommendation;  // nullptr: none exact
   bool headroom = false;
+  // Per headroom exponent rendered: pixels whose exact visible object differs from the scene's
+  // own (untranslated) exact render. Where this grows, rounding to doubles has changed the scene
+  // itself, and a variant's headroom beyond that point says little.
+  std::vector<long> headroom_scene_changed;
   std::vector<std::string> warnings;
 };
 
