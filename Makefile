@@ -14,6 +14,7 @@ demo: build
 	@bash scripts/demo.sh $(BUILD)
 
 test: build
+	@bash scripts/install-deps.sh test
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
 
 # The whole test suite again under ASan + UBSan, built with clang (whose -fsanitize=undefined

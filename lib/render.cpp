@@ -35,11 +35,11 @@ bool Intersectors::use(std::string_view name) {
 SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray) {
   SceneHit best;
   double t_limit = std::numeric_limits<double>::infinity();
-  index.traverse(kind, ray, t_limit, [&](std::int32_t id) {
-    const Primitive& p = index.primitive(id);
-    const Hit h = variant.intersect(ray, p.shape, rule);
+  index.traverse(kind, ray, t_limit, [&](std::int32_t id, const Shape& shape) {
+    const Hit h = variant.intersect(ray, shape, rule);
     // A contact without t (a ray lying in a plane) has no point to show.
     if (h.cls == HitClass::miss || !h.has_t() || !(h.t >= 0)) return false;
+    const Primitive& p = index.primitive(id);
     if (nearer(h.t, id, p, best, index)) {
       best = {p.object, id, h};
       t_limit = h.t;
@@ -72,9 +72,9 @@ bool in_shadow(const SceneIndex& index, const Intersectors& isect, int self, con
     if (blocked || index.count(kind) == 0) continue;
     const Variant& v = *isect.by_shape[static_cast<int>(kind)];
     double t_limit = 1;
-    index.traverse(kind, shadow, t_limit, [&](std::int32_t id) {
+    index.traverse(kind, shadow, t_limit, [&](std::int32_t id, const Shape& shape) {
       if (id == self) return false;
-      const Hit h = v.intersect(shadow, index.primitive(id).shape, HitRule::nearest_contact);
+      const Hit h = v.intersect(shadow, shape, HitRule::nearest_contact);
       blocked = h.cls != HitClass::miss && h.has_t() && h.t < 1;
       return blocked;
     });

@@ -48,6 +48,15 @@ SceneIndex::SceneIndex(const Scene& scene) : scene_(&scene) {
     for (std::int32_t id : ids) boxes.push_back(bounds_of(primitives_[id].shape));
     bvh_[static_cast<int>(kind)] = Bvh(boxes);
   }
+  for (ShapeKind kind : kAllShapeKinds) {
+    const int k = static_cast<int>(kind);
+    if (kind != ShapeKind::plane) {  // into the BVH's leaf order
+      std::vector<std::int32_t> sorted;
+      for (std::int32_t i : bvh_[k].order()) sorted.push_back(by_kind_[k][i]);
+      by_kind_[k] = std::move(sorted);
+    }
+    for (std::int32_t id : by_kind_[k]) shapes_[k].push_back(primitives_[id].shape);
+  }
 }
 
 std::vector<ShapeKind> SceneIndex::shapes_used() const {

@@ -21,6 +21,16 @@ if [ -f "$build/plugins/weekend_sphere.so" ]; then
     --families tangent,near-origin --count 20000 --max-findings 10 -o "$out/plugin-findings.jsonl" 2>&1 \
     | grep -E "^(family|(tangent|near-origin)(-full)? +weekend)|findings in" || true
 fi
+echo "rayproof audit: which intersector does a scene need? (docs/spec/audit.md)"
+"$rp" audit scenes/audit/edge-grid-tilted.json -o "$out/audit-edge-grid-tilted" 2>&1 | grep -E "^(variant|moller|watertight|recommendation)" || true
+if [ -f "$build/scenes/bunny.json" ]; then
+  echo "... the Stanford bunny on a ground plane with a ball and a light, moved up to 2^62 from the origin (--headroom):"
+  "$rp" audit "$build/scenes/bunny.json" -o "$out/audit-bunny" --headroom 2>&1 | grep -E "^(variant|textbook|stable|hearn|direct|moller|watertight|recommendation)" || true
+  report="$out/audit-bunny/report.html"
+else
+  report="$out/audit-edge-grid-tilted/report.html"
+fi
 echo
 echo "rayproof demo: results are in $(cd "$out" && pwd)/"
+echo "rayproof demo: open the audit report: $(cd "$(dirname "$report")" && pwd)/report.html"
 ls -1 "$out" | sed 's/^/  /'

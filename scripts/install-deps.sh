@@ -1,12 +1,16 @@
 #!/usr/bin/env bash
-# Installs the Debian packages rayproof builds with, only those missing.
+# Installs the Debian packages rayproof builds with, only those missing. libcgal-demo ships CGAL's
+# data.tar.gz, whose meshes (the Stanford bunny, ...) the bundled audit scenes use.
 # Works as root or through sudo; does nothing when everything is present.
 set -euo pipefail
 packages=(build-essential cmake pkg-config libcgal-dev libgmp-dev libmpfr-dev libeigen3-dev
           googletest libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libpng-dev
-          libembree-dev python3)
+          libembree-dev python3 libcgal-demo)
 # `install-deps.sh fuzz` or `sanitize`: also clang with libFuzzer and the sanitizer runtimes.
 if [ "${1:-}" = fuzz ] || [ "${1:-}" = sanitize ]; then packages+=(clang libclang-rt-dev); fi
+# `install-deps.sh test` (make test) or `sanitize`: also headless Chromium, for the one test that
+# opens an audit's report.html in a real browser.
+if [ "${1:-}" = test ] || [ "${1:-}" = sanitize ]; then packages+=(chromium); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -238,9 +238,9 @@ class Auditor {
                        bool* adjacent_blocker) const {
     bool blocked = false;
     double t_limit = 1;
-    index_.traverse(kind, segment, t_limit, [&](std::int32_t id) {
+    index_.traverse(kind, segment, t_limit, [&](std::int32_t id, const Shape& shape) {
       if (id == self) return false;
-      const Hit h = v.intersect(segment, index_.primitive(id).shape, HitRule::nearest_contact);
+      const Hit h = v.intersect(segment, shape, HitRule::nearest_contact);
       if (h.cls == HitClass::miss || !h.has_t() || !(h.t < 1)) return false;
       blocked = true;
       if (adjacent_blocker && index_.same_or_adjacent(self, id)) *adjacent_blocker = true;

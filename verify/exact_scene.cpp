@@ -38,8 +38,8 @@ bool ExactTracer::before(const Ray& ray, const ExactContact& a, const ExactConta
 ExactContact ExactTracer::nearest(ShapeKind kind, const Ray& ray) {
   ExactContact best;
   double t_limit = std::numeric_limits<double>::infinity();
-  index_->traverse(kind, ray, t_limit, [&](std::int32_t id) {
-    const Verdict v = filtered_.judge(ray, index_->primitive(id).shape);
+  index_->traverse(kind, ray, t_limit, [&](std::int32_t id, const Shape& shape) {
+    const Verdict v = filtered_.judge(ray, shape);
     if (!is_contact(v)) return false;
     const ExactContact c{id, *v.t};
     if (before(ray, c, best)) {
@@ -63,9 +63,9 @@ ExactContact ExactTracer::nearest(const Ray& ray) {
 bool ExactTracer::blocks(ShapeKind kind, const Ray& segment, std::int32_t self) {
   bool blocked = false;
   double t_limit = 1;
-  index_->traverse(kind, segment, t_limit, [&](std::int32_t id) {
+  index_->traverse(kind, segment, t_limit, [&](std::int32_t id, const Shape& shape) {
     if (id == self) return false;
-    const Verdict v = filtered_.judge(segment, index_->primitive(id).shape);
+    const Verdict v = filtered_.judge(segment, shape);
     if (!is_contact(v)) return false;
     // Rounding is monotone and 1 is a double: rounded t < 1 means exact t < 1, > 1 means > 1.
     if (*v.t < 1) blocked = true;

@@ -31,18 +31,21 @@ class SceneIndex {
   std::vector<ShapeKind> shapes_used() const;
   std::size_t count(ShapeKind kind) const { return by_kind_[static_cast<int>(kind)].size(); }
 
-  // Calls visit(primitive id) for each primitive of `kind` that the ray may meet at
+  // Calls visit(primitive id, its shape) for each primitive of `kind` that the ray may meet at
   // 0 ≤ t ≤ t_limit (conservatively: Bvh), nearer boxes first; planes, which no box holds, are
   // all visited. visit returns true to stop and may lower t_limit.
   template <class Visit>
   void traverse(ShapeKind kind, const Ray& ray, double& t_limit, Visit&& visit) const {
-    const std::vector<std::int32_t>& ids = by_kind_[static_cast<int>(kind)];
+    const int k = static_cast<int>(kind);
+    const std::vector<std::int32_t>& ids = by_kind_[k];
+    const std::vector<Shape>& shapes = shapes_[k];
+    auto at = [&](std::int32_t i) { return visit(ids[i], shapes[i]); };
     if (kind == ShapeKind::plane) {
-      for (std::int32_t id : ids)
-        if (visit(id)) return;
+      for (std::int32_t i = 0; i < static_cast<std::int32_t>(ids.size()); ++i)
+        if (at(i)) return;
       return;
     }
-    bvh_[static_cast<int>(kind)].traverse(ray, t_limit, [&](std::int32_t i) { return visit(ids[i]); });
+    bvh_[k].traverse(ray, t_limit, at);
   }
 
   // Whether primitive b is a (the acne test's) neighbour of a: the same primitive, or a
@@ -52,7 +55,10 @@ class SceneIndex {
  private:
   const Scene* scene_;
   std::vector<Primitive> primitives_;
+  // Per kind, the primitive ids and a copy of their shapes, both in the BVH's leaf order (the
+  // traversal reads leaves as contiguous runs).
   std::array<std::vector<std::int32_t>, 4> by_kind_;
+  std::array<std::vector<Shape>, 4> shapes_;
   std::array<Bvh, 4> bvh_;
 };
 

@@ -1,0 +1,339 @@
+// The scene audit (docs/spec/audit.md): a BVH that never skips what the exact ray meets, the
+// exact tracer's decisions, the audit's counts on scenes built to have known answers, counts that
+// match the images, and a report a real browser opens.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <set>
+
+#include "cli_run.h"
+#include "rayproof/core/render.h"
+#include "rayproof/core/scene_index.h"
+#include "rayproof/studies/scene_audit.h"
+#include "rayproof/verify/certified.h"
+#include "rayproof/verify/exact_scene.h"
+#include "test_dir.h"
+
+namespace rayproof {
+namespace {
+
+using testing_support::test_dir;
+const std::string kScenes = RAYPROOF_SCENES_DIR;
+
+Scene scene_of_triangles(const std::vector<Triangle>& tris) {
+  Scene s;
+  for (const Triangle& t : tris) s.objects.push_back({t});
+  return s;
+}
+
+// Random small triangles in [-1, 1]³ and rays aimed exactly at their vertices, edge midpoints
+// and centroids (the decisions that sit on a box's boundary), plus axis-parallel rays whose
+// origin lies on a triangle's bounding plane.
+TEST(Bvh, NeverSkipsAPrimitiveTheExactRayMeets) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1), s(-0.1, 0.1);
+  std::vector<Triangle> tris;
+  while (tris.size() < 600) {
+    const Vec3 c(u(rng), u(rng), u(rng));
+    const Triangle t{{c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), 0)}};
+    if (!degenerate_reason(t)) tris.push_back(t);
+  }
+  const Scene scene = scene_of_triangles(tris);
+  const SceneIndex index(scene);
+  Oracle oracle;
+  long contacts = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Triangle& t = tris[rng() % tris.size()];
+    Vec3 target;
+    switch (i % 4) {
+      case 0: target = t.v[i % 3]; break;
+      case 1: target = 0.5 * (t.v[0] + t.v[1]); break;
+      case 2: target = (t.v[0] + t.v[1] + t.v[2]) / 3; break;
+      default: target = Vec3(u(rng), u(rng), u(rng));
+    }
+    Ray ray{Vec3(3 * u(rng), 3 * u(rng), 3 * u(rng)), Vec3::Zero()};
+    ray.direction = target - ray.origin;
+    if (i % 7 == 0) {  // axis-parallel, origin on the bounding plane of a vertex
+      ray.origin = t.v[0] - Vec3(0, 0, 2);
+      ray.direction = Vec3(0, 0, 1);
+    }
+    std::set<std::int32_t> visited;
+    double t_limit = std::numeric_limits<double>::infinity();
+    index.traverse(ShapeKind::triangle, ray, t_limit, [&](std::int32_t id, const Shape&) {
+      visited.insert(id);
+      return false;
+    });
+    for (size_t k = 0; k < tris.size(); ++k) {
+      const Verdict v = oracle.judge(ray, tris[k]);
+      if (v.cls == HitClass::miss) continue;
+      ++contacts;
+      EXPECT_TRUE(visited.count(static_cast<std::int32_t>(k))) << "ray " << i << " meets triangle " << k << " exactly ("
+                                                              << to_string(v.cls) << ") but the BVH skipped it";
+    }
+  }
+  EXPECT_GT(contacts, 1500);
+}
+
+TEST(Bvh, NearestHitEqualsTheBruteForceAnswer) {
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> u(-1, 1), s(-0.3, 0.3);
+  std::vector<Triangle> tris;
+  while (tris.size() < 300) {
+    const Vec3 c(u(rng), u(rng), u(rng));
+    const Triangle t{{c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng))}};
+    if (!degenerate_reason(t)) tris.push_back(t);
+  }
+  const Scene scene = scene_of_triangles(tris);
+  const SceneIndex index(scene);
+  const Variant& mt = *find_variant("moller-trumbore");
+  for (int i = 0; i < 2000; ++i) {
+    const Ray ray{Vec3(3 * u(rng), 3 * u(rng), 3 * u(rng)), Vec3(u(rng), u(rng), u(rng))};
+    int best = -1;
+    double best_t = 0;
+    for (size_t k = 0; k < tris.size(); ++k) {
+      const Hit h = mt.intersect(ray, tris[k], HitRule::nearest_contact);
+      if (h.cls != HitClass::miss && h.has_t() && h.t >= 0 && (best < 0 || h.t < best_t)) best = int(k), best_t = h.t;
+    }
+    const SceneHit h = trace_kind(index, ShapeKind::triangle, mt, HitRule::nearest_contact, ray);
+    ASSERT_EQ(h.object, best) << "ray " << i;
+    if (best >= 0) EXPECT_EQ(h.hit.t, best_t);
+  }
+}
+
+TEST(ExactParameters, CompareDecidesTiesBetweenQuadraticRoots) {
+  ExactParameter a, b;
+  a.p = 1, a.radicand = 8, a.q = 2, a.s = 1;  // (1 + √8)/2 = 1/2 + √2
+  b.p = 1, b.radicand = 2, b.q = 2, b.s = 0;  // 1/2
+  EXPECT_EQ(compare(a, b), 1);
+  b.p = mpq_class(1, 2), b.radicand = 2, b.q = 1, b.s = 1;  // 1/2 + √2, written differently
+  EXPECT_EQ(compare(a, b), 0);
+  b.radicand = mpq_class(200000001, 100000000);  // a hair more under the root
+  EXPECT_EQ(compare(a, b), -1);
+  EXPECT_EQ(compare(b, a), 1);
+  a.s = -1;  // 1/2 − √2 < 0 < 1/2 + √2.00000001
+  EXPECT_EQ(compare(a, b), -1);
+}
+
+TEST(ExactTracer, HitPointsAreRoundedExactlyAndSegmentsEndStrictlyBeforeOne) {
+  Scene scene;
+  scene.objects.push_back({Plane{Vec3(1, 1, 1), 1}});
+  scene.objects.push_back({Triangle{{Vec3(-1, -1, 2), Vec3(3, -1, 2), Vec3(-1, 3, 2)}}});
+  const SceneIndex index(scene);
+  ExactTracer tracer(index);
+  const Ray ray{Vec3(0, 0, 0), Vec3(1, 1, 1)};
+  const ExactContact c = tracer.nearest(ray);
+  ASSERT_EQ(c.primitive, 0);
+  const Vec3 p = tracer.hit_point(ray, c);  // each coordinate exactly 1/3, rounded once
+  EXPECT_EQ(p, Vec3::Constant(1.0 / 3.0));
+  // The triangle lies at z = 2: a segment from z = 0 ending exactly on it is not blocked (t = 1),
+  // one going past it is.
+  EXPECT_FALSE(tracer.blocked(Ray{Vec3(0.1, 0.1, 0), Vec3(0, 0, 2)}, 0));
+  EXPECT_TRUE(tracer.blocked(Ray{Vec3(0.1, 0.1, 0), Vec3(0, 0, std::nextafter(2.0, 3.0))}, 0));
+}
+
+studies::SceneAudit audit_of(const std::string& scene_file, std::vector<std::string> names, bool headroom = false) {
+  static std::vector<std::unique_ptr<Scene>> keep;  // the audit keeps no reference, but be safe
+  keep.push_back(std::make_unique<Scene>(load_scene(scene_file)));
+  static const bool certified = (register_certified_variants(), true);
+  (void)certified;
+  studies::SceneAuditOptions o;
+  for (const std::string& n : names) {
+    o.variants.push_back(find_variant(n));
+    if (!o.variants.back()) throw std::runtime_error("no variant " + n);
+  }
+  o.headroom = headroom;
+  o.threads = 2;
+  return studies::audit_scene(*keep.back(), o);
+}
+
+const studies::VariantAudit& row(const studies::SceneAudit& a, std::string_view name) {
+  for (const auto& v : a.variants)
+    if (v.variant->name == name) return v;
+  throw std::runtime_error("no row " + std::string(name));
+}
+
+// Every primary ray of edge-grid.json meets a mesh edge or vertex exactly (scripts/make-audit-
+// scenes.py), so the exact image is all mesh and a watertight test shows no hole.
+TEST(Audit, EdgeGridIsAllMeshExactlyAndWatertightHasNoHoles) {
+  const auto a = audit_of(kScenes + "/audit/edge-grid.json", {"moller-trumbore", "watertight", "certified-triangle"});
+  const std::array<std::uint8_t, 3> mesh_colour{51, 204, 102};  // (0.2, 0.8, 0.4), flat
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) ASSERT_EQ(a.exact.at(x, y), mesh_colour) << "pixel " << x << "," << y;
+  EXPECT_EQ(row(a, "watertight").counts.holes, 0);
+  EXPECT_EQ(row(a, "certified-triangle").counts.wrong, 0);
+  for (const auto& [kind, best] : a.recommendation) {
+    ASSERT_NE(best, nullptr);
+    EXPECT_EQ(best->counts.holes, 0);
+  }
+}
+
+// Vertices within rounding of the pixel rays: Möller–Trumbore decides the two triangles of an
+// edge separately and misses both; watertight does not; the audit recommends watertight.
+TEST(Audit, TiltedEdgeGridCatchesMollerTrumboreHolesAndRecommendsWatertight) {
+  const auto a = audit_of(kScenes + "/audit/edge-grid-tilted.json", {"moller-trumbore", "watertight", "certified-triangle"});
+  EXPECT_GT(row(a, "moller-trumbore").counts.holes, 100);
+  EXPECT_EQ(row(a, "moller-trumbore").counts.false_hits, 0);
+  EXPECT_EQ(row(a, "watertight").counts.wrong, 0);
+  EXPECT_EQ(row(a, "certified-triangle").counts.wrong, 0);
+  ASSERT_EQ(a.recommendation.size(), 1u);
+  ASSERT_NE(a.recommendation[0].second, nullptr);
+  EXPECT_EQ(a.recommendation[0].second->variant->name, "watertight");
+}
+
+// The counts in audit.json are the marks in the diff images, colour by colour.
+void expect_counts_match_images(const std::string& dir) {
+  nlohmann::json j;
+  std::ifstream(dir + "/audit.json") >> j;
+  ASSERT_FALSE(j["variants"].empty());
+  for (const auto& v : j["variants"]) {
+    const Image diff = read_png(dir + "/" + v["diff"].get<std::string>());
+    long red = 0, blue = 0, yellow = 0, orange = 0;
+    for (int y = 0; y < diff.height; ++y)
+      for (int x = 0; x < diff.width; ++x) {
+        const auto c = diff.at(x, y);
+        red += c == studies::kHoleColour;
+        blue += c == studies::kFalseHitColour;
+        yellow += c == studies::kShadowColour;
+        orange += c == studies::kAcneColour;
+      }
+    const std::string name = v["name"];
+    EXPECT_EQ(red, v["holes"].get<long>()) << name;
+    EXPECT_EQ(blue, v["false_hits"].get<long>()) << name;
+    EXPECT_EQ(red + blue, v["wrong"].get<long>()) << name;
+    EXPECT_EQ(yellow + orange, v["shadow_wrong"].get<long>()) << name;
+    EXPECT_EQ(orange, v["acne"].get<long>()) << name;
+    EXPECT_EQ(v["exact_for_scene"].get<bool>(), v["wrong"] == 0 && v["shadow_wrong"] == 0) << name;
+  }
+}
+
+TEST(Audit, CountsInAuditJsonMatchTheDiffImages) {
+  for (const char* scene : {"edge-grid-tilted", "telephoto-sphere"}) {
+    const std::string dir = test_dir() + "/" + scene;
+    const auto run = testing_support::run_cli("audit " + kScenes + "/audit/" + scene + ".json -o " + dir + " --threads 2");
+    ASSERT_EQ(run.status, 0) << run.err;
+    expect_counts_match_images(dir);
+  }
+}
+
+// A triangle variant with a barycentric tolerance (a common "fix" for holes) is registered for
+// this test: on the grazing terrain its shadow rays are blocked by the neighbours of the
+// triangle they leave, which the audit must count as acne, and its images must show it.
+Hit triangle_with_tolerance(const Ray& ray, const Shape& shape, HitRule rule) {
+  const Triangle& tri = std::get<Triangle>(shape);
+  const Vec3 e1 = tri.v[1] - tri.v[0], e2 = tri.v[2] - tri.v[0];
+  const Vec3 p = cross(ray.direction, e2);
+  const double det = dot(e1, p);
+  if (det == 0) return Hit::miss();
+  const Vec3 s = ray.origin - tri.v[0];
+  const double u = dot(s, p) / det;
+  const Vec3 q = cross(s, e1);
+  const double v = dot(ray.direction, q) / det;
+  constexpr double kTolerance = 0.05;
+  if (u < -kTolerance || v < -kTolerance || u + v > 1 + kTolerance) return Hit::miss();
+  const double t = dot(e2, q) / det;
+  if (!(t > 0)) return Hit::miss();
+  (void)rule;
+  return {HitClass::enter, t};
+}
+
+TEST(Audit, ShadowErrorsAndAcneAreCountedForAVariantThatOverreaches) {
+  static const Variant& tolerant = register_variant(
+      {"test-tolerant-triangle", ShapeKind::triangle, "Möller–Trumbore with a 5% barycentric tolerance (test only)",
+       triangle_with_tolerance});
+  const auto a = audit_of(kScenes + "/audit/terrain-grazing.json", {"watertight", "test-tolerant-triangle"});
+  const auto& bad = row(a, tolerant.name);
+  EXPECT_GT(bad.counts.shadow_wrong, 0);
+  EXPECT_GT(bad.counts.acne, 0);
+  EXPECT_LE(bad.counts.acne, bad.counts.shadow_wrong);
+  EXPECT_FALSE(bad.exact_for_scene());
+  EXPECT_GT(a.shadow_rays, 5000);  // the lit side of the terrain (8,877 when written)
+  ASSERT_NE(a.recommendation[1].second, nullptr);
+  EXPECT_EQ(a.recommendation[1].second->variant->name, "watertight");
+  const std::string dir = test_dir() + "/out";
+  studies::write_scene_audit(a, "terrain-grazing.json", dir);
+  expect_counts_match_images(dir);
+}
+
+TEST(Audit, HeadroomIsTheLastCleanExponentBeforeTheFirstWrongOne) {
+  const auto a = audit_of(kScenes + "/audit/telephoto-sphere.json", {"textbook", "hearn-baker"}, true);
+  ASSERT_TRUE(a.headroom);
+  const std::vector<int> ks = studies::headroom_exponents();
+  for (const auto& v : a.variants) {
+    ASSERT_EQ(v.headroom_wrong.size(), ks.size());
+    if (!v.first_wrong_log2_translate) {
+      EXPECT_EQ(v.exact_up_to_log2_translate, 62) << v.variant->name;
+      continue;
+    }
+    const int first = *v.first_wrong_log2_translate;
+    for (size_t i = 0; i < ks.size(); ++i) {
+      if (ks[i] < first) EXPECT_EQ(v.headroom_wrong[i], 0) << v.variant->name << " k=" << ks[i];
+      if (ks[i] == first) EXPECT_GT(v.headroom_wrong[i], 0) << v.variant->name;
+      if (ks[i] > first) EXPECT_EQ(v.headroom_wrong[i], -1) << v.variant->name << ": rendered after its first wrong k";
+    }
+    if (first == 0) EXPECT_FALSE(v.exact_up_to_log2_translate);
+    else EXPECT_EQ(v.exact_up_to_log2_translate, first - 2);
+  }
+  // The textbook formula is already wrong at this distance; Hearn & Baker's is not.
+  EXPECT_EQ(row(a, "textbook").first_wrong_log2_translate, 0);
+  EXPECT_GT(row(a, "hearn-baker").exact_up_to_log2_translate.value_or(-1), 0);
+}
+
+TEST(Audit, CommandLineWritesTheSpecsFilesAndKeys) {
+  const std::string dir = test_dir() + "/grid";
+  const auto run = testing_support::run_cli("audit " + kScenes + "/audit/edge-grid.json -o " + dir +
+                                            " --variants moller-trumbore,watertight --threads 2");
+  ASSERT_EQ(run.status, 0) << run.err;
+  nlohmann::json j;
+  std::ifstream(dir + "/audit.json") >> j;
+  for (const char* key : {"scene", "width", "height", "shapes", "exact", "variants", "recommendation"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["shapes"], nlohmann::json::array({"triangle"}));
+  for (const char* key : {"primary_rays", "shadow_rays", "seconds"}) EXPECT_TRUE(j["exact"].contains(key)) << key;
+  EXPECT_EQ(j["exact"]["primary_rays"], 128 * 64);
+  for (const auto& v : j["variants"])
+    for (const char* key : {"name", "shape", "precision", "ns_per_ray", "wrong", "holes", "false_hits", "shadow_wrong",
+                            "acne", "exact_for_scene"})
+      EXPECT_TRUE(v.contains(key)) << key;
+  for (const char* file : {"exact.png", "moller-trumbore.png", "moller-trumbore-diff.png", "watertight.png",
+                           "watertight-diff.png", "report.html"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/" + file)) << file;
+  EXPECT_FALSE(j.contains("headroom"));
+}
+
+TEST(Audit, BadInputIsOneLineNamingTheFile) {
+  std::ofstream(test_dir() + "/s.json") << R"({"camera": {"eye": [0,0,-1], "look_at": [0,0,0], "up": [0,1,0],
+    "fov_deg": 40, "width": 8, "height": 8}, "objects": [{"type": "mesh", "file": "gone.off"}]})";
+  auto run = testing_support::run_cli("audit " + test_dir() + "/s.json -o " + test_dir() + "/out");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("gone.off: cannot open mesh file"), std::string::npos) << run.err;
+  std::ofstream(test_dir() + "/file") << "x";
+  run = testing_support::run_cli("audit " + kScenes + "/audit/edge-grid.json -o " + test_dir() + "/file");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("not a directory"), std::string::npos) << run.err;
+}
+
+// report.html opens from the file system in a real browser (headless Chromium, Debian's package,
+// installed by scripts/install-deps.sh for this test) and every inline image decodes.
+TEST(Audit, ReportOpensInHeadlessChromiumWithEveryImageDecoded) {
+  const std::string dir = test_dir() + "/report";
+  auto run = testing_support::run_cli("audit " + kScenes + "/audit/edge-grid-tilted.json -o " + dir +
+                                      " --variants moller-trumbore,watertight --headroom --threads 2");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const std::string dom = test_dir() + "/dom.html";
+  const std::string cmd = "chromium --headless --no-sandbox --disable-gpu --user-data-dir=" + test_dir() +
+                          "/chromium-profile --virtual-time-budget=5000 --dump-dom file://" + dir + "/report.html > " + dom +
+                          " 2>/dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << "headless chromium failed (scripts/install-deps.sh test installs it)";
+  std::stringstream page;
+  page << std::ifstream(dom).rdbuf();
+  // exact + render and diff per variant; the headroom chart is inline SVG.
+  EXPECT_NE(page.str().find("data-images-decoded=\"5/5\""), std::string::npos) << page.str().substr(0, 300);
+  EXPECT_NE(page.str().find("<svg"), std::string::npos);
+  EXPECT_NE(page.str().find("watertight</b>, the cheapest variant"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rayproof

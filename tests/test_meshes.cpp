@@ -1,0 +1,150 @@
+// Meshes in scenes (docs/spec/audit.md): the four formats read to the same doubles, placement in
+// double, fans, degenerate triangles, and every bad file named with its line.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+
+#include "rayproof/core/mesh.h"
+#include "rayproof/core/scene.h"
+#include "test_dir.h"
+
+namespace rayproof {
+namespace {
+
+using testing_support::test_dir;
+
+std::string write(const std::string& name, const std::string& text) {
+  const std::string path = test_dir() + "/" + name;
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+// Numbers a float-storing loader would change: 0.1, a subnormal, 0.30000000000000004, and a value
+// needing all 53 bits.
+const char* kX = "0.1";
+const char* kY = "4.9406564584124654e-320";
+const char* kZ = "0.30000000000000004";
+const char* kW = "123456789.12345679";
+
+std::string tetra_vertices(const char* prefix) {
+  std::string p(prefix);
+  return p + kX + " " + kY + " " + kZ + "\n" + p + "1 0 0\n" + p + "0 1 0\n" + p + kW + " 2 3\n";
+}
+
+void expect_tetra(const Mesh& m, const std::string& format) {
+  ASSERT_EQ(m.triangles.size(), 4u) << format;
+  const Vec3 first(std::strtod(kX, nullptr), std::strtod(kY, nullptr), std::strtod(kZ, nullptr));
+  bool found_first = false, found_w = false;
+  for (const Triangle& t : m.triangles)
+    for (const Vec3& v : t.v) {
+      found_first |= v == first;
+      found_w |= v.x() == std::strtod(kW, nullptr);
+    }
+  EXPECT_TRUE(found_first) << format << ": the vertex with 0.1, a subnormal and 0.30000000000000004 changed";
+  EXPECT_TRUE(found_w) << format << ": 123456789.12345679 lost bits";
+}
+
+TEST(Meshes, FourFormatsReadToTheSameDoubles) {
+  expect_tetra(load_mesh(write("t.off", "OFF\n4 4 0\n" + tetra_vertices("") + "3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1 2 3\n")), "OFF");
+  expect_tetra(load_mesh(write("t.obj", tetra_vertices("v ") + "f 1 2 3\nf 1/1 2/2 4/4\nf 1//1 3//3 4//4\nf -3 -2 -1\n")),
+               "OBJ");
+  expect_tetra(load_mesh(write("t.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+                                        "property double z\nelement face 4\nproperty list uchar int vertex_indices\n"
+                                        "end_header\n" + tetra_vertices("") + "3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1 2 3\n")),
+               "PLY");
+  std::string stl = "solid t\n";
+  const std::string v[4] = {std::string(kX) + " " + kY + " " + kZ, "1 0 0", "0 1 0", std::string(kW) + " 2 3"};
+  for (auto f : {std::array{0, 1, 2}, {0, 1, 3}, {0, 2, 3}, {1, 2, 3}}) {
+    stl += "facet normal 0 0 0\nouter loop\n";
+    for (int i : f) stl += "vertex " + v[i] + "\n";
+    stl += "endloop\nendfacet\n";
+  }
+  expect_tetra(load_mesh(write("t.stl", stl + "endsolid t\n")), "STL");
+}
+
+TEST(Meshes, QuadsAreFannedAndPlacementIsInDouble) {
+  const Mesh m = load_mesh(write("q.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n"), 0.1, Vec3(3, 0, 0));
+  ASSERT_EQ(m.triangles.size(), 2u);
+  EXPECT_EQ(m.triangles[0].v[1].x(), 1 * 0.1 + 3.0);
+  EXPECT_EQ(m.triangles[1].v[2].y(), 0.1);
+  EXPECT_EQ(m.corners[1], (std::array<std::uint32_t, 3>{0, 2, 3}));
+}
+
+TEST(Meshes, DegenerateTrianglesAreSkippedAndCountedWithAWarning) {
+  write("d.off", "OFF\n4 2 0\n0 0 0\n1 1 1\n2 2 2\n0 1 0\n3 0 1 2\n3 0 1 3\n");
+  const Mesh m = load_mesh(test_dir() + "/d.off");
+  EXPECT_EQ(m.triangles.size(), 1u);
+  EXPECT_EQ(m.degenerate_skipped, 1u);
+  const Scene s = parse_scene(R"({"camera": {"eye": [0,0,-1], "look_at": [0,0,0], "up": [0,1,0], "fov_deg": 40,
+      "width": 4, "height": 4}, "objects": [{"type": "mesh", "file": "d.off"}]})",
+                              test_dir() + "/scene.json");
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("d.off"), std::string::npos) << s.warnings[0];
+}
+
+// Each bad file: the error names the file and (text formats) the line.
+struct BadMesh {
+  const char* name;
+  const char* text;
+  const char* expected;  // substring of the message, file and line included
+};
+
+TEST(Meshes, BadFilesAreErrorsNamingFileAndLine) {
+  const BadMesh cases[] = {
+      {"range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "range.off:6: vertex index 7 out of range"},
+      {"nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", "nan.off:4: coordinate 'nan' is not finite"},
+      {"inf.obj", "v 0 0 0\nv 1e999 0 0\nv 0 1 0\nf 1 2 3\n", "inf.obj:2: coordinate '1e999' is beyond the double range"},
+      {"word.obj", "v 0 0 0\nv 1 zero 0\n", "word.obj:2: expected a number, got 'zero'"},
+      {"zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "zero.obj:4: vertex index 0 out of range"},
+      {"short.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n", "short.off:4: file ends after 2 of 3 vertices"},
+      {"header.off", "FOO\n", "header.off:1: expected the OFF header"},
+      {"empty.obj", "", "empty.obj: the mesh has no non-degenerate triangles"},
+      {"mesh.xyz", "1 2 3\n", "mesh.xyz: unknown mesh format 'xyz'"},
+      {"bad.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nend_header\nnot-a-number\n",
+       "bad.ply: CGAL's PLY reader could not read this file"},
+      {"range.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n",
+       "range.ply: face 0: vertex index 9 out of range (3 vertices)"},
+  };
+  for (const BadMesh& c : cases) {
+    const std::string path = write(c.name, c.text);
+    try {
+      load_mesh(path);
+      ADD_FAILURE() << c.name << ": no error";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << c.name << ": " << e.what();
+    }
+  }
+  try {
+    load_mesh(test_dir() + "/missing.off");
+    ADD_FAILURE() << "missing file: no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.off: cannot open mesh file"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Meshes, SceneMeshObjectsResolvePathsAndRejectUnknownKeys) {
+  write("m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const std::string camera = R"("camera": {"eye": [0,0,-1], "look_at": [0,0,0], "up": [0,1,0], "fov_deg": 40, "width": 4, "height": 4})";
+  const Scene s = parse_scene("{" + camera + R"(, "objects": [{"type": "mesh", "file": "m.obj", "scale": 2, "translate": [0, 0, 0.5]}]})",
+                              test_dir() + "/s.json");
+  ASSERT_TRUE(s.objects[0].mesh);
+  EXPECT_EQ(s.objects[0].mesh->triangles[0].v[1], Vec3(2, 0, 0.5));
+  try {
+    parse_scene("{" + camera + R"(, "objects": [{"type": "mesh", "file": "m.obj", "colour": [1, 0, 0]}]})",
+                test_dir() + "/s.json");
+    ADD_FAILURE() << "unknown key accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("colour"), std::string::npos) << e.what();
+  }
+  try {
+    parse_scene("{" + camera + R"(, "objects": [{"type": "mesh", "file": "nope.off"}]})", test_dir() + "/s.json");
+    ADD_FAILURE() << "missing mesh accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("nope.off: cannot open mesh file (objects[0].file)"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace rayproof
