@@ -66,19 +66,21 @@ void add_audit_command(CLI::App& app, int& exit_code) {
       std::string headroom;
       if (audit.headroom)
         headroom = va.exact_up_to_log2_translate ? "  " + std::to_string(*va.exact_up_to_log2_translate) : "  none";
-      std::fprintf(stderr, "%-24s %-9s %9.1f %7ld %7ld %7ld %7ld %6ld %s%s\n", std::string(va.variant->name).c_str(),
-                   std::string(to_string(va.variant->shape)).c_str(), va.ns_per_ray, va.counts.wrong, va.counts.holes,
+      std::fprintf(stderr, "%-24s %-9s %9.1f %7ld %7ld %7ld %7ld %6ld %s%s\n", va.label.c_str(),
+                   std::string(to_string(va.shape)).c_str(), va.ns_per_ray, va.counts.wrong, va.counts.holes,
                    va.counts.false_hits, va.counts.shadow_wrong, va.counts.acne, va.exact_for_scene() ? "yes" : "no ",
                    headroom.c_str());
     }
-    for (const auto& [kind, best] : audit.recommendation)
-      std::cerr << "recommendation: " << to_string(kind) << ": "
-                << (best ? std::string(best->variant->name) : std::string("none exact for this scene")) << "\n";
+    for (const auto& r : audit.recommendation)
+      std::cerr << "recommendation: " << to_string(r.shape) << ": "
+                << (r.best ? std::string(r.best->variant->name)
+                           : std::string(r.audited ? "none exact for this scene" : "no variant of this shape audited"))
+                << "\n";
     std::cerr << "rayproof audit: report " << (std::filesystem::absolute(opts->dir) / "report.html").string() << "\n";
     exit_code = 0;
     for (const studies::VariantAudit& va : audit.variants)
       if (!va.stopped.empty()) {
-        std::cerr << "rayproof audit: " << va.variant->name << " stopped (" << va.stopped << ")\n";
+        std::cerr << "rayproof audit: " << va.label << " stopped (" << va.stopped << ")\n";
         exit_code = 1;
       }
   });

@@ -142,7 +142,7 @@ class Auditor {
           for (int x = 0; x < cam.width; ++x)
             variant_pixel(st.tracer, v, kind, shaded, x, y, per_row[y], out);
         },
-        stage_progress(std::string(v.name)));
+        stage_progress(std::string(v.name) + " (" + std::string(to_string(kind)) + ")"));
     PixelCounts total;
     for (const PixelCounts& c : per_row) {
       total.wrong += c.wrong;
@@ -362,19 +362,24 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
   for (const auto& [v, kind] : chosen) {
     VariantAudit va;
     va.variant = v;
+    va.shape = kind;
+    va.label = std::string(v->name);
+    if (v->all_shapes && std::count_if(chosen.begin(), chosen.end(), [&](const auto& c) { return c.first == v; }) > 1)
+      va.label += "@" + std::string(to_string(kind));
     va.counts = auditor.variant_pass(*v, kind, true, &va);
     va.ns_per_ray = auditor.time_variant(*v, kind);
     if (v->external) va.stopped = v->external->stop_reason();
     audit.variants.push_back(std::move(va));
   }
   for (ShapeKind kind : audit.shapes) {
-    const VariantAudit* best = nullptr;
-    for (size_t i = 0; i < chosen.size(); ++i) {
-      const VariantAudit& va = audit.variants[i];
-      if (chosen[i].second != kind || !va.exact_for_scene() || !va.stopped.empty()) continue;
-      if (!best || va.ns_per_ray < best->ns_per_ray) best = &va;
+    SceneAudit::Recommendation r{kind};
+    for (const VariantAudit& va : audit.variants) {
+      if (va.shape != kind) continue;
+      r.audited = true;
+      if (!va.exact_for_scene() || !va.stopped.empty()) continue;
+      if (!r.best || va.ns_per_ray < r.best->ns_per_ray) r.best = &va;
     }
-    audit.recommendation.emplace_back(kind, best);
+    audit.recommendation.push_back(r);
   }
 
   if (options.headroom) {

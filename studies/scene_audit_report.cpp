@@ -78,7 +78,7 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
   for (const VariantAudit& va : a.variants) {
     const Variant& v = *va.variant;
     json e = {{"name", std::string(v.name)},
-              {"shape", std::string(to_string(v.shape))},
+              {"shape", std::string(to_string(va.shape))},
               {"precision", std::string(to_string(v.precision))},
               {"ns_per_ray", va.ns_per_ray},
               {"wrong", va.counts.wrong},
@@ -88,14 +88,14 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
               {"acne", va.counts.acne},
               {"exact_for_scene", va.exact_for_scene()},
               {"origin", std::string(v.origin)},
-              {"render", file_stem(v.name) + ".png"},
-              {"diff", file_stem(v.name) + "-diff.png"}};
+              {"render", file_stem(va.label) + ".png"},
+              {"diff", file_stem(va.label) + "-diff.png"}};
     if (!va.stopped.empty()) e["stopped"] = va.stopped;
     j["variants"].push_back(std::move(e));
   }
   j["recommendation"] = json::object();
-  for (const auto& [kind, best] : a.recommendation)
-    j["recommendation"][std::string(to_string(kind))] = best ? json(std::string(best->variant->name)) : json(nullptr);
+  for (const auto& r : a.recommendation)
+    j["recommendation"][std::string(to_string(r.shape))] = r.best ? json(std::string(r.best->variant->name)) : json(nullptr);
   if (a.headroom) {
     j["headroom"] = json::object();
     for (const VariantAudit& va : a.variants) {
@@ -107,7 +107,7 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
       for (size_t i = 0; i < ks.size() && i < va.headroom_wrong.size(); ++i)
         if (va.headroom_wrong[i] >= 0) by_k[std::to_string(ks[i])] = va.headroom_wrong[i];
       h["wrong_by_log2_translate"] = by_k;
-      j["headroom"][std::string(va.variant->name)] = h;
+      j["headroom"][va.label] = h;
     }
   }
   if (a.headroom) {
@@ -158,7 +158,7 @@ std::string headroom_svg(const SceneAudit& a) {
   });
   for (size_t r = 0; r < a.variants.size(); ++r) {
     const VariantAudit& va = a.variants[r];
-    row(static_cast<int>(r) + 1, std::string(va.variant->name) + " (" + std::string(to_string(va.variant->shape)) + ")",
+    row(static_cast<int>(r) + 1, va.label + " (" + std::string(to_string(va.shape)) + ")",
         [&](size_t i) -> std::pair<std::string, std::string> {
           const long wrong = i < va.headroom_wrong.size() ? va.headroom_wrong[i] : -1;
           if (wrong < 0) return {"#dddddd", "not rendered"};
@@ -186,13 +186,15 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     << a.width << "×" << a.height << " pixels, shapes: ";
   for (size_t i = 0; i < a.shapes.size(); ++i) h << (i ? ", " : "") << to_string(a.shapes[i]);
   h << ".</p>\n<h2>Recommendation</h2>\n<ul id=\"recommendation\">";
-  for (const auto& [kind, best] : a.recommendation) {
-    h << "<li><b>" << to_string(kind) << "</b>: ";
-    if (best)
-      h << "<b>" << html_escape(best->variant->name) << "</b>, the cheapest variant that renders this scene exactly ("
-        << fixed(best->ns_per_ray, 1) << " ns per primary ray)";
-    else
+  for (const auto& r : a.recommendation) {
+    h << "<li><b>" << to_string(r.shape) << "</b>: ";
+    if (r.best)
+      h << "<b>" << html_escape(r.best->variant->name) << "</b>, the cheapest variant that renders this scene exactly ("
+        << fixed(r.best->ns_per_ray, 1) << " ns per primary ray)";
+    else if (r.audited)
       h << "<b>none</b> of the audited variants renders this scene exactly";
+    else
+      h << "no variant of this shape was audited (see --variants)";
     h << "</li>";
   }
   h << "</ul>\n<h2>Every variant on this scene</h2>\n"
@@ -207,9 +209,9 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   h << "</tr>\n";
   for (const VariantAudit& va : a.variants) {
     const PixelCounts& c = va.counts;
-    h << "<tr" << (va.exact_for_scene() ? " class=\"exact\"" : "") << "><td>" << html_escape(va.variant->name)
+    h << "<tr" << (va.exact_for_scene() ? " class=\"exact\"" : "") << "><td>" << html_escape(va.label)
       << (va.variant->origin != "built-in" ? " <small>(" + html_escape(va.variant->origin) + ")</small>" : "")
-      << "</td><td>" << to_string(va.variant->shape) << "</td><td>" << to_string(va.variant->precision) << "</td><td>"
+      << "</td><td>" << to_string(va.shape) << "</td><td>" << to_string(va.variant->precision) << "</td><td>"
       << fixed(va.ns_per_ray, 1) << "</td><td>" << c.wrong << "</td><td>" << c.holes << "</td><td>" << c.false_hits
       << "</td><td>" << c.shadow_wrong << "</td><td>" << c.acne << "</td><td>"
       << (va.exact_for_scene() ? "yes" : "no") << (va.stopped.empty() ? "" : " (stopped: " + html_escape(va.stopped) + ")")
@@ -236,7 +238,7 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     << "<div class=\"pair\"><figure>" << img_tag(a.exact, "exact render") << "<figcaption>exact</figcaption></figure></div>\n";
   // The variants with something wrong first, each render beside its diff; the exact ones folded.
   auto pair = [&](const VariantAudit& va) {
-    const std::string name(va.variant->name);
+    const std::string& name = va.label;
     h << "<div class=\"pair\"><figure>" << img_tag(va.render, name + " render") << "<figcaption>" << html_escape(name)
       << "</figcaption></figure><figure>" << img_tag(va.diff, name + " diff") << "<figcaption>" << html_escape(name)
       << " vs exact: " << va.counts.holes << " holes, " << va.counts.false_hits << " false hits, " << va.counts.shadow_wrong
@@ -265,8 +267,8 @@ void write_scene_audit(const SceneAudit& a, const std::string& scene_path, const
   std::filesystem::create_directories(dir);
   write_image(a.exact, dir + "/exact.png");
   for (const VariantAudit& va : a.variants) {
-    write_image(va.render, dir + "/" + file_stem(va.variant->name) + ".png");
-    write_image(va.diff, dir + "/" + file_stem(va.variant->name) + "-diff.png");
+    write_image(va.render, dir + "/" + file_stem(va.label) + ".png");
+    write_image(va.diff, dir + "/" + file_stem(va.label) + "-diff.png");
   }
   {
     AtomicFile html(dir + "/report.html");

@@ -164,9 +164,9 @@ TEST(Audit, EdgeGridIsAllMeshExactlyAndWatertightHasNoHoles) {
     for (int x = 0; x < a.width; ++x) ASSERT_EQ(a.exact.at(x, y), mesh_colour) << "pixel " << x << "," << y;
   EXPECT_EQ(row(a, "watertight").counts.holes, 0);
   EXPECT_EQ(row(a, "certified-triangle").counts.wrong, 0);
-  for (const auto& [kind, best] : a.recommendation) {
-    ASSERT_NE(best, nullptr);
-    EXPECT_EQ(best->counts.holes, 0);
+  for (const auto& r : a.recommendation) {
+    ASSERT_NE(r.best, nullptr);
+    EXPECT_EQ(r.best->counts.holes, 0);
   }
 }
 
@@ -179,8 +179,8 @@ TEST(Audit, TiltedEdgeGridCatchesMollerTrumboreHolesAndRecommendsWatertight) {
   EXPECT_EQ(row(a, "watertight").counts.wrong, 0);
   EXPECT_EQ(row(a, "certified-triangle").counts.wrong, 0);
   ASSERT_EQ(a.recommendation.size(), 1u);
-  ASSERT_NE(a.recommendation[0].second, nullptr);
-  EXPECT_EQ(a.recommendation[0].second->variant->name, "watertight");
+  ASSERT_NE(a.recommendation[0].best, nullptr);
+  EXPECT_EQ(a.recommendation[0].best->variant->name, "watertight");
 }
 
 // The counts in audit.json are the marks in the diff images, colour by colour.
@@ -250,8 +250,8 @@ TEST(Audit, ShadowErrorsAndAcneAreCountedForAVariantThatOverreaches) {
   EXPECT_LE(bad.counts.acne, bad.counts.shadow_wrong);
   EXPECT_FALSE(bad.exact_for_scene());
   EXPECT_GT(a.shadow_rays, 5000);  // the lit side of the terrain (8,877 when written)
-  ASSERT_NE(a.recommendation[1].second, nullptr);
-  EXPECT_EQ(a.recommendation[1].second->variant->name, "watertight");
+  ASSERT_NE(a.recommendation[1].best, nullptr);
+  EXPECT_EQ(a.recommendation[1].best->variant->name, "watertight");
   const std::string dir = test_dir() + "/out";
   studies::write_scene_audit(a, "terrain-grazing.json", dir);
   expect_counts_match_images(dir);

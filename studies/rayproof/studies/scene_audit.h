@@ -40,6 +40,10 @@ struct PixelCounts {
 
 struct VariantAudit {
   const Variant* variant = nullptr;
+  ShapeKind shape = ShapeKind::sphere;  // the shape it drew (an --exec command answers several)
+  // The row's name: the variant's, with "@shape" for an --exec command audited on several
+  // shapes; file names and headroom keys use it.
+  std::string label;
   PixelCounts counts;
   double ns_per_ray = 0;      // primary rays against the scene's primitives of its shape, one thread
   Image render, diff;         // the variant's render; wrong pixels over the dimmed exact render
@@ -61,7 +65,14 @@ struct SceneAudit {
   long rays_beyond_intervals = 0;
   Image exact;
   std::vector<VariantAudit> variants;
-  std::vector<std::pair<ShapeKind, const VariantAudit*>> recommendation;  // nullptr: none exact
+  // Per shape: the cheapest exact row; nullptr where none is (or none of that shape was audited,
+  // which `audited` tells).
+  struct Recommendation {
+    ShapeKind shape;
+    const VariantAudit* best = nullptr;
+    bool audited = false;
+  };
+  std::vector<Recommendation> recommendation;
   bool headroom = false;
   // Per headroom exponent rendered: pixels whose exact visible object differs from the scene's
   // own (untranslated) exact render. Where this grows, rounding to doubles has changed the scene
