@@ -24,8 +24,14 @@ fi
 echo "rayproof audit: which intersector does a scene need? (docs/spec/audit.md)"
 "$rp" audit scenes/audit/edge-grid-tilted.json -o "$out/audit-edge-grid-tilted" 2>&1 | grep -E "^(variant|moller|watertight|recommendation)" || true
 if [ -f "$build/scenes/bunny.json" ]; then
-  echo "... the Stanford bunny on a ground plane with a ball and a light, moved up to 2^62 from the origin (--headroom):"
-  "$rp" audit "$build/scenes/bunny.json" -o "$out/audit-bunny" --headroom 2>&1 | grep -E "^(variant|textbook|stable|hearn|direct|moller|watertight|recommendation)" || true
+  echo "... the Stanford bunny on a ground plane with a ball and a light, moved up to 2^62 from the origin"
+  echo "    (--headroom), with two float intersectors people copy (examples/plugins) beside the built-ins:"
+  plugins=()
+  for p in glsl_sphere wikipedia_moller_trumbore; do
+    [ -f "$build/plugins/$p.so" ] && plugins+=(--plugin "$build/plugins/$p.so")
+  done
+  "$rp" audit "$build/scenes/bunny.json" -o "$out/audit-bunny" --headroom "${plugins[@]}" 2>&1 \
+    | grep -E "^(variant|textbook|stable|hearn|direct|moller|watertight|glsl|wikipedia|certified|recommendation)" || true
   report="$out/audit-bunny/report.html"
 else
   report="$out/audit-edge-grid-tilted/report.html"

@@ -270,6 +270,11 @@ void write_scene_audit(const SceneAudit& a, const std::string& scene_path, const
     write_image(va.render, dir + "/" + file_stem(va.label) + ".png");
     write_image(va.diff, dir + "/" + file_stem(va.label) + "-diff.png");
   }
+  if (a.headroom) {  // the chart alone too, for pages that embed it
+    AtomicFile svg(dir + "/headroom.svg");
+    svg.stream() << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" << headroom_svg(a) << "\n";
+    svg.commit();
+  }
   {
     AtomicFile html(dir + "/report.html");
     html.stream() << scene_audit_html(a, scene_path);

@@ -84,8 +84,8 @@ struct SceneAudit {
 // Throws std::runtime_error for a scene the audit cannot take (more than 64 lights).
 SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options);
 
-// DIR/audit.json, DIR/exact.png, DIR/VARIANT.png, DIR/VARIANT-diff.png and DIR/report.html, each
-// written atomically. `scene_path` is what audit.json's "scene" says.
+// DIR/audit.json, DIR/exact.png, DIR/VARIANT.png, DIR/VARIANT-diff.png, DIR/report.html and (with
+// headroom) DIR/headroom.svg, each written atomically. `scene_path` is what audit.json's "scene" says.
 void write_scene_audit(const SceneAudit& audit, const std::string& scene_path, const std::string& dir);
 
 // The marks of the diff images (distinct from any dimmed pixel: each has a channel of 255,
