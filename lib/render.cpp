@@ -89,32 +89,40 @@ double diffuse_cosine(const Vec3& p, const Vec3& n, const PointLight& light) {
   return std::max(-dot(n, w), 0.0);
 }
 
-Vec3 shade(const SceneIndex& index, const Intersectors& isect, const Ray& ray) {
-  const Scene& scene = index.scene();
-  const SceneHit sh = trace(index, isect, ray);
-  if (sh.object < 0) return scene.background;
-  const SceneObject& obj = scene.objects[sh.object];
-  const Vec3 p = ray.at(sh.hit.t);
+Vec3 shade_point(const Scene& scene, const Vec3& color, const Vec3& p, const Ray& ray, std::span<const double> light_terms) {
   switch (scene.shading) {
-    case Shading::flat: return obj.color;
+    case Shading::flat: return color;
     case Shading::depth: {
       const double distance = length(p - ray.origin);
       const double grey = (scene.depth_far - distance) / (scene.depth_far - scene.depth_near);
       return Vec3::Constant(std::clamp(grey, 0.0, 1.0));
     }
     case Shading::diffuse: {
-      Vec3 n = outward_normal(index.primitive(sh.primitive).shape, p);
-      if (dot(n, ray.direction) > 0) n = -n;  // the side the ray arrived from
-      const Vec3 start = offset_by_error_bound(ray, sh.hit.t, p, n);
       double light_sum = 0;
-      for (const PointLight& light : scene.lights) {
-        const double c = diffuse_cosine(p, n, light);
-        if (c > 0 && !in_shadow(index, isect, sh.primitive, start, light.position)) light_sum += light.intensity * c;
-      }
-      return obj.color * light_sum;
+      for (size_t l = 0; l < scene.lights.size() && l < light_terms.size(); ++l)
+        light_sum += scene.lights[l].intensity * light_terms[l];
+      return color * light_sum;
     }
   }
   return scene.background;
+}
+
+Vec3 shade(const SceneIndex& index, const Intersectors& isect, const Ray& ray) {
+  const Scene& scene = index.scene();
+  const SceneHit sh = trace(index, isect, ray);
+  if (sh.object < 0) return scene.background;
+  const Vec3 p = ray.at(sh.hit.t);
+  std::vector<double> terms;
+  if (scene.shading == Shading::diffuse) {
+    Vec3 n = outward_normal(index.primitive(sh.primitive).shape, p);
+    if (dot(n, ray.direction) > 0) n = -n;  // the side the ray arrived from
+    const Vec3 start = offset_by_error_bound(ray, sh.hit.t, p, n);
+    for (const PointLight& light : scene.lights) {
+      const double c = diffuse_cosine(p, n, light);
+      terms.push_back(c > 0 && !in_shadow(index, isect, sh.primitive, start, light.position) ? c : 0);
+    }
+  }
+  return shade_point(scene, scene.objects[sh.object].color, p, ray, terms);
 }
 
 Image render(const Scene& scene, const RenderOptions& options) {

@@ -125,7 +125,9 @@ class Auditor {
 
   // One variant of one kind, the other kinds exact (from exact_pass's per-kind contacts).
   // Shaded: colours, shadows and the diff image too.
-  PixelCounts variant_pass(const Variant& v, ShapeKind kind, bool shaded, VariantAudit* out) {
+  // `exact_image`: the exact render the diff image dims (shaded passes).
+  PixelCounts variant_pass(const Variant& v, ShapeKind kind, bool shaded, VariantAudit* out,
+                           const Image* exact_image = nullptr) {
     const Camera& cam = scene_.camera;
     if (shaded) {
       out->render = Image{cam.width, cam.height, std::vector<std::uint8_t>(3 * exact_.size())};
@@ -140,7 +142,7 @@ class Auditor {
         threads_, cam.height, [&] { return State{ExactTracer(index_)}; },
         [&](State& st, int y) {
           for (int x = 0; x < cam.width; ++x)
-            variant_pixel(st.tracer, v, kind, shaded, x, y, per_row[y], out);
+            variant_pixel(st.tracer, v, kind, shaded, x, y, per_row[y], out, exact_image);
         },
         stage_progress(std::string(v.name) + " (" + std::string(to_string(kind)) + ")"));
     PixelCounts total;
@@ -194,22 +196,12 @@ class Auditor {
     return [this, stage](long done, long total) { options_.progress(stage, done, total); };
   }
 
-  Vec3 shade_colour(const SceneObject& obj, const Vec3& p, const Ray& ray, const std::vector<double>& cosines,
-                    std::uint64_t lit) const {
-    switch (scene_.shading) {
-      case Shading::flat: return obj.color;
-      case Shading::depth: {
-        const double grey = (scene_.depth_far - length(p - ray.origin)) / (scene_.depth_far - scene_.depth_near);
-        return Vec3::Constant(std::clamp(grey, 0.0, 1.0));
-      }
-      case Shading::diffuse: {
-        double sum = 0;
-        for (size_t l = 0; l < scene_.lights.size(); ++l)
-          if (lit >> l & 1) sum += scene_.lights[l].intensity * cosines[l];
-        return obj.color * sum;
-      }
-    }
-    return scene_.background;
+  // light_terms for shade_point: the cosine of each light whose bit is set in `lit`.
+  std::vector<double> light_terms(const std::vector<double>& cosines, std::uint64_t lit) const {
+    std::vector<double> terms(cosines.size(), 0);
+    for (size_t l = 0; l < cosines.size(); ++l)
+      if (lit >> l & 1) terms[l] = cosines[l];
+    return terms;
   }
 
   Vec3 exact_colour(auto& st, const Ray& ray, ExactPixel& e) {
@@ -228,7 +220,7 @@ class Auditor {
         if (!st.tracer.blocked(segment, e.visible.primitive)) e.lit |= std::uint64_t{1} << l;
       }
     }
-    return shade_colour(scene_.objects[prim.object], p, ray, cosines, e.lit);
+    return shade_point(scene_, scene_.objects[prim.object].color, p, ray, light_terms(cosines, e.lit));
   }
 
   // Whether the variant, for its kind, and the oracle, for the others, see a blocker on the
@@ -253,7 +245,7 @@ class Auditor {
   }
 
   void variant_pixel(ExactTracer& tracer, const Variant& v, ShapeKind kind, bool shaded, int x, int y,
-                     PixelCounts& counts, VariantAudit* out) {
+                     PixelCounts& counts, VariantAudit* out, const Image* exact_image) {
     const Camera& cam = scene_.camera;
     const size_t px = size_t(y) * cam.width + x;
     const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
@@ -313,7 +305,7 @@ class Auditor {
           }
         }
       }
-      colour = shade_colour(scene_.objects[prim.object], p, ray, cosines, lit);
+      colour = shade_point(scene_, scene_.objects[prim.object].color, p, ray, light_terms(cosines, lit));
     }
     put(out->render, px, colour);
     counts.shadow_wrong += shadow_wrong;
@@ -324,11 +316,8 @@ class Auditor {
     else if (shadow_wrong) put(out->diff, px, kShadowColour);
     else
       for (int k = 0; k < 3; ++k)
-        out->diff.rgb[3 * px + k] = static_cast<std::uint8_t>(std::lround(kDiffDimming * out_exact_->rgb[3 * px + k]));
+        out->diff.rgb[3 * px + k] = static_cast<std::uint8_t>(std::lround(kDiffDimming * exact_image->rgb[3 * px + k]));
   }
-
- public:
-  const Image* out_exact_ = nullptr;  // the exact render the diff images dim
 
  private:
   const Scene& scene_;
@@ -356,7 +345,6 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
       if (v->handles(k)) chosen.emplace_back(v, k);
 
   auditor.exact_pass(true, &audit);
-  auditor.out_exact_ = &audit.exact;
   const std::vector<int> original_objects = auditor.exact_objects();
   audit.variants.reserve(chosen.size());  // recommendation points into it
   for (const auto& [v, kind] : chosen) {
@@ -364,9 +352,11 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
     va.variant = v;
     va.shape = kind;
     va.label = std::string(v->name);
-    if (v->all_shapes && std::count_if(chosen.begin(), chosen.end(), [&](const auto& c) { return c.first == v; }) > 1)
-      va.label += "@" + std::string(to_string(kind));
-    va.counts = auditor.variant_pass(*v, kind, true, &va);
+    if (v->all_shapes && std::count_if(chosen.begin(), chosen.end(), [&](const auto& c) { return c.first == v; }) > 1) {
+      va.label += '@';
+      va.label += to_string(kind);
+    }
+    va.counts = auditor.variant_pass(*v, kind, true, &va, &audit.exact);
     va.ns_per_ray = auditor.time_variant(*v, kind);
     if (v->external) va.stopped = v->external->stop_reason();
     audit.variants.push_back(std::move(va));

@@ -234,12 +234,14 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   }
   h << "<h2>Images</h2>\n<p class=\"key\">Diff images, over the dimmed exact render:<span style=\"background:rgb(255,0,0)\">"
        "</span>hole<span style=\"background:rgb(0,160,255)\"></span>false hit<span style=\"background:rgb(255,255,0)\">"
-       "</span>shadow wrong<span style=\"background:rgb(255,128,0)\"></span>acne</p>\n"
-    << "<div class=\"pair\"><figure>" << img_tag(a.exact, "exact render") << "<figcaption>exact</figcaption></figure></div>\n";
-  // The variants with something wrong first, each render beside its diff; the exact ones folded.
+       "</span>shadow wrong<span style=\"background:rgb(255,128,0)\"></span>acne</p>\n";
+  // One row per variant: the exact render, the variant's, and the diff, side by side; the
+  // variants with something wrong first, the exact ones folded.
+  const std::string exact_tag = img_tag(a.exact, "exact render");
   auto pair = [&](const VariantAudit& va) {
     const std::string& name = va.label;
-    h << "<div class=\"pair\"><figure>" << img_tag(va.render, name + " render") << "<figcaption>" << html_escape(name)
+    h << "<div class=\"pair\"><figure>" << exact_tag << "<figcaption>exact</figcaption></figure><figure>"
+      << img_tag(va.render, name + " render") << "<figcaption>" << html_escape(name)
       << "</figcaption></figure><figure>" << img_tag(va.diff, name + " diff") << "<figcaption>" << html_escape(name)
       << " vs exact: " << va.counts.holes << " holes, " << va.counts.false_hits << " false hits, " << va.counts.shadow_wrong
       << " shadow wrong</figcaption></figure></div>\n";

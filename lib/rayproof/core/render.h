@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,9 @@ inline bool nearer(double t, int primitive, const Primitive& p, const SceneHit& 
 Vec3 shade(const SceneIndex& index, const Intersectors& isect, const Ray& ray);
 // The diffuse term of one light at p with unit normal n (facing the viewer): max(−n·w, 0).
 double diffuse_cosine(const Vec3& p, const Vec3& n, const PointLight& light);
+// The colour of a hit at p on an object of colour `color` (scene.md's shading rules); for
+// diffuse shading light_terms[l] is light l's cosine where it reaches p, else 0.
+Vec3 shade_point(const Scene& scene, const Vec3& color, const Vec3& p, const Ray& ray, std::span<const double> light_terms);
 
 Image render(const Scene& scene, const RenderOptions& options = {});
 
