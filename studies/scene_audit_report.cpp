@@ -1,5 +1,6 @@
 // The audit's files: audit.json (docs/spec/audit.md's keys, plus compatible extras), the PNGs
 // and report.html, one self-contained page.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -8,6 +9,7 @@
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/json_fields.h"
 #include "rayproof/studies/scene_audit.h"
+#include "rayproof/studies/svg.h"
 
 namespace rayproof::studies {
 
@@ -41,25 +43,9 @@ std::string base64(const std::string& bytes) {
   return out;
 }
 
-std::string html_escape(std::string_view s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
-std::string fixed(double x, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", digits, x);
-  return buf;
-}
+// HTML text and attributes need the same escapes as SVG's.
+std::string html_escape(std::string_view s) { return svg::escape(s); }
+std::string fixed(double x, int digits) { return svg::format("%.*f", digits, x); }
 
 json audit_json(const SceneAudit& a, const std::string& scene_path) {
   json j;
@@ -120,40 +106,38 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
   return j;
 }
 
+// Small renders are shown enlarged by a whole factor (pixelated), so single wrong pixels show.
 std::string img_tag(const Image& img, const std::string& alt) {
-  return "<img alt=\"" + html_escape(alt) + "\" width=\"" + std::to_string(img.width) + "\" height=\"" +
-         std::to_string(img.height) + "\" src=\"data:image/png;base64," + base64(encode_png(img)) + "\">";
+  const int factor = std::max(1, 240 / std::max(1, img.width));
+  return "<img alt=\"" + html_escape(alt) + "\" width=\"" + std::to_string(img.width * factor) + "\" height=\"" +
+         std::to_string(img.height * factor) + "\" src=\"data:image/png;base64," + base64(encode_png(img)) + "\">";
 }
 
 // Variants × translation exponent: green where exact, red where some pixel is wrong, grey where
 // not rendered (an earlier exponent already failed). The first row is the scene itself: orange
-// where rounding the translated coordinates changed its exact render.
+// where rounding the translated coordinates changed its exact render, pale blue where it did not.
 std::string headroom_svg(const SceneAudit& a) {
   const std::vector<int> ks = headroom_exponents();
-  const int label_w = 190, cell = 22, top = 30, rows = static_cast<int>(a.variants.size()) + 1;
-  const int w = label_w + cell * static_cast<int>(ks.size()) + 10, h = top + cell * rows + 40;
+  const double label_w = 190, cell = 22, top = 30;
+  const int rows = static_cast<int>(a.variants.size()) + 1;
   const long pixels = static_cast<long>(a.width) * a.height;
   std::ostringstream s;
-  s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "\" height=\"" << h
-    << "\" font-family=\"sans-serif\" font-size=\"11\" role=\"img\" aria-label=\"headroom chart\">";
+  svg::begin(s, label_w + cell * static_cast<double>(ks.size()) + 10, top + cell * rows + 40, 11);
   for (size_t i = 0; i < ks.size(); ++i)
-    s << "<text x=\"" << label_w + cell * i + cell / 2 << "\" y=\"" << top - 8 << "\" text-anchor=\"middle\">" << ks[i]
-      << "</text>";
+    s << svg::text(label_w + cell * i + cell / 2, top - 8, std::to_string(ks[i]), "text-anchor='middle'");
   auto row = [&](int r, const std::string& label, auto&& cell_of) {
-    const int y = top + cell * r;
-    s << "<text x=\"" << label_w - 6 << "\" y=\"" << y + cell * 0.7 << "\" text-anchor=\"end\">" << html_escape(label)
-      << "</text>";
+    const double y = top + cell * r;
+    s << svg::text(label_w - 6, y + cell * 0.7, label, "text-anchor='end'");
     for (size_t i = 0; i < ks.size(); ++i) {
       const auto [fill, title] = cell_of(i);
-      s << "<rect x=\"" << label_w + cell * i << "\" y=\"" << y << "\" width=\"" << cell - 2 << "\" height=\"" << cell - 2
-        << "\" fill=\"" << fill << "\" stroke=\"#bbb\"><title>" << html_escape(label) << ", k = " << ks[i] << ": "
-        << html_escape(title) << "</title></rect>";
+      s << svg::rect(label_w + cell * i, y, cell - 2, cell - 2, fill, label + ", k = " + std::to_string(ks[i]) + ": " + title);
     }
+    s << "\n";
   };
   row(0, "the scene itself", [&](size_t i) -> std::pair<std::string, std::string> {
     if (i >= a.headroom_scene_changed.size()) return {"#dddddd", "not rendered"};
     const long c = a.headroom_scene_changed[i];
-    return {c == 0 ? "#ffffff" : (c * 100 < pixels ? "#ffcc80" : "#fb8c00"),
+    return {c == 0 ? "#cfe8ff" : (c * 100 < pixels ? "#ffcc80" : "#fb8c00"),
             std::to_string(c) + " pixels see another object than the untranslated scene"};
   });
   for (size_t r = 0; r < a.variants.size(); ++r) {
@@ -165,8 +149,10 @@ std::string headroom_svg(const SceneAudit& a) {
           return {wrong == 0 ? "#4caf50" : "#e53935", std::to_string(wrong) + " wrong pixels"};
         });
   }
-  s << "<text x=\"" << 4 << "\" y=\"" << h - 10 << "\">translation 2^k·(1, 0.75, 0.5), k →  green: 0 wrong pixels · "
-    << "red: some wrong · grey: not rendered · orange: rounding changed the scene itself</text></svg>";
+  s << svg::text(4, top + cell * rows + 30,
+                 "translation 2^k·(1, 0.75, 0.5), k →  green: 0 wrong pixels · red: some wrong · grey: not rendered · "
+                 "top row: pale blue, the scene unchanged; orange, rounding changed the scene itself");
+  svg::end(s);
   return s.str();
 }
 
@@ -273,9 +259,9 @@ void write_scene_audit(const SceneAudit& a, const std::string& scene_path, const
     write_image(va.diff, dir + "/" + file_stem(va.label) + "-diff.png");
   }
   if (a.headroom) {  // the chart alone too, for pages that embed it
-    AtomicFile svg(dir + "/headroom.svg");
-    svg.stream() << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" << headroom_svg(a) << "\n";
-    svg.commit();
+    AtomicFile chart(dir + "/headroom.svg");
+    chart.stream() << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" << headroom_svg(a);
+    chart.commit();
   }
   {
     AtomicFile html(dir + "/report.html");
