@@ -77,6 +77,21 @@ TEST(Bvh, NeverSkipsAPrimitiveTheExactRayMeets) {
   EXPECT_GT(contacts, 1500);
 }
 
+// A ray parallel to a slab it lies outside of meets nothing there (the infinite reciprocal's
+// ends must not be widened into a hit), one lying on the slab's plane meets the closed box.
+TEST(Bvh, AxisParallelRaysMeetExactlyTheBoxesTheyRunThrough) {
+  const Bounds box{Vec3(0, 0, 0), Vec3(1, 1, 1)};
+  double entry = 0;
+  EXPECT_FALSE(SlabRay(Ray{Vec3(0.5, 2, -1), Vec3(0, 0, 1)}).meets(box, 10, entry));
+  EXPECT_FALSE(SlabRay(Ray{Vec3(0.5, -0.5, -1), Vec3(0, -0.0, 1)}).meets(box, 10, entry));
+  EXPECT_FALSE(SlabRay(Ray{Vec3(0.5, 2, -1), Vec3(0, -0.0, 1)}).meets(box, 10, entry));  // lower end +inf
+  EXPECT_TRUE(SlabRay(Ray{Vec3(0.5, 1, -1), Vec3(0, 0, 1)}).meets(box, 10, entry));   // on the face y = 1
+  EXPECT_TRUE(SlabRay(Ray{Vec3(0, 0, -1), Vec3(0, -0.0, 1)}).meets(box, 10, entry));  // along an edge
+  EXPECT_GT(entry, 0.99);
+  EXPECT_LE(entry, 1.0);
+  EXPECT_FALSE(SlabRay(Ray{Vec3(0.5, 0.5, -1), Vec3(0, 0, 1)}).meets(box, 0.5, entry));  // beyond t_limit
+}
+
 TEST(Bvh, NearestHitEqualsTheBruteForceAnswer) {
   std::mt19937_64 rng(4);
   std::uniform_real_distribution<double> u(-1, 1), s(-0.3, 0.3);

@@ -74,6 +74,10 @@ struct SlabRay {
       lower = t_near > lower ? t_near : lower;
       upper = t_far < upper ? t_far : upper;
     }
+    // An end at +inf (lower) or −inf (upper): the ray runs parallel to a slab it lies outside
+    // of, and no widening makes that a hit (widening inf would give NaN).
+    if (!(lower < std::numeric_limits<double>::infinity()) || !(upper > -std::numeric_limits<double>::infinity()))
+      return false;
     lower = lower - std::abs(lower) * kWiden - kTiny;
     upper = upper + std::abs(upper) * kWiden + kTiny;
     entry = lower > 0 ? lower : 0;
