@@ -347,7 +347,9 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
   auditor.exact_pass(true, &audit);
   const std::vector<int> original_objects = auditor.exact_objects();
   audit.variants.reserve(chosen.size());  // recommendation points into it
-  for (const auto& [v, kind] : chosen) {
+  for (const auto& pick : chosen) {
+    const Variant* v = pick.first;  // (not a structured binding: lambdas below capture it)
+    const ShapeKind kind = pick.second;
     VariantAudit va;
     va.variant = v;
     va.shape = kind;
