@@ -71,11 +71,13 @@ void add_audit_command(CLI::App& app, int& exit_code) {
                    va.counts.false_hits, va.counts.shadow_wrong, va.counts.acne, va.exact_for_scene() ? "yes" : "no ",
                    headroom.c_str());
     }
-    for (const auto& r : audit.recommendation)
+    for (const auto& r : audit.recommendation) {
       std::cerr << "recommendation: " << to_string(r.shape) << ": "
                 << (r.best ? std::string(r.best->variant->name)
-                           : std::string(r.audited ? "none exact for this scene" : "no variant of this shape audited"))
-                << "\n";
+                           : std::string(r.audited ? "none exact for this scene" : "no variant of this shape audited"));
+      for (size_t i = 0; i < r.close.size(); ++i) std::cerr << (i == 0 ? " (within 10%: " : ", ") << r.close[i]->label;
+      std::cerr << (r.close.empty() ? "\n" : ")\n");
+    }
     std::cerr << "rayproof audit: report " << (std::filesystem::absolute(opts->dir) / "report.html").string() << "\n";
     exit_code = 0;
     for (const studies::VariantAudit& va : audit.variants)

@@ -80,8 +80,13 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
     j["variants"].push_back(std::move(e));
   }
   j["recommendation"] = json::object();
-  for (const auto& r : a.recommendation)
+  j["recommendation_within_10_percent"] = json::object();
+  for (const auto& r : a.recommendation) {
     j["recommendation"][std::string(to_string(r.shape))] = r.best ? json(std::string(r.best->variant->name)) : json(nullptr);
+    json close = json::array();
+    for (const VariantAudit* c : r.close) close.push_back(c->label);
+    j["recommendation_within_10_percent"][std::string(to_string(r.shape))] = close;
+  }
   if (a.headroom) {
     j["headroom"] = json::object();
     for (const VariantAudit& va : a.variants) {
@@ -175,8 +180,13 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   for (const auto& r : a.recommendation) {
     h << "<li><b>" << to_string(r.shape) << "</b>: ";
     if (r.best)
+    {
       h << "<b>" << html_escape(r.best->variant->name) << "</b>, the cheapest variant that renders this scene exactly ("
         << fixed(r.best->ns_per_ray, 1) << " ns per primary ray)";
+      for (size_t i = 0; i < r.close.size(); ++i)
+        h << (i == 0 ? "; within 10%, as good a choice: " : ", ") << html_escape(r.close[i]->label) << " ("
+          << fixed(r.close[i]->ns_per_ray, 1) << " ns)";
+    }
     else if (r.audited)
       h << "<b>none</b> of the audited variants renders this scene exactly";
     else

@@ -71,6 +71,8 @@ struct SceneAudit {
     ShapeKind shape;
     const VariantAudit* best = nullptr;
     bool audited = false;
+    // Other exact rows within 10% of best's cost: timing noise can order these either way.
+    std::vector<const VariantAudit*> close;
   };
   std::vector<Recommendation> recommendation;
   bool headroom = false;
