@@ -4,6 +4,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <string_view>
@@ -166,6 +167,11 @@ std::string lower_extension(const std::string& path) {
 }  // namespace
 
 Mesh load_mesh(const std::string& path, double scale, const Vec3& translate) {
+  // A scene names its mesh files: a device or FIFO (/dev/zero, /dev/stdin) would be read
+  // forever, so only regular files are meshes.
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail(path, 0, "cannot open mesh file");
+  if (!std::filesystem::is_regular_file(path, ec)) fail(path, 0, "not a regular file");
   const std::string ext = lower_extension(path);
   Soup soup;
   if (ext == "off") soup = read_off(path);

@@ -117,6 +117,12 @@ TEST(Meshes, BadFilesAreErrorsNamingFileAndLine) {
     }
   }
   try {
+    load_mesh("/dev/zero");
+    ADD_FAILURE() << "/dev/zero: no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("/dev/zero: not a regular file"), std::string::npos) << e.what();
+  }
+  try {
     load_mesh(test_dir() + "/missing.off");
     ADD_FAILURE() << "missing file: no error";
   } catch (const std::runtime_error& e) {
