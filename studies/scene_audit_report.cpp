@@ -234,6 +234,7 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   // One row per variant: the exact render, the variant's, and the diff, side by side; the
   // variants with something wrong first, the exact ones folded.
   const std::string exact_tag = img_tag(a.exact, "exact render");
+  h << "<div class=\"pair\"><figure>" << exact_tag << "<figcaption>the exact render</figcaption></figure></div>\n";
   auto pair = [&](const VariantAudit& va) {
     const std::string& name = va.label;
     h << "<div class=\"pair\"><figure>" << exact_tag << "<figcaption>exact</figcaption></figure><figure>"
