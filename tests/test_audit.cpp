@@ -29,18 +29,25 @@ Scene scene_of_triangles(const std::vector<Triangle>& tris) {
   return s;
 }
 
+// n random non-degenerate triangles with centres in [-1, 1]³ and vertices within ±size of them.
+std::vector<Triangle> random_triangles(size_t n, double size, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-1, 1), s(-size, size);
+  std::vector<Triangle> tris;
+  while (tris.size() < n) {
+    const Vec3 c(u(rng), u(rng), u(rng));
+    const Triangle t{{c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng))}};
+    if (!degenerate_reason(t)) tris.push_back(t);
+  }
+  return tris;
+}
+
 // Random small triangles in [-1, 1]³ and rays aimed exactly at their vertices, edge midpoints
 // and centroids (the decisions that sit on a box's boundary), plus axis-parallel rays whose
 // origin lies on a triangle's bounding plane.
 TEST(Bvh, NeverSkipsAPrimitiveTheExactRayMeets) {
   std::mt19937_64 rng(3);
-  std::uniform_real_distribution<double> u(-1, 1), s(-0.1, 0.1);
-  std::vector<Triangle> tris;
-  while (tris.size() < 600) {
-    const Vec3 c(u(rng), u(rng), u(rng));
-    const Triangle t{{c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), 0)}};
-    if (!degenerate_reason(t)) tris.push_back(t);
-  }
+  std::uniform_real_distribution<double> u(-1, 1);
+  const std::vector<Triangle> tris = random_triangles(600, 0.1, rng);
   const Scene scene = scene_of_triangles(tris);
   const SceneIndex index(scene);
   Oracle oracle;
@@ -94,13 +101,8 @@ TEST(Bvh, AxisParallelRaysMeetExactlyTheBoxesTheyRunThrough) {
 
 TEST(Bvh, NearestHitEqualsTheBruteForceAnswer) {
   std::mt19937_64 rng(4);
-  std::uniform_real_distribution<double> u(-1, 1), s(-0.3, 0.3);
-  std::vector<Triangle> tris;
-  while (tris.size() < 300) {
-    const Vec3 c(u(rng), u(rng), u(rng));
-    const Triangle t{{c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng))}};
-    if (!degenerate_reason(t)) tris.push_back(t);
-  }
+  std::uniform_real_distribution<double> u(-1, 1);
+  const std::vector<Triangle> tris = random_triangles(300, 0.3, rng);
   const Scene scene = scene_of_triangles(tris);
   const SceneIndex index(scene);
   const Variant& mt = *find_variant("moller-trumbore");
