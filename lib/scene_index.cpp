@@ -56,14 +56,8 @@ SceneIndex::SceneIndex(const Scene& scene) : scene_(&scene) {
       by_kind_[k] = std::move(sorted);
     }
     for (std::int32_t id : by_kind_[k]) shapes_[k].push_back(primitives_[id].shape);
+    if (!by_kind_[k].empty()) shapes_used_.push_back(kind);
   }
-}
-
-std::vector<ShapeKind> SceneIndex::shapes_used() const {
-  std::vector<ShapeKind> out;
-  for (ShapeKind k : kAllShapeKinds)
-    if (!by_kind_[static_cast<int>(k)].empty()) out.push_back(k);
-  return out;
 }
 
 bool SceneIndex::same_or_adjacent(std::int32_t a, std::int32_t b) const {

@@ -28,7 +28,7 @@ class SceneIndex {
   std::span<const Primitive> primitives() const { return primitives_; }
   const Primitive& primitive(std::int32_t i) const { return primitives_[i]; }
   // The kinds the scene has primitives of, in kAllShapeKinds order.
-  std::vector<ShapeKind> shapes_used() const;
+  const std::vector<ShapeKind>& shapes_used() const { return shapes_used_; }
   std::size_t count(ShapeKind kind) const { return by_kind_[static_cast<int>(kind)].size(); }
 
   // Calls visit(primitive id, its shape) for each primitive of `kind` that the ray may meet at
@@ -60,6 +60,7 @@ class SceneIndex {
   std::array<std::vector<std::int32_t>, 4> by_kind_;
   std::array<std::vector<Shape>, 4> shapes_;
   std::array<Bvh, 4> bvh_;
+  std::vector<ShapeKind> shapes_used_;
 };
 
 // A box certainly holding the shape (sphere: centre ± radius rounded outward); planes have none.
