@@ -24,11 +24,9 @@ struct Builder {
   std::vector<Vec3> centroids;
   std::vector<std::int32_t>& order;
   std::vector<Bvh::Node>& nodes;
-  int max_depth = 0;
 
   // Builds the node for order[begin, end) at nodes[index].
   void build(std::int32_t index, std::int32_t begin, std::int32_t end, int depth) {
-    max_depth = std::max(max_depth, depth);
     Bounds box, centre_box;
     for (std::int32_t i = begin; i < end; ++i) {
       box.grow(boxes[order[i]]);
@@ -113,7 +111,6 @@ Bvh::Bvh(std::span<const Bounds> boxes) {
   nodes_.emplace_back();
   Builder builder{boxes, std::move(centroids), order_, nodes_};
   builder.build(0, 0, static_cast<std::int32_t>(boxes.size()), 0);
-  depth_ = builder.max_depth;
 }
 
 }  // namespace rayproof

@@ -87,14 +87,14 @@ class Auditor {
     struct State {
       ExactTracer tracer;
       long shadow_rays = 0, beyond = 0;
-      std::atomic<long>* shadow_total;
-      std::atomic<long>* beyond_total;
+      long* shadow_total;  // finish() runs under for_rows's lock
+      long* beyond_total;
       void finish() {
         *shadow_total += shadow_rays;
         *beyond_total += beyond;
       }
     };
-    std::atomic<long> shadow_total{0}, beyond_total{0};
+    long shadow_total = 0, beyond_total = 0;
     const auto start = std::chrono::steady_clock::now();
     for_rows<State>(
         threads_, cam.height, [&] { return State{ExactTracer(index_), 0, 0, &shadow_total, &beyond_total}; },

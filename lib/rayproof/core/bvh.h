@@ -152,12 +152,10 @@ class Bvh {
 
   std::span<const Node> nodes() const { return nodes_; }
   std::span<const std::int32_t> order() const { return order_; }
-  int depth() const { return depth_; }
 
  private:
   std::vector<Node> nodes_;
   std::vector<std::int32_t> order_;
-  int depth_ = 0;
 };
 
 }  // namespace rayproof
