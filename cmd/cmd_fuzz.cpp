@@ -1,5 +1,6 @@
 // rayproof fuzz: every variant against the oracle on generated families; findings replayable.
 #include <algorithm>
+#include <iomanip>
 #include <cstdlib>
 #include <memory>
 #include <iostream>
@@ -8,6 +9,7 @@
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/fuzz/campaign.h"
+#include "rayproof/fuzz/tracer_campaign.h"
 
 namespace rayproof::cli {
 
@@ -50,9 +52,10 @@ std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
 
 struct FuzzOptions {
   ExternalFlags ext;
+  TracerFlags tracers;
   std::vector<std::string> families{"all"}, shapes{"all"}, variants;
   std::string shard = "0/1", output, rule = "nearest", summary, format = "table", spawn_csv, construction = "both";
-  std::uint64_t count = 100000, seed = 1, max_findings = 1000, batch = 8192;
+  std::uint64_t count = 100000, seed = 1, max_findings = 0, batch = 8192;  // max_findings 0: the mode's default
   int threads = 0;
   bool resume = false, no_shrink = false, keep_checkpoint = false;
   long crash_after = -1;
@@ -66,12 +69,49 @@ fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
   o.shapes = parse_shapes(opts.shapes);
   if (!opts.variants.empty()) o.variants = parse_variants(opts.variants, o.shapes);
   std::tie(o.shard, o.shards) = parse_shard(opts.shard);
-  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings, o.batch = opts.batch;
+  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings ? opts.max_findings : 1000, o.batch = opts.batch;
   o.threads = thread_count(opts.threads);
   o.rule = parse_rule(opts.rule);
   o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
   o.crash_after_batches = opts.crash_after;
   return o;
+}
+
+// `fuzz --tracer ...`: whole tracers on the tracer families (docs/spec/tracer.md).
+void run_tracer_fuzz(const FuzzOptions& opts) {
+  fuzz::TracerCampaignOptions o;
+  o.families = parse_tracer_families(opts.families);
+  o.tracers = parse_tracers(opts.tracers.names);
+  std::tie(o.shard, o.shards) = parse_shard(opts.shard);
+  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings ? opts.max_findings : 20;
+  o.threads = thread_count(opts.threads);
+  o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
+  o.crash_after_batches = opts.crash_after;
+  std::unique_ptr<AtomicFile> summary;
+  if (!opts.summary.empty()) summary = std::make_unique<AtomicFile>(opts.summary);
+  Progress progress("fuzz");
+  std::optional<fuzz::TracerFamily> current;
+  o.progress = [&](fuzz::TracerFamily family, std::uint64_t done, std::uint64_t total) {
+    if (current != family) {
+      progress.finish();
+      progress = Progress("fuzz " + std::string(to_string(family)) + " (meshes)");
+      current = family;
+    }
+    progress.update(static_cast<long>(done), static_cast<long>(total));
+  };
+  const fuzz::TracerCampaignReport report = fuzz::run_tracer_campaign(o);
+  progress.finish();
+  fuzz::print_tracer_report(report, *table_format_from_string(opts.format), std::cerr);
+  double seconds = 0;
+  std::uint64_t rays = 0;
+  for (const auto& [family, s] : report.seconds) seconds += s, rays += report.rays.at(family);
+  std::cerr << "rayproof fuzz: " << rays << " rays per tracer in " << std::fixed << std::setprecision(1) << seconds << " s ("
+            << o.threads << " threads), " << report.findings_written << " findings in " << o.output << "\n"
+            << std::defaultfloat;
+  if (summary) {
+    summary->stream() << report.to_json().dump(2) << "\n";
+    summary->commit();
+  }
 }
 
 void run_fuzz(const FuzzOptions& opts) {
@@ -115,6 +155,7 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--variants,--variant", opts->variants,
                   "variants to judge (default: all but the oracle's own certified-*, which always agree)");
   add_external_flags(cmd, opts->ext);
+  add_tracer_flags(cmd, opts->tracers);
   cmd->add_option("--construction", opts->construction,
                   "exact (small integers, nudged), full (53-bit mantissas, features computed in double) or both "
                   "(default; tallied apart as FAMILY and FAMILY-full)")
@@ -132,14 +173,16 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--spawn-csv", opts->spawn_csv,
                   "also run the spawn (shadow-acne) study on the chosen shapes and write its CSV here");
   add_format_flag(cmd, opts->format);
-  cmd->add_option("--max-findings", opts->max_findings, "findings written per family and shape (all are counted)");
+  cmd->add_option("--max-findings", opts->max_findings, "findings written per family and shape (default 1000), or per family, tracer and mode (default 20); all are counted");
   cmd->add_option("--batch", opts->batch, "cases per batch (the unit of checkpointing)")->check(CLI::Range(2, 1 << 24));
   cmd->add_option("--summary", opts->summary, "also write the report as JSON");
   cmd->add_option("--crash-after-batches", opts->crash_after, "testing: exit abruptly after writing that many batches")
       ->group("");
   cmd->callback([opts, &exit_code] {
     load_externals(opts->ext);
-    run_fuzz(*opts);
+    load_tracers(opts->tracers, opts->ext.case_timeout);
+    if (opts->tracers.given()) run_tracer_fuzz(*opts);
+    else run_fuzz(*opts);
     exit_code = 0;
   });
 }

@@ -9,11 +9,14 @@ namespace rayproof::cli {
 void add_variants_command(CLI::App& app, int& exit_code) {
   auto shapes = std::make_shared<std::vector<std::string>>();
   auto ext = std::make_shared<ExternalFlags>();
+  auto tracer_flags = std::make_shared<TracerFlags>();
   auto* cmd = app.add_subcommand("variants", "List every intersection variant, its shape and its source");
   add_shapes_flag(cmd, *shapes);
   add_external_flags(cmd, *ext);
-  cmd->callback([shapes, ext, &exit_code] {
+  add_tracer_flags(cmd, *tracer_flags);
+  cmd->callback([shapes, ext, tracer_flags, &exit_code] {
     load_externals(*ext);
+    load_tracers(*tracer_flags, ext->case_timeout);
     const std::vector<ShapeKind> chosen = parse_shapes(*shapes);
     auto listed = [&](ShapeKind k) { return std::find(chosen.begin(), chosen.end(), k) != chosen.end(); };
     for (const Variant& v : all_variants()) {
@@ -27,6 +30,13 @@ void add_variants_command(CLI::App& app, int& exit_code) {
       if (listed(b.shape))
         std::cout << b.name << "\t" << to_string(b.shape) << "\tstructure-of-arrays form of " << b.scalar
                   << ", bit-identical (nearest rule; used by trade and the benchmarks)\n";
+    // Whole tracers (tracer.md): NAME, "mesh", PRECISION, SOURCE; listed unless --shapes narrows.
+    if (shapes->empty() || split_list(*shapes) == std::vector<std::string>{"all"})
+      for (const Tracer* t : all_tracers()) {
+        std::cout << t->name << "\tmesh\t" << to_string(t->precision) << "\t" << t->source;
+        if (t->origin != "built-in") std::cout << " [" << t->origin << "]";
+        std::cout << "\n";
+      }
     exit_code = 0;
   });
 }

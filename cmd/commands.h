@@ -8,8 +8,10 @@
 #include <vector>
 
 #include "rayproof/core/hit.h"
+#include "rayproof/core/tracer.h"
 #include "rayproof/core/variants.h"
 #include "rayproof/fuzz/generators.h"
+#include "rayproof/fuzz/tracer_families.h"
 #include "rayproof/studies/trade.h"
 
 namespace rayproof::cli {
@@ -52,6 +54,21 @@ void add_external_flags(CLI::App* cmd, ExternalFlags& flags);
 // Loads the plugins and starts nothing yet (exec commands start on first use); call first in a
 // command's callback, before parse_variants. Loading errors are std::runtime_error (exit code 2).
 void load_externals(const ExternalFlags& flags);
+
+// --tracer PATH, --tracer-exec NAME=COMMAND (repeatable), --tracers LIST, --tracer-precision
+// double|float (docs/spec/tracer.md): whole tracers for fuzz, check and variants.
+struct TracerFlags {
+  std::vector<std::string> plugins, execs, names;
+  std::string precision = "double";
+  bool given() const { return !plugins.empty() || !execs.empty() || !names.empty(); }
+};
+void add_tracer_flags(CLI::App* cmd, TracerFlags& flags);
+// Registers the peer tracers (Embree where built, CGAL's AABB tree), loads the plugins and
+// registers the exec tracers; loading errors are std::runtime_error (exit code 2).
+void load_tracers(const TracerFlags& flags, double case_timeout);
+// The chosen tracers: named ones (every one for `all` or nothing given) and every exec tracer.
+std::vector<const Tracer*> parse_tracers(const std::vector<std::string>& names);
+std::vector<fuzz::TracerFamily> parse_tracer_families(const std::vector<std::string>& names);
 
 // Comma-separated option values, flattened ("a,b" "c" → a, b, c); empty items dropped.
 std::vector<std::string> split_list(const std::vector<std::string>& lists);

@@ -10,6 +10,7 @@
 #include "commands.h"
 #include "rayproof/core/parallel.h"
 #include "rayproof/peers/external.h"
+#include "rayproof/peers/tracers.h"
 #ifdef RAYPROOF_HAVE_EMBREE
 #include "rayproof/peers/embree.h"
 #endif
@@ -88,6 +89,33 @@ void load_externals(const ExternalFlags& flags) {
   }
 }
 
+void add_tracer_flags(CLI::App* cmd, TracerFlags& flags) {
+  cmd->add_option("--tracer", flags.plugins, "a shared library exporting rayproof_tracers (rayproof/tracer.h); repeatable");
+  cmd->add_option("--tracer-exec", flags.execs, "NAME=COMMAND: a whole tracer over pipes (docs/spec/tracer.md); repeatable");
+  cmd->add_option("--tracers", flags.names, "tracers to judge, comma list or `all` (default: all; see `rayproof variants`)");
+  cmd->add_option("--tracer-precision", flags.precision, "double, or float: --tracer-exec commands get float-rounded meshes and rays")
+      ->check(CLI::IsMember({"double", "float"}));
+}
+
+void load_tracers(const TracerFlags& flags, double case_timeout) {
+  static const bool peers_registered = [] {
+#ifdef RAYPROOF_HAVE_EMBREE
+    peers::register_embree_tracers();
+#endif
+    peers::register_cgal_aabb_tracer();
+    return true;
+  }();
+  (void)peers_registered;
+  peers::ExternalOptions options;
+  options.case_timeout_seconds = case_timeout;
+  options.exec_precision = flags.precision == "float" ? Precision::f32 : Precision::f64;
+  for (const std::string& path : flags.plugins) peers::load_tracer_plugin(path, options);
+  for (const std::string& text : flags.execs) {
+    const auto [name, command] = peers::split_assignment("--tracer-exec", text);
+    peers::add_exec_tracer(name, command, options);
+  }
+}
+
 std::vector<std::string> split_list(const std::vector<std::string>& lists) {
   std::vector<std::string> out;
   for (const std::string& l : lists) {
@@ -148,6 +176,26 @@ std::vector<const Variant*> parse_variants(const std::vector<std::string>& names
     return std::none_of(shapes.begin(), shapes.end(), [&](ShapeKind k) { return v->handles(k); });
   });
   return chosen;
+}
+
+std::vector<const Tracer*> parse_tracers(const std::vector<std::string>& names) {
+  const std::vector<const Tracer*> every = all_tracers();
+  std::string known;
+  for (const Tracer* t : every) known += (known.empty() ? "" : ", ") + t->name;
+  auto lookup = [](const std::string& name) -> std::optional<const Tracer*> {
+    if (const Tracer* t = find_tracer(name)) return t;
+    return std::nullopt;
+  };
+  std::vector<const Tracer*> chosen = parse_named<const Tracer*>(names, every, "--tracers", "tracer", lookup, known);
+  for (const Tracer* t : every)  // --tracer-exec tracers are always judged (tracer.md)
+    if (t->always_judged && std::find(chosen.begin(), chosen.end(), t) == chosen.end()) chosen.push_back(t);
+  return chosen;
+}
+
+std::vector<fuzz::TracerFamily> parse_tracer_families(const std::vector<std::string>& names) {
+  return parse_named<fuzz::TracerFamily>(names, {std::begin(fuzz::kAllTracerFamilies), std::end(fuzz::kAllTracerFamilies)},
+                                         "--families", "tracer family", fuzz::tracer_family_from_string,
+                                         "shared-edges, fans, axis-planes, needles, spawned, shells, far, random");
 }
 
 HitRule parse_rule(const std::string& rule) {

@@ -127,15 +127,6 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
 }();
 
 // ---------------------------------------------------------------- the rayproof side
-std::string signal_reason(int status) {
-  if (WIFSIGNALED(status)) {
-    const char* name = sigabbrev_np(WTERMSIG(status));
-    return std::string("killed by SIG") + (name ? name : std::to_string(WTERMSIG(status)));
-  }
-  if (WIFEXITED(status)) return "exited with status " + std::to_string(WEXITSTATUS(status));
-  return "ended";
-}
-
 // One worker process and its shared batch.
 class WorkerProcess {
  public:

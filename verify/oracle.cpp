@@ -771,6 +771,15 @@ HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
       n ? n->shape : shape);
 }
 
+TriangleSides triangle_sides(const Ray& ray, const Triangle& tri) {
+  // The policy's own terms in rationals: the meaning of an edge fixed once, in TrianglePolicy.
+  const auto t = TrianglePolicy::terms<Exact>(ray, tri);
+  TriangleSides out;
+  out.plane = sgn(t.den);
+  for (int i = 0; i < 3; ++i) out.edge[i] = sgn(t.edge[i]);
+  return out;
+}
+
 void Oracle::merge_stats(const Oracle& other) {
   for (size_t i = 0; i < stats_.size(); ++i) {
     stats_[i].queries += other.stats_[i].queries;

@@ -15,11 +15,12 @@ std::optional<TableFormat> table_format_from_string(std::string_view s) {
 
 double bits_of_error(std::uint64_t ulps) { return std::log2(static_cast<double>(ulps) + 1); }
 
-json bits_json(const Tally& t) {
+json bits_json(const Tally& t) { return bits_json(t.ulps); }
+json bits_json(const UlpHistogram& ulps) {
   auto round1 = [](double x) { return std::round(x * 10) / 10; };
-  return {{"p50", round1(bits_of_error(t.ulps.quantile(0.5)))},
-          {"p99", round1(bits_of_error(t.ulps.quantile(0.99)))},
-          {"max", round1(bits_of_error(t.ulps.max()))}};
+  return {{"p50", round1(bits_of_error(ulps.quantile(0.5)))},
+          {"p99", round1(bits_of_error(ulps.quantile(0.99)))},
+          {"max", round1(bits_of_error(ulps.max()))}};
 }
 
 std::string disagreement_kinds(const Tally& t, size_t top) {

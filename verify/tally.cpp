@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "rayproof/verify/report.h"
+
 namespace rayproof {
 
 int UlpHistogram::bucket(std::uint64_t ulp) {
@@ -120,6 +122,62 @@ Tally Tally::from_json(const json& j) {
   if (j.contains("ulp_own")) t.ulps_own = UlpHistogram::from_json(j.at("ulp_own"));
   t.confusion = j.at("disagreements").get<std::map<std::string, std::uint64_t>>();
   t.ulps = UlpHistogram::from_json(j.at("ulp"));
+  return t;
+}
+
+// ------------------------------------------------------------------------------- TracerTally
+namespace {
+// The spec's count fields, in its order; each is written even when zero.
+constexpr const char* kTracerKinds[] = {"right", "hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit",
+                                        "in_plane", "unsupported", "tracer_errors", "crash", "timeout"};
+std::string kind_key(std::string_view kind) { return kind == "tracer_error" ? "tracer_errors" : std::string(kind); }
+}  // namespace
+
+std::uint64_t TracerTally::count(std::string_view kind) const {
+  const auto it = kinds.find(kind_key(kind));
+  return it == kinds.end() ? 0 : it->second;
+}
+
+std::uint64_t TracerTally::disagreements() const {
+  std::uint64_t n = 0;
+  for (const char* k : {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit", "tracer_errors", "crash", "timeout"})
+    n += count(k);
+  return n;
+}
+
+void TracerTally::merge(const TracerTally& o) {
+  for (const auto& [k, n] : o.kinds) kinds[k] += n;
+  cases += o.cases, edge_rays += o.edge_rays, edge_holes += o.edge_holes, edge_double_hits += o.edge_double_hits;
+  ulps.merge(o.ulps);
+  seconds += o.seconds, timed_rays += o.timed_rays;
+}
+
+json TracerTally::to_json() const {
+  json j = {{"cases", cases}};
+  for (const char* k : kTracerKinds) j[k] = count(k);
+  for (const auto& [k, n] : kinds)  // the compatible extras: not_representable, build_failed
+    if (!j.contains(k)) j[k] = n;
+  j["bits"] = bits_json(ulps);
+  j["ns_per_ray"] = std::round(ns_per_ray() * 10) / 10;
+  j["edge_rays"] = edge_rays, j["edge_holes"] = edge_holes, j["edge_double_hits"] = edge_double_hits;
+  j["ulp"] = ulps.to_json();
+  j["seconds"] = seconds, j["timed_rays"] = timed_rays;
+  return j;
+}
+
+TracerTally TracerTally::from_json(const json& j) {
+  TracerTally t;
+  t.cases = j.at("cases");
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const std::string& k = it.key();
+    if (k == "cases" || k == "bits" || k == "ns_per_ray" || k == "ulp" || k == "seconds" || k == "timed_rays" ||
+        k.rfind("edge_", 0) == 0)
+      continue;
+    if (it->get<std::uint64_t>() > 0) t.kinds[k] = it->get<std::uint64_t>();
+  }
+  t.edge_rays = j.at("edge_rays"), t.edge_holes = j.at("edge_holes"), t.edge_double_hits = j.at("edge_double_hits");
+  t.ulps = UlpHistogram::from_json(j.at("ulp"));
+  t.seconds = j.at("seconds"), t.timed_rays = j.at("timed_rays");
   return t;
 }
 

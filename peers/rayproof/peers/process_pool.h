@@ -3,11 +3,26 @@
 // process that failed is not handed back; its destructor ends it.
 #pragma once
 
+#include <signal.h>
+#include <string.h>
+#include <sys/wait.h>
+
 #include <memory>
 #include <mutex>
+#include <string>
 #include <vector>
 
 namespace rayproof::peers {
+
+// How a child process ended, for a one-line report: "killed by SIGSEGV", "exited with status 3".
+inline std::string signal_reason(int status) {
+  if (WIFSIGNALED(status)) {
+    const char* name = sigabbrev_np(WTERMSIG(status));
+    return std::string("killed by SIG") + (name ? name : std::to_string(WTERMSIG(status)));
+  }
+  if (WIFEXITED(status)) return "exited with status " + std::to_string(WEXITSTATUS(status));
+  return "ended";
+}
 
 template <class Process>
 class ProcessPool {

@@ -65,6 +65,17 @@ struct OracleStats {
   RoundingStats rounding;
 };
 
+// Where a ray passes a triangle, exactly: the signs of TrianglePolicy's terms — `plane`, of
+// n·d (0: the ray is parallel to the plane); edge[i], of d·((v_i−o)×(v_{i+1}−o)), which is 0
+// where the ray's line meets the line of edge (v_i, v_{i+1}). A crossing reported as `boundary`
+// lies on edge i where edge[i] = 0, on the vertex two zero edges share. Decided in GMP
+// rationals (no filter: meant for the few boundary crossings).
+struct TriangleSides {
+  int plane = 0;
+  std::array<int, 3> edge{};
+};
+TriangleSides triangle_sides(const Ray& ray, const Triangle& tri);
+
 class Oracle {
  public:
   struct Options {

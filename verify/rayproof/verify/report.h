@@ -26,6 +26,7 @@ double bits_of_error(std::uint64_t ulps);
 
 // The t error of a tally in bits (median, p99, max), over the cases whose class agrees.
 json bits_json(const Tally& t);
+json bits_json(const UlpHistogram& ulps);
 
 // "exact->reported N" for the `top` commonest disagreements, then "+N more" kinds.
 std::string disagreement_kinds(const Tally& t, size_t top = 3);

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <map>
+#include <string_view>
 #include <string>
 
 #include "rayproof/core/json_fields.h"
@@ -55,6 +56,25 @@ struct Tally {
   void merge(const Tally& o);
   json to_json() const;
   static Tally from_json(const json& j);
+};
+
+// How a whole tracer fared on one family in one mode (docs/spec/tracer.md, "Outputs"): one count
+// per kind of TraceKind (verify/mesh_truth.h), the t error over right answers, the one-hit rule's
+// evidence (rays meeting a shared edge or fan centre, and the holes and double hits there), and
+// the time the tracer took, so ns per ray comes out of the same object in every report.
+struct TracerTally {
+  std::map<std::string, std::uint64_t> kinds;  // to_string(TraceKind) → count (every ray once)
+  std::uint64_t cases = 0;
+  std::uint64_t edge_rays = 0, edge_holes = 0, edge_double_hits = 0;
+  UlpHistogram ulps;  // right answers' t error, in the tracer's precision
+  double seconds = 0;  // inside the tracer's calls (round trips included for external code)
+  std::uint64_t timed_rays = 0;
+  std::uint64_t count(std::string_view kind) const;
+  std::uint64_t disagreements() const;  // the kinds of the spec's table plus tracer errors, crashes, timeouts
+  double ns_per_ray() const { return timed_rays ? seconds * 1e9 / static_cast<double>(timed_rays) : 0; }
+  void merge(const TracerTally& o);
+  json to_json() const;
+  static TracerTally from_json(const json& j);
 };
 
 }  // namespace rayproof

@@ -1,0 +1,77 @@
+// Campaigns against whole tracers (docs/spec/tracer.md): every tracer family's meshes and rays,
+// each ray judged in nearest mode and (where the tracer has it) any-hit mode against the exact
+// truth over the mesh; findings shrunk to the fewest triangles that still show the same kind,
+// written whole as replayable mesh cases; resumable; summaries keyed "FAMILY\tTRACER" (any-hit
+// tallies as "FAMILY-any\tTRACER").
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "rayproof/core/mesh_case.h"
+#include "rayproof/core/tracer.h"
+#include "rayproof/fuzz/campaign.h"
+#include "rayproof/fuzz/tracer_families.h"
+#include "rayproof/verify/mesh_truth.h"
+#include "rayproof/verify/report.h"
+#include "rayproof/verify/tally.h"
+
+namespace rayproof::fuzz {
+
+struct TracerCampaignOptions {
+  std::vector<TracerFamily> families;
+  std::vector<const Tracer*> tracers;
+  std::uint64_t count = 10000;  // rays per family (before sharding)
+  std::uint64_t seed = 1;
+  unsigned shard = 0, shards = 1;
+  int threads = 1;
+  std::string output;  // findings; the checkpoint is output + ".checkpoint"
+  bool resume = false, keep_checkpoint = false, shrink = true;
+  std::uint64_t max_findings = 20;  // written per family × tracer × mode; all are counted
+  std::uint64_t batch_meshes = 16;  // meshes per batch (the unit of checkpointing)
+  long crash_after_batches = -1;    // testing hook
+  std::function<void(TracerFamily, std::uint64_t done, std::uint64_t total)> progress;
+};
+
+struct TracerCampaignReport {
+  std::map<ReportKey, TracerTally> tallies;  // "FAMILY\tTRACER", "FAMILY-any\tTRACER"
+  std::map<std::string, double> seconds;      // per family: generating, judging and tracing
+  std::map<std::string, std::uint64_t> rays;  // per family
+  std::uint64_t findings_written = 0;
+  json to_json() const;
+  static TracerCampaignReport from_json(const json& j);
+  void merge(const TracerCampaignReport& o);
+};
+
+TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& options);
+
+// The verdict table (one row per family × tracer × mode), then per tracer the one-hit rule's
+// line: "one hit per shared edge and vertex: holds / fails (N holes, M double hits in K edge rays)".
+void print_tracer_report(const TracerCampaignReport& report, TableFormat format, std::ostream& out);
+std::string one_hit_rule_line(const TracerCampaignReport& report, const std::string& tracer);
+
+// ---- one mesh case, judged: shared by the campaign, shrinking and `check`.
+struct TracerOutcome {
+  TraceKind kind = TraceKind::right;
+  TraceJudgement judgement;
+  TraceAnswer answer;       // nearest mode
+  AllHitsAnswer all;        // any-hit mode
+  std::string reason;       // build failures, tracer errors, crashes: why
+};
+// The case as the tracer sees it (float: rounded; nullopt: not representable) ...
+std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c);
+// ... and judged there: the tracer builds over the mesh and answers the ray in the case's mode.
+TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen);
+// What the oracle expects of a case: {"touched", "nearest", "t"} (t: t* rounded, or null).
+json expect_json(MeshOracle& oracle, const TracerRay& ray);
+// The answer as the findings and check lines show it.
+json reported_json(const TracerOutcome& o, bool all);
+// Fewer triangles (and only the vertices they use) on which the tracer still gives `kind`;
+// `budget` caps the rebuilds. The case itself when nothing smaller shows it.
+MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget = 300);
+
+}  // namespace rayproof::fuzz

@@ -1,0 +1,552 @@
+#include "rayproof/fuzz/tracer_campaign.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <set>
+#include <sstream>
+
+#include "rayproof/core/atomic_file.h"
+#include "rayproof/core/parallel.h"
+#include "rayproof/fuzz/findings_file.h"
+
+namespace rayproof::fuzz {
+
+// ----------------------------------------------------------------------------- the report
+json TracerCampaignReport::to_json() const {
+  json t = json::object(), s = json::object(), r = json::object();
+  for (const auto& [k, v] : tallies) t[k.to_string()] = v.to_json();
+  for (const auto& [k, v] : seconds) s[k] = v;
+  for (const auto& [k, v] : rays) r[k] = v;
+  json rule = json::object();
+  std::set<std::string> names;
+  for (const auto& [k, v] : tallies) names.insert(k.name);
+  for (const std::string& n : names) rule[n] = one_hit_rule_line(*this, n);
+  return {{"kind", "tracers"}, {"tallies", t}, {"seconds", s}, {"rays", r}, {"findings_written", findings_written},
+          {"one_hit_rule", rule}};
+}
+
+TracerCampaignReport TracerCampaignReport::from_json(const json& j) {
+  TracerCampaignReport r;
+  for (auto it = j.at("tallies").begin(); it != j.at("tallies").end(); ++it)
+    r.tallies[ReportKey::parse(it.key())] = TracerTally::from_json(it.value());
+  for (auto it = j.at("seconds").begin(); it != j.at("seconds").end(); ++it) r.seconds[it.key()] = it.value().get<double>();
+  for (auto it = j.at("rays").begin(); it != j.at("rays").end(); ++it) r.rays[it.key()] = it.value().get<std::uint64_t>();
+  r.findings_written = j.at("findings_written");
+  return r;
+}
+
+void TracerCampaignReport::merge(const TracerCampaignReport& o) {
+  for (const auto& [k, v] : o.tallies) tallies[k].merge(v);
+  for (const auto& [k, v] : o.seconds) seconds[k] += v;
+  for (const auto& [k, v] : o.rays) rays[k] += v;
+  findings_written += o.findings_written;
+}
+
+std::string one_hit_rule_line(const TracerCampaignReport& r, const std::string& tracer) {
+  std::uint64_t holes = 0, doubles = 0, edge_rays = 0;
+  for (const auto& [k, t] : r.tallies)
+    if (k.name == tracer) holes += t.edge_holes, doubles += t.edge_double_hits, edge_rays += t.edge_rays;
+  std::ostringstream out;
+  out << "one hit per shared edge and vertex: " << (holes + doubles == 0 ? "holds" : "fails") << " (" << holes << " holes, "
+      << doubles << " double hits in " << edge_rays << " edge rays)";
+  return out.str();
+}
+
+void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std::ostream& out) {
+  if (format == TableFormat::json) {
+    out << r.to_json().dump(2) << "\n";
+    return;
+  }
+  const char* columns[] = {"cases", "right", "hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit",
+                           "in_plane", "unsupported", "tracer_errors", "crash", "timeout"};
+  const bool md = format == TableFormat::markdown;
+  auto cell = [&](const std::string& text, int width, bool left) {
+    if (md) return "| " + text + " ";
+    std::ostringstream s;
+    s << (left ? std::left : std::right) << std::setw(width) << text << " ";
+    return s.str();
+  };
+  std::string header = cell("tracer", 22, true) + cell("family", 18, true);
+  for (const char* c : columns) header += cell(c, static_cast<int>(std::max<size_t>(6, std::strlen(c))), false);
+  header += cell("bits-p50", 8, false) + cell("bits-max", 8, false) + cell("ns/ray", 9, false);
+  out << header << (md ? "|" : "") << "\n";
+  if (md) {
+    out << "|---|---|";
+    for (size_t i = 0; i < std::size(columns) + 3; ++i) out << "---:|";
+    out << "\n";
+  }
+  std::map<std::string, std::vector<std::pair<std::string, const TracerTally*>>> by_tracer;
+  for (const auto& [k, t] : r.tallies) by_tracer[k.name].push_back({k.family, &t});
+  for (const auto& [name, rows] : by_tracer) {
+    for (const auto& [family, t] : rows) {
+      std::string line = cell(name, 22, true) + cell(family, 18, true);
+      line += cell(std::to_string(t->cases), 6, false);
+      for (size_t i = 1; i < std::size(columns); ++i)
+        line += cell(std::to_string(t->count(columns[i])), static_cast<int>(std::max<size_t>(6, std::strlen(columns[i]))), false);
+      char buf[3][32];
+      const json bits = bits_json(t->ulps);
+      std::snprintf(buf[0], 32, "%.1f", bits["p50"].get<double>());
+      std::snprintf(buf[1], 32, "%.1f", bits["max"].get<double>());
+      std::snprintf(buf[2], 32, "%.0f", t->ns_per_ray());
+      line += cell(t->ulps.count() ? buf[0] : "-", 8, false) + cell(t->ulps.count() ? buf[1] : "-", 8, false) + cell(buf[2], 9, false);
+      out << line << (md ? "|" : "") << "\n";
+    }
+  }
+  out << "\n";
+  for (const auto& [name, rows] : by_tracer) out << name << ": " << one_hit_rule_line(r, name) << "\n";
+}
+
+// ----------------------------------------------------------------------------- one case
+std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c) {
+  if (t.precision == Precision::f64) return c;
+  const auto mesh = mesh_rounded_to_float(*c.mesh);
+  const auto ray = ray_rounded_to_float(c.ray);
+  if (!mesh || !ray) return std::nullopt;
+  MeshCase seen = c;
+  seen.mesh = std::make_shared<TriangleMesh>(*mesh);
+  seen.ray = *ray;
+  return seen;
+}
+
+namespace {
+TraceKind kind_of_failure(HitFailure f) {
+  return f == HitFailure::timeout ? TraceKind::timeout : f == HitFailure::crash ? TraceKind::crash : TraceKind::tracer_error;
+}
+}  // namespace
+
+TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen) {
+  TracerOutcome out;
+  BuiltScene built = t.build(*seen.mesh);
+  if (!built.scene) {
+    out.kind = built.failure == HitFailure::none ? TraceKind::build_failed : kind_of_failure(built.failure);
+    out.reason = built.reason;
+    return out;
+  }
+  MeshOracle oracle(seen.mesh);
+  if (seen.all) {
+    if (!t.has_all_hits) return out.kind = TraceKind::unsupported, out;
+    std::vector<AllHitsAnswer> a(1);
+    built.scene->all_hits(std::span(&seen.ray, 1), a);
+    out.all = a[0];
+    if (out.all.unsupported) return out.kind = TraceKind::unsupported, out;
+    if (out.all.failure != HitFailure::none) {
+      out.kind = kind_of_failure(out.all.failure);
+      out.reason = t.stop_reason();
+      return out;
+    }
+    out.judgement = oracle.judge_all_hits(seen.ray, oracle.truth(seen.ray, true), out.all);
+  } else {
+    std::vector<TraceAnswer> a(1);
+    built.scene->nearest(std::span(&seen.ray, 1), a);
+    out.answer = a[0];
+    if (out.answer.failure != HitFailure::none) {
+      out.kind = kind_of_failure(out.answer.failure);
+      out.reason = t.stop_reason();
+      return out;
+    }
+    out.judgement = oracle.judge_nearest(seen.ray, oracle.truth(seen.ray, false), out.answer, t.precision);
+  }
+  out.kind = out.judgement.kind;
+  out.reason = out.judgement.detail;
+  return out;
+}
+
+json expect_json(MeshOracle& oracle, const TracerRay& ray) {
+  const MeshTruth truth = oracle.truth(ray, true);
+  const auto t = truth.first_required() ? std::optional(truth.first_required()->t) : truth.t_star();
+  return {{"touched", truth.touched()}, {"nearest", truth.nearest()}, {"t", t ? json(hex_double(*t)) : json(nullptr)}};
+}
+
+json reported_json(const TracerOutcome& o, bool all) {
+  if (all) return {{"triangles", o.all.triangles}};
+  if (!o.answer.hit()) return {{"triangle", nullptr}};
+  return {{"triangle", o.answer.triangle}, {"t", std::isnan(o.answer.t) ? json("nan") : json(hex_double(o.answer.t))}};
+}
+
+namespace {
+// The mesh with only `keep`'s triangles (in their order) and the vertices they use.
+std::shared_ptr<TriangleMesh> subset(const TriangleMesh& m, const std::vector<std::uint32_t>& keep) {
+  auto out = std::make_shared<TriangleMesh>();
+  std::map<std::uint32_t, std::uint32_t> renumber;
+  for (std::uint32_t t : keep)
+    for (std::uint32_t v : m.corners(t)) {
+      const auto [it, fresh] = renumber.try_emplace(v, static_cast<std::uint32_t>(out->vertex_count()));
+      if (fresh) out->vertices.insert(out->vertices.end(), {m.vertices[3 * v], m.vertices[3 * v + 1], m.vertices[3 * v + 2]});
+      out->indices.push_back(it->second);
+    }
+  return out;
+}
+}  // namespace
+
+MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget) {
+  if (kind == TraceKind::crash || kind == TraceKind::timeout) return seen;  // the tracer has stopped
+  MeshCase best = seen;
+  std::vector<std::uint32_t> all(seen.mesh->triangle_count());
+  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  auto shows = [&](const std::vector<std::uint32_t>& keep) {
+    if (keep.empty() || budget-- <= 0) return false;
+    MeshCase c = best;
+    c.mesh = subset(*best.mesh, keep);
+    if (judge_tracer_on_case(t, c).kind != kind) return false;
+    best = std::move(c);
+    return true;
+  };
+  // First the triangles the ray touches and those the tracer reported (with their neighbours:
+  // the one-hit rule needs the whole edge or fan).
+  {
+    MeshOracle oracle(best.mesh);
+    const MeshTruth truth = oracle.truth(best.ray, true);
+    const std::vector<std::uint32_t> touched = truth.touched();
+    std::set<std::uint32_t> core(touched.begin(), touched.end());
+    const TracerOutcome o = judge_tracer_on_case(t, best);
+    if (o.answer.hit() && o.answer.triangle < best.mesh->triangle_count()) core.insert(o.answer.triangle);
+    for (std::uint32_t x : o.all.triangles)
+      if (x < best.mesh->triangle_count()) core.insert(x);
+    std::set<std::uint32_t> vertices;
+    for (std::uint32_t x : core)
+      for (std::uint32_t v : best.mesh->corners(x)) vertices.insert(v);
+    std::vector<std::uint32_t> keep;
+    for (std::uint32_t x : all) {
+      const auto c = best.mesh->corners(x);
+      if (core.contains(x) || vertices.contains(c[0]) || vertices.contains(c[1]) || vertices.contains(c[2])) keep.push_back(x);
+    }
+    if (keep.size() < all.size()) shows(keep);
+  }
+  // Then chunks, halving (delta debugging), down to single triangles.
+  for (std::size_t chunk = best.mesh->triangle_count() / 2; chunk >= 1 && budget > 0; chunk /= 2) {
+    for (std::size_t start = 0; start < best.mesh->triangle_count() && budget > 0;) {
+      const std::size_t n = best.mesh->triangle_count();
+      std::vector<std::uint32_t> keep;
+      for (std::uint32_t i = 0; i < n; ++i)
+        if (i < start || i >= start + chunk) keep.push_back(i);
+      if (!shows(keep)) start += chunk;
+    }
+  }
+  return best;
+}
+
+// ----------------------------------------------------------------------------- the campaign
+namespace {
+
+json fingerprint(const TracerCampaignOptions& o) {
+  json f = json::array(), t = json::array();
+  for (TracerFamily x : o.families) f.push_back(std::string(to_string(x)));
+  for (const Tracer* x : o.tracers) t.push_back(x->name);
+  return {{"families", f}, {"tracers", t}, {"count", o.count}, {"seed", o.seed}, {"shard", o.shard}, {"shards", o.shards},
+          {"shrink", o.shrink}, {"max_findings", o.max_findings}, {"batch_meshes", o.batch_meshes}};
+}
+
+struct Checkpoint {
+  std::size_t family = 0;
+  std::uint64_t next_mesh = 0;
+  bool family_started = false;
+  std::map<std::string, std::uint64_t> findings_in;  // "FAMILY\tTRACER" → written
+  std::uintmax_t findings_bytes = 0;
+  FindingsHash hash;
+  TracerCampaignReport report;
+};
+
+void save(const std::string& path, const TracerCampaignOptions& o, const Checkpoint& c) {
+  AtomicFile f(path);
+  f.stream() << json{{"fingerprint", fingerprint(o)}, {"family", c.family}, {"next_mesh", c.next_mesh},
+                     {"family_started", c.family_started}, {"findings_in", c.findings_in},
+                     {"findings_bytes", c.findings_bytes}, {"findings_hash", c.hash.value}, {"report", c.report.to_json()}}
+                    .dump()
+             << "\n";
+  f.commit();
+}
+
+Checkpoint load(const std::string& path, const TracerCampaignOptions& o) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    const json j = parse_json_text(text.str());
+    if (j.at("fingerprint") != fingerprint(o))
+      throw std::runtime_error(path + ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
+    Checkpoint c;
+    c.family = j.at("family"), c.next_mesh = j.at("next_mesh"), c.family_started = j.at("family_started");
+    c.findings_in = j.at("findings_in").get<std::map<std::string, std::uint64_t>>();
+    c.findings_bytes = j.at("findings_bytes"), c.hash.value = j.at("findings_hash");
+    c.report = TracerCampaignReport::from_json(j.at("report"));
+    return c;
+  } catch (const json::exception& e) {
+    throw std::runtime_error(path + ": unreadable checkpoint: " + e.what());
+  } catch (const FieldError& e) {
+    throw std::runtime_error(path + ": unreadable checkpoint: " + std::string(e.what()));
+  }
+}
+
+Checkpoint open_findings(const TracerCampaignOptions& o, const std::string& checkpoint_path, std::ofstream& out) {
+  Checkpoint cp;
+  const bool has_checkpoint = std::filesystem::exists(checkpoint_path);
+  if (o.resume && has_checkpoint) {
+    cp = load(checkpoint_path, o);
+    const std::uintmax_t size = std::filesystem::file_size(o.output);
+    if (size < cp.findings_bytes || !prefix_matches(o.output, cp.findings_bytes, cp.hash))
+      throw std::runtime_error(o.output + ": not the findings " + checkpoint_path + " records; refusing to resume");
+    std::filesystem::resize_file(o.output, cp.findings_bytes);
+  } else {
+    if (o.resume && std::filesystem::file_size(o.output) > 0)
+      throw std::runtime_error(checkpoint_path + ": no checkpoint to resume from");
+    if (has_checkpoint) std::filesystem::remove(checkpoint_path);
+    std::filesystem::resize_file(o.output, 0);
+    save(checkpoint_path, o, cp);
+  }
+  out.open(o.output, std::ios::app | std::ios::binary);
+  if (!out) throw std::runtime_error(o.output + ": cannot write");
+  return cp;
+}
+
+struct PendingFinding {
+  std::uint64_t index = 0;  // case index in the family
+  std::size_t tracer = 0;
+  bool all = false;
+  TraceKind kind = TraceKind::right;
+  MeshCase seen;  // as the tracer saw it
+  TracerOutcome outcome;
+  std::string detail;
+  int log2_translate = 0;
+  std::uint64_t mesh_triangles = 0;
+};
+
+struct MeshResult {
+  std::map<std::pair<std::size_t, bool>, TracerTally> tallies;  // (tracer, any-hit)
+  std::vector<PendingFinding> findings;
+};
+
+// Per tracer: stopped after a crash or a timeout (the others go on).
+struct TracerState {
+  std::atomic<bool> stopped{false};
+};
+
+void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, const TracerCampaignOptions& o,
+                std::vector<TracerState>& states, MeshResult& result) {
+  const MeshWork work = generate_mesh_work(family, o.seed, m, rays_here);
+  struct Seen {
+    bool made = false;
+    std::shared_ptr<const TriangleMesh> mesh;  // null: not representable
+    std::vector<std::optional<TracerRay>> rays;
+    std::unique_ptr<MeshOracle> oracle;
+    std::vector<std::optional<MeshTruth>> nearest, complete;
+  };
+  Seen seen[2];  // f64, f32
+  auto view = [&](Precision p) -> Seen& {
+    Seen& s = seen[p == Precision::f32];
+    if (s.made) return s;
+    s.made = true;
+    const bool too_far = p == Precision::f32 && work.log2_translate > kFarFloatLimit;
+    if (p == Precision::f64) s.mesh = work.mesh;
+    else if (!too_far)
+      if (auto r = mesh_rounded_to_float(*work.mesh)) s.mesh = std::make_shared<TriangleMesh>(std::move(*r));
+    for (const TracerRay& r : work.rays) {
+      std::optional<TracerRay> x = p == Precision::f64 ? std::optional(r) : ray_rounded_to_float(r);
+      if (x && invalid_ray_reason(*x)) x.reset();
+      s.rays.push_back(s.mesh ? x : std::nullopt);
+    }
+    if (s.mesh) s.oracle = std::make_unique<MeshOracle>(s.mesh);
+    s.nearest.resize(work.rays.size()), s.complete.resize(work.rays.size());
+    return s;
+  };
+  for (std::size_t ti = 0; ti < o.tracers.size(); ++ti) {
+    const Tracer& t = *o.tracers[ti];
+    if (states[ti].stopped.load()) continue;
+    Seen& s = view(t.precision);
+    TracerTally& near = result.tallies[{ti, false}];
+    TracerTally& any = result.tallies[{ti, true}];
+    auto count = [](TracerTally& tally, TraceKind k) {
+      ++tally.cases;
+      ++tally.kinds[std::string(k == TraceKind::tracer_error ? "tracer_errors" : to_string(k))];
+    };
+    std::vector<std::size_t> live;  // rays this tracer can be given
+    for (std::size_t i = 0; i < s.rays.size(); ++i) {
+      if (s.rays[i]) live.push_back(i);
+      else count(near, TraceKind::not_representable), count(any, TraceKind::not_representable);
+    }
+    if (live.empty()) continue;
+    auto finding = [&](std::size_t i, bool all, TraceKind k, const TracerOutcome& outcome) {
+      PendingFinding f;
+      f.index = m * kRaysPerMesh + i, f.tracer = ti, f.all = all, f.kind = k, f.outcome = outcome;
+      f.seen = {"", s.mesh, *s.rays[i], all, nullptr, nullptr};
+      f.detail = work.details[i], f.log2_translate = work.log2_translate, f.mesh_triangles = s.mesh->triangle_count();
+      result.findings.push_back(std::move(f));
+    };
+    BuiltScene built = t.build(*s.mesh);
+    if (!built.scene) {
+      const TraceKind k = built.failure == HitFailure::none ? TraceKind::build_failed : kind_of_failure(built.failure);
+      TracerOutcome outcome;
+      outcome.kind = k, outcome.reason = built.reason;
+      if (k == TraceKind::build_failed) {
+        for (std::size_t i : live) count(near, k), count(any, k);
+      } else if (!states[ti].stopped.exchange(true)) {
+        count(near, k);
+        finding(live.front(), false, k, outcome);
+      }
+      continue;
+    }
+    std::vector<TracerRay> rays;
+    for (std::size_t i : live) rays.push_back(*s.rays[i]);
+    // Nearest mode.
+    std::vector<TraceAnswer> answers(rays.size());
+    auto t0 = std::chrono::steady_clock::now();
+    built.scene->nearest(rays, answers);
+    near.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    near.timed_rays += rays.size();
+    for (std::size_t k = 0; k < live.size(); ++k) {
+      const std::size_t i = live[k];
+      TracerOutcome out;
+      out.answer = answers[k];
+      if (out.answer.failure == HitFailure::stopped) break;
+      if (out.answer.failure != HitFailure::none) {  // a per-ray error goes on; a crash or hang stops the tracer
+        out.kind = kind_of_failure(out.answer.failure), out.reason = t.stop_reason();
+        count(near, out.kind);
+        finding(i, false, out.kind, out);
+        if (out.kind == TraceKind::tracer_error) continue;
+        states[ti].stopped = true;
+        break;
+      }
+      if (!s.nearest[i]) s.nearest[i] = s.oracle->truth(rays[k], false);
+      out.judgement = s.oracle->judge_nearest(rays[k], *s.nearest[i], out.answer, t.precision);
+      out.kind = out.judgement.kind, out.reason = out.judgement.detail;
+      count(near, out.kind);
+      near.edge_rays += out.judgement.edge_ray, near.edge_holes += out.judgement.edge_hole;
+      if (out.judgement.ulp) near.ulps.add(*out.judgement.ulp);
+      if (is_disagreement(out.kind)) finding(i, false, out.kind, out);
+    }
+    if (states[ti].stopped.load()) continue;
+    // Any-hit mode.
+    if (!t.has_all_hits) {
+      for (std::size_t k = 0; k < live.size(); ++k) count(any, TraceKind::unsupported);
+      continue;
+    }
+    std::vector<AllHitsAnswer> all(rays.size());
+    t0 = std::chrono::steady_clock::now();
+    built.scene->all_hits(rays, all);
+    any.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    any.timed_rays += rays.size();
+    for (std::size_t k = 0; k < live.size(); ++k) {
+      const std::size_t i = live[k];
+      TracerOutcome out;
+      out.all = all[k];
+      if (out.all.failure == HitFailure::stopped) break;
+      if (out.all.failure != HitFailure::none) {
+        out.kind = kind_of_failure(out.all.failure), out.reason = t.stop_reason();
+        count(any, out.kind);
+        finding(i, true, out.kind, out);
+        if (out.kind == TraceKind::tracer_error) continue;
+        states[ti].stopped = true;
+        break;
+      }
+      if (out.all.unsupported) {
+        count(any, TraceKind::unsupported);
+        continue;
+      }
+      if (!s.complete[i]) s.complete[i] = s.oracle->truth(rays[k], true);
+      out.judgement = s.oracle->judge_all_hits(rays[k], *s.complete[i], out.all);
+      out.kind = out.judgement.kind, out.reason = out.judgement.detail;
+      count(any, out.kind);
+      any.edge_rays += out.judgement.edge_ray, any.edge_holes += out.judgement.edge_hole;
+      any.edge_double_hits += out.judgement.edge_double;
+      if (is_disagreement(out.kind)) finding(i, true, out.kind, out);
+    }
+  }
+}
+
+std::string family_key(TracerFamily f, bool all) { return std::string(to_string(f)) + (all ? "-any" : ""); }
+
+std::string finding_line(TracerFamily family, const PendingFinding& f, const TracerCampaignOptions& o) {
+  const Tracer& t = *o.tracers[f.tracer];
+  MeshCase c = f.seen;
+  c.id = family_key(family, f.all) + "/" + std::to_string(o.seed) + "/" + std::to_string(f.index);
+  if (o.shrink) c = shrink_mesh_case(t, c, f.kind);
+  const bool shrunk = c.mesh != f.seen.mesh;
+  const TracerOutcome now = shrunk ? judge_tracer_on_case(t, c) : f.outcome;
+  MeshOracle oracle(c.mesh);
+  c.expect = expect_json(oracle, c.ray);
+  c.found = {{"tracer", t.name},
+             {"kind", std::string(to_string(f.kind))},
+             {"family", std::string(to_string(family))},
+             {"mode", f.all ? "any-hit" : "nearest"},
+             {"reported", reported_json(now, f.all)},
+             {"log2_translate", f.log2_translate},
+             {"detail", f.detail},
+             {"precision", std::string(to_string(t.precision))},
+             {"seed", o.seed},
+             {"index", f.index},
+             {"triangles_found_in", f.mesh_triangles}};
+  if (!now.reason.empty()) c.found["reason"] = now.reason;
+  if (!f.outcome.reason.empty() && now.reason.empty()) c.found["reason"] = f.outcome.reason;
+  return mesh_case_to_json(c).dump() + "\n";
+}
+
+}  // namespace
+
+TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
+  if (o.families.empty()) throw std::runtime_error("no tracer family chosen");
+  if (o.tracers.empty()) throw std::runtime_error("no tracer chosen");
+  if (o.shards == 0 || o.shard >= o.shards) throw std::runtime_error("--shard must be i/n with i < n");
+  const std::string checkpoint_path = o.output + ".checkpoint";
+  const std::uint64_t meshes = (o.count + kRaysPerMesh - 1) / kRaysPerMesh;
+  const std::uint64_t lo = meshes * o.shard / o.shards, hi = meshes * (o.shard + 1) / o.shards;
+  const FindingsLock lock(o.output);
+  std::ofstream out;
+  Checkpoint cp = open_findings(o, checkpoint_path, out);
+  std::vector<TracerState> states(o.tracers.size());
+  const int threads = std::max(1, o.threads);
+  long batches_done = 0;
+  for (; cp.family < o.families.size(); ++cp.family, cp.family_started = false) {
+    const TracerFamily family = o.families[cp.family];
+    if (!cp.family_started) cp.next_mesh = lo, cp.family_started = true;
+    for (std::uint64_t start = cp.next_mesh; start < hi; start += o.batch_meshes) {
+      const std::uint64_t end = std::min(hi, start + o.batch_meshes);
+      const auto t0 = std::chrono::steady_clock::now();
+      std::vector<MeshResult> results(end - start);
+      std::atomic<std::uint64_t> next{start};
+      run_workers(threads, [&](int) {
+        for (std::uint64_t m; (m = next.fetch_add(1)) < end;) {
+          const std::uint64_t rays_here = std::min<std::uint64_t>(kRaysPerMesh, o.count - std::min(o.count, m * kRaysPerMesh));
+          judge_mesh(family, m, rays_here, o, states, results[m - start]);
+        }
+      });
+      std::vector<const PendingFinding*> chosen;
+      std::uint64_t rays = 0;
+      for (MeshResult& r : results) {
+        for (const auto& [key, tally] : r.tallies) {
+          cp.report.tallies[{family_key(family, key.second), o.tracers[key.first]->name}].merge(tally);
+        }
+        for (const PendingFinding& f : r.findings) {
+          std::uint64_t& written = cp.findings_in[family_key(family, f.all) + "\t" + o.tracers[f.tracer]->name];
+          if (written < o.max_findings) ++written, chosen.push_back(&f);
+        }
+      }
+      for (std::uint64_t m = start; m < end; ++m)
+        rays += std::min<std::uint64_t>(kRaysPerMesh, o.count - std::min(o.count, m * kRaysPerMesh));
+      std::vector<std::string> lines(chosen.size());
+      std::atomic<std::size_t> next_finding{0};
+      run_workers(threads, [&](int) {
+        for (std::size_t k; (k = next_finding.fetch_add(1)) < chosen.size();) lines[k] = finding_line(family, *chosen[k], o);
+      });
+      for (const std::string& line : lines) out << line, cp.hash.add(line);
+      out.flush();
+      if (!out) throw std::runtime_error(o.output + ": write failed");
+      cp.report.findings_written += lines.size();
+      if (o.crash_after_batches >= 0 && ++batches_done > o.crash_after_batches) std::_Exit(3);  // testing hook
+      cp.report.seconds[std::string(to_string(family))] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      cp.report.rays[std::string(to_string(family))] += rays;
+      cp.next_mesh = end;
+      cp.findings_bytes = std::filesystem::file_size(o.output);
+      save(checkpoint_path, o, cp);
+      if (o.progress) o.progress(family, end - lo, hi - lo);
+    }
+  }
+  if (o.keep_checkpoint) save(checkpoint_path, o, cp);
+  else std::filesystem::remove(checkpoint_path);
+  return cp.report;
+}
+
+}  // namespace rayproof::fuzz

@@ -1,0 +1,417 @@
+// Tracer plugins (docs/spec/tracer.md) in worker processes: rayproof dlopens the library only to
+// read its table; every build, nearest, all_hits and release runs in a worker — this executable
+// re-executed with RAYPROOF_TRACER_WORKER set — which holds one scene at a time. Mesh, rays and
+// answers travel through one shared memory file (grown as needed); each request costs two pipe
+// wake-ups. The worker writes the index of the ray it is on before each call, so when it dies or
+// hangs the ray to blame is known and every earlier answer is kept.
+#include <dlfcn.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+
+#include "rayproof/peers/process_pool.h"
+#include "rayproof/peers/tracers.h"
+#include "rayproof/tracer.h"
+
+extern char** environ;
+
+namespace rayproof::peers {
+
+namespace {
+
+constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;
+constexpr const char* kWorkerEnv = "RAYPROOF_TRACER_WORKER";
+
+enum class Op : std::uint32_t { build = 1, nearest = 2, all_hits = 3, release = 4 };
+
+// The start of the shared file. Build: the vertices (double) then the indices (u32) follow.
+// nearest: rays then answers. all_hits: rays, then per ray its count (u64), then the triangles
+// of every answered ray back to back (up to hits_capacity; the worker stops at a ray that does
+// not fit and rayproof asks again from there).
+struct Header {
+  std::atomic<std::uint64_t> progress;
+  std::uint64_t bytes;  // the file's size, for the worker's mapping
+  Op op;
+  std::uint32_t tracer;
+  std::uint32_t built;  // build: 1 when the tracer returned a scene
+  std::uint64_t vertex_count, triangle_count, ray_count, hits_capacity, answered;
+  double inner_seconds;
+};
+constexpr std::size_t kData = 256;  // data starts here (the header rounded up)
+static_assert(sizeof(Header) <= kData);
+
+std::size_t build_bytes(std::uint64_t v, std::uint64_t t) { return kData + 24 * v + 12 * t; }
+std::size_t nearest_bytes(std::uint64_t n) { return kData + n * (sizeof(rayproof_ray) + sizeof(rayproof_trace)); }
+std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + n * (sizeof(rayproof_ray) + 8) + 4 * cap; }
+
+// ----------------------------------------------------------------- the worker
+[[noreturn]] void run_worker(const char* path) {
+  ::dup2(2, 1);  // a tracer's printf must not land in rayproof's results
+  for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGTRAP}) ::signal(sig, SIG_DFL);
+  void* lib = ::dlopen(path, RTLD_NOW | RTLD_LOCAL);
+  auto entry = lib ? reinterpret_cast<decltype(&rayproof_tracers)>(::dlsym(lib, "rayproof_tracers")) : nullptr;
+  int count = 0;
+  const rayproof_tracer* table = entry ? entry(RAYPROOF_TRACER_ABI, &count) : nullptr;
+  if (!table) ::_exit(3);
+  void* scene = nullptr;
+  const rayproof_tracer* scene_of = nullptr;
+  std::vector<std::uint32_t> buffer(64);
+  char byte;
+  while (::read(kRequestFd, &byte, 1) == 1) {
+    Header probe;
+    if (::pread(kSharedFd, &probe.bytes, sizeof probe.bytes, offsetof(Header, bytes)) != sizeof probe.bytes) ::_exit(4);
+    void* map = ::mmap(nullptr, probe.bytes, PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0);
+    if (map == MAP_FAILED) ::_exit(4);
+    auto* h = static_cast<Header*>(map);
+    char* data = static_cast<char*>(map) + kData;
+    const rayproof_tracer& t = table[h->tracer];
+    const auto t0 = std::chrono::steady_clock::now();
+    switch (h->op) {
+      case Op::build: {
+        if (scene && scene_of && scene_of->release) scene_of->release(scene);
+        const rayproof_mesh mesh{reinterpret_cast<const double*>(data), static_cast<std::uint32_t>(h->vertex_count),
+                                 reinterpret_cast<const std::uint32_t*>(data + 24 * h->vertex_count),
+                                 static_cast<std::uint32_t>(h->triangle_count)};
+        scene = t.build(&mesh);
+        scene_of = &t;
+        h->built = scene != nullptr;
+        break;
+      }
+      case Op::nearest: {
+        const auto* rays = reinterpret_cast<const rayproof_ray*>(data);
+        auto* out = reinterpret_cast<rayproof_trace*>(data + h->ray_count * sizeof(rayproof_ray));
+        for (std::uint64_t i = 0; i < h->ray_count; ++i) {
+          h->progress.store(i, std::memory_order_relaxed);
+          out[i] = {RAYPROOF_NO_TRIANGLE, NAN};
+          t.nearest(scene, rays + i, 1, out + i);
+        }
+        h->answered = h->ray_count;
+        break;
+      }
+      case Op::all_hits: {
+        const auto* rays = reinterpret_cast<const rayproof_ray*>(data);
+        auto* counts = reinterpret_cast<std::uint64_t*>(data + h->ray_count * sizeof(rayproof_ray));
+        auto* flat = reinterpret_cast<std::uint32_t*>(data + h->ray_count * (sizeof(rayproof_ray) + 8));
+        std::uint64_t used = 0, i = 0;
+        for (; i < h->ray_count; ++i) {
+          h->progress.store(i, std::memory_order_relaxed);
+          std::size_t n = t.all_hits(scene, rays + i, buffer.data(), buffer.size());
+          if (n > buffer.size()) {  // the spec: called again with room for all
+            buffer.resize(n);
+            n = std::min(buffer.size(), t.all_hits(scene, rays + i, buffer.data(), buffer.size()));
+          }
+          if (used + n > h->hits_capacity) break;
+          std::copy(buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(n), flat + used);
+          counts[i] = n, used += n;
+        }
+        h->answered = i;
+        break;
+      }
+      case Op::release:
+        if (scene && scene_of && scene_of->release) scene_of->release(scene);
+        scene = nullptr, scene_of = nullptr;
+        break;
+    }
+    h->inner_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ::munmap(map, probe.bytes);
+    if (::write(kResponseFd, &byte, 1) != 1) break;
+  }
+  ::_exit(0);
+}
+
+[[maybe_unused]] const bool kIsWorker = [] {
+  if (const char* path = std::getenv(kWorkerEnv)) run_worker(path);
+  return false;
+}();
+
+// ----------------------------------------------------------------- the rayproof side
+class TracerWorker {
+ public:
+  explicit TracerWorker(const std::string& path) {
+    int request[2], response[2];
+    if (::pipe2(request, O_CLOEXEC) != 0 || ::pipe2(response, O_CLOEXEC) != 0)
+      throw std::runtime_error("cannot create pipes for a tracer worker: " + std::string(std::strerror(errno)));
+    fd_ = ::memfd_create("rayproof-tracer", MFD_CLOEXEC);
+    if (fd_ < 0) throw std::runtime_error("cannot create shared memory for a tracer worker");
+    ensure(kData + 4096);
+    ::signal(SIGPIPE, SIG_IGN);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, request[0], kRequestFd);
+    posix_spawn_file_actions_adddup2(&actions, response[1], kResponseFd);
+    posix_spawn_file_actions_adddup2(&actions, fd_, kSharedFd);
+    std::vector<std::string> env_text = {std::string(kWorkerEnv) + "=" + path};
+    for (char** e = environ; *e; ++e)
+      if (std::strncmp(*e, kWorkerEnv, std::strlen(kWorkerEnv)) != 0) env_text.push_back(*e);
+    std::vector<char*> envp;
+    for (std::string& e : env_text) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    char arg0[] = "rayproof-tracer-worker";
+    char* argv[] = {arg0, nullptr};
+    const int rc = ::posix_spawn(&pid_, "/proc/self/exe", &actions, nullptr, argv, envp.data());
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(request[0]), ::close(response[1]);
+    request_ = request[1], response_ = response[0];
+    if (rc != 0) throw std::runtime_error("cannot start a tracer worker: " + std::string(std::strerror(rc)));
+  }
+  ~TracerWorker() {
+    ::close(request_), ::close(response_);
+    if (pid_ > 0 && !reaped_) ::waitpid(pid_, nullptr, 0);
+    if (map_) ::munmap(map_, bytes_);
+    ::close(fd_);
+  }
+  TracerWorker(const TracerWorker&) = delete;
+
+  // The shared file at least `bytes` long, mapped.
+  void ensure(std::size_t bytes) {
+    if (bytes <= bytes_) return;
+    bytes = std::max(bytes, bytes_ * 2);
+    if (map_) ::munmap(map_, bytes_);
+    if (::ftruncate(fd_, static_cast<off_t>(bytes)) != 0) throw std::runtime_error("cannot grow a tracer worker's shared memory");
+    map_ = static_cast<char*>(::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, 0));
+    if (map_ == MAP_FAILED) map_ = nullptr, throw std::runtime_error("cannot map a tracer worker's shared memory");
+    bytes_ = bytes;
+    header().bytes = bytes_;
+  }
+  Header& header() { return *reinterpret_cast<Header*>(map_); }
+  char* data() { return map_ + kData; }
+
+  // Runs the request in shared memory: "" when answered, else why it stopped (the worker is then
+  // gone), `timed_out` telling a hang from a crash. A request whose progress does not move for
+  // `timeout` seconds is a hang.
+  std::string run(double timeout, bool& timed_out) {
+    header().progress.store(0, std::memory_order_relaxed);
+    const char byte = 1;
+    timed_out = false;
+    if (::write(request_, &byte, 1) != 1) return finish();
+    std::uint64_t last = 0;
+    auto last_change = std::chrono::steady_clock::now();
+    const int slice_ms = static_cast<int>(std::clamp(timeout * 250, 1.0, 100.0));
+    for (;;) {
+      pollfd p{response_, POLLIN, 0};
+      if (::poll(&p, 1, slice_ms) > 0) {
+        char got;
+        return ::read(response_, &got, 1) == 1 ? "" : finish();
+      }
+      const std::uint64_t now_at = header().progress.load(std::memory_order_relaxed);
+      const auto now = std::chrono::steady_clock::now();
+      if (now_at != last) last = now_at, last_change = now;
+      else if (std::chrono::duration<double>(now - last_change).count() > timeout) {
+        ::kill(pid_, SIGKILL);
+        finish();
+        timed_out = true;
+        return "no answer within " + std::to_string(timeout) + " s (--case-timeout)";
+      }
+    }
+  }
+
+ private:
+  std::string finish() {
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    reaped_ = true;
+    return signal_reason(status);
+  }
+  pid_t pid_ = -1;
+  int request_ = -1, response_ = -1, fd_ = -1;
+  bool reaped_ = false;
+  char* map_ = nullptr;
+  std::size_t bytes_ = 0;
+};
+
+// One loaded library: its workers, shared by its tracers.
+struct TracerLibrary {
+  std::string path;
+  ProcessPool<TracerWorker> workers;
+};
+
+// One tracer of a library; stops for good after a crash or a hang.
+struct PluginTracerState {
+  TracerLibrary* library;
+  std::uint32_t index;
+  ExternalOptions options;
+  std::atomic<bool> stopped{false};
+  std::mutex mutex;
+  std::string reason;
+  void stop(const std::string& why) {
+    if (stopped.exchange(true)) return;
+    std::lock_guard lock(mutex);
+    reason = why;
+  }
+};
+
+HitFailure failure_of(bool timed_out) { return timed_out ? HitFailure::timeout : HitFailure::crash; }
+
+class PluginTracerScene final : public TracerScene {
+ public:
+  PluginTracerScene(PluginTracerState& state, std::unique_ptr<TracerWorker> worker) : state_(state), worker_(std::move(worker)) {}
+  ~PluginTracerScene() override {
+    if (!worker_) return;
+    worker_->header().op = Op::release;
+    bool timed_out = false;
+    if (worker_->run(state_.options.case_timeout_seconds, timed_out).empty())
+      state_.library->workers.give_back(std::move(worker_));
+  }
+
+  void nearest(std::span<const TracerRay> rays, std::span<TraceAnswer> out) override {
+    std::lock_guard lock(mutex_);  // one worker per scene: callers on other threads wait
+    if (!worker_ || state_.stopped) return std::fill(out.begin(), out.end(), TraceAnswer{kNoTriangle, NAN, HitFailure::stopped});
+    worker_->ensure(nearest_bytes(rays.size()));
+    Header& h = worker_->header();
+    h.op = Op::nearest, h.tracer = state_.index, h.ray_count = rays.size();
+    auto* wire = reinterpret_cast<rayproof_ray*>(worker_->data());
+    for (std::size_t i = 0; i < rays.size(); ++i) wire[i] = to_wire(rays[i]);
+    bool timed_out = false;
+    const std::string why = worker_->run(state_.options.case_timeout_seconds, timed_out);
+    const std::size_t answered = why.empty() ? rays.size() : std::min<std::size_t>(h.progress.load(), rays.size());
+    const auto* answers = reinterpret_cast<const rayproof_trace*>(worker_->data() + rays.size() * sizeof(rayproof_ray));
+    for (std::size_t i = 0; i < answered; ++i) {
+      out[i] = {answers[i].triangle, answers[i].t};
+      if (out[i].triangle == kNoTriangle) out[i].t = NAN;
+    }
+    if (why.empty()) return;
+    fail(why, timed_out, out.subspan(answered));
+  }
+
+  void all_hits(std::span<const TracerRay> rays, std::span<AllHitsAnswer> out) override {
+    std::lock_guard lock(mutex_);
+    std::size_t done = 0;
+    std::uint64_t capacity = 64 * rays.size() + 1024;
+    while (done < rays.size()) {
+      if (!worker_ || state_.stopped) {
+        for (std::size_t i = done; i < rays.size(); ++i) out[i] = {{}, HitFailure::stopped};
+        return;
+      }
+      const std::size_t n = rays.size() - done;
+      worker_->ensure(all_hits_bytes(n, capacity));
+      Header& h = worker_->header();
+      h.op = Op::all_hits, h.tracer = state_.index, h.ray_count = n, h.hits_capacity = capacity;
+      auto* wire = reinterpret_cast<rayproof_ray*>(worker_->data());
+      for (std::size_t i = 0; i < n; ++i) wire[i] = to_wire(rays[done + i]);
+      bool timed_out = false;
+      const std::string why = worker_->run(state_.options.case_timeout_seconds, timed_out);
+      const std::size_t answered = why.empty() ? h.answered : std::min<std::size_t>(h.progress.load(), n);
+      const auto* counts = reinterpret_cast<const std::uint64_t*>(worker_->data() + n * sizeof(rayproof_ray));
+      const auto* flat = reinterpret_cast<const std::uint32_t*>(worker_->data() + n * (sizeof(rayproof_ray) + 8));
+      for (std::size_t i = 0, at = 0; i < answered; at += counts[i], ++i) out[done + i] = {{flat + at, flat + at + counts[i]}};
+      done += answered;
+      if (!why.empty()) {
+        std::vector<TraceAnswer> unused(rays.size() - done);
+        fail(why, timed_out, unused);
+        out[done] = {{}, failure_of(timed_out)};
+        for (std::size_t i = done + 1; i < rays.size(); ++i) out[i] = {{}, HitFailure::stopped};
+        return;
+      }
+      if (answered == 0) capacity *= 4;  // one ray's hits did not fit: room for more
+    }
+  }
+
+ private:
+  static rayproof_ray to_wire(const TracerRay& r) {
+    rayproof_ray w;
+    for (int k = 0; k < 3; ++k) w.origin[k] = r.ray.origin[k], w.direction[k] = r.ray.direction[k];
+    w.tmin = r.tmin, w.tmax = r.tmax;
+    return w;
+  }
+  void fail(const std::string& why, bool timed_out, std::span<TraceAnswer> rest) {
+    state_.stop(why);
+    worker_.reset();  // dead: never handed back
+    if (rest.empty()) return;
+    rest[0] = {kNoTriangle, NAN, failure_of(timed_out)};
+    for (std::size_t i = 1; i < rest.size(); ++i) rest[i] = {kNoTriangle, NAN, HitFailure::stopped};
+  }
+  PluginTracerState& state_;
+  std::unique_ptr<TracerWorker> worker_;
+  std::mutex mutex_;
+};
+
+BuiltScene build_plugin_scene(PluginTracerState& state, const TriangleMesh& mesh) {
+  if (state.stopped) return {nullptr, HitFailure::stopped, "stopped earlier"};
+  std::unique_ptr<TracerWorker> worker = state.library->workers.take([&] { return std::make_unique<TracerWorker>(state.library->path); });
+  worker->ensure(build_bytes(mesh.vertex_count(), mesh.triangle_count()));
+  Header& h = worker->header();
+  h.op = Op::build, h.tracer = state.index, h.vertex_count = mesh.vertex_count(), h.triangle_count = mesh.triangle_count();
+  std::memcpy(worker->data(), mesh.vertices.data(), 8 * mesh.vertices.size());
+  std::memcpy(worker->data() + 24 * mesh.vertex_count(), mesh.indices.data(), 4 * mesh.indices.size());
+  bool timed_out = false;
+  const std::string why = worker->run(state.options.case_timeout_seconds, timed_out);
+  if (!why.empty()) {
+    state.stop("build: " + why);
+    return {nullptr, failure_of(timed_out), "build: " + why};
+  }
+  if (!h.built) {
+    state.library->workers.give_back(std::move(worker));
+    return {nullptr, HitFailure::none, "build returned NULL"};
+  }
+  return {std::make_unique<PluginTracerScene>(state, std::move(worker))};
+}
+
+std::deque<TracerLibrary>& libraries() {
+  static std::deque<TracerLibrary> all;
+  return all;
+}
+std::deque<PluginTracerState>& states() {
+  static std::deque<PluginTracerState> all;
+  return all;
+}
+
+}  // namespace
+
+std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const ExternalOptions& options) {
+  auto fail = [&](const std::string& why) { return std::runtime_error("--tracer " + path + ": " + why); };
+  const std::string file = path.find('/') == std::string::npos ? "./" + path : path;
+  void* lib = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!lib) throw fail(::dlerror());
+  auto entry = reinterpret_cast<decltype(&rayproof_tracers)>(::dlsym(lib, "rayproof_tracers"));
+  if (!entry) throw fail("no symbol rayproof_tracers (export it with C linkage: see rayproof/tracer.h)");
+  int count = 0;
+  const rayproof_tracer* table = entry(RAYPROOF_TRACER_ABI, &count);
+  if (!table) throw fail("rayproof_tracers returned NULL for ABI " + std::to_string(RAYPROOF_TRACER_ABI) + " (built for another ABI?)");
+  if (count <= 0 || count > 64) throw fail("rayproof_tracers gave " + std::to_string(count) + " tracers (1 to 64 expected)");
+  TracerLibrary& library = libraries().emplace_back();
+  library.path = file;
+  std::vector<const Tracer*> out;
+  for (int i = 0; i < count; ++i) {
+    const rayproof_tracer& t = table[i];
+    const std::string where = "tracer " + std::to_string(i) + (t.name ? " '" + std::string(t.name) + "'" : "");
+    if (!t.name || !valid_variant_name(t.name)) throw fail(where + ": name must match [a-z0-9-]+");
+    const std::string precision = t.precision ? t.precision : "";
+    if (precision != "double" && precision != "float") throw fail(where + ": precision must be \"double\" or \"float\"");
+    if (!t.build || !t.nearest) throw fail(where + ": build and nearest must be set");
+    PluginTracerState& state = states().emplace_back();
+    state.library = &library, state.index = static_cast<std::uint32_t>(i), state.options = options;
+    Tracer r;
+    r.name = t.name;
+    r.precision = precision == "float" ? Precision::f32 : Precision::f64;
+    r.source = t.source ? t.source : "";
+    r.origin = file;
+    r.has_all_hits = t.all_hits != nullptr;
+    r.build = [&state](const TriangleMesh& mesh) { return build_plugin_scene(state, mesh); };
+    r.stop_reason = [&state] {
+      std::lock_guard lock(state.mutex);
+      return state.reason;
+    };
+    try {
+      out.push_back(&register_tracer(std::move(r)));
+    } catch (const std::exception& e) {
+      throw fail(where + ": " + e.what());
+    }
+  }
+  return out;
+}
+
+}  // namespace rayproof::peers

@@ -1,0 +1,343 @@
+#include "rayproof/verify/mesh_truth.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+namespace rayproof {
+
+std::string_view to_string(TraceKind k) {
+  switch (k) {
+    case TraceKind::right: return "right";
+    case TraceKind::hole: return "hole";
+    case TraceKind::false_hit: return "false_hit";
+    case TraceKind::not_nearest: return "not_nearest";
+    case TraceKind::double_hit: return "double_hit";
+    case TraceKind::missed_in_any_hit: return "missed_in_any_hit";
+    case TraceKind::in_plane: return "in_plane";
+    case TraceKind::tracer_error: return "tracer_error";
+    case TraceKind::unsupported: return "unsupported";
+    case TraceKind::not_representable: return "not_representable";
+    case TraceKind::crash: return "crash";
+    case TraceKind::timeout: return "timeout";
+    case TraceKind::build_failed: return "build_failed";
+  }
+  return "?";
+}
+
+bool is_disagreement(TraceKind k) {
+  return k != TraceKind::right && k != TraceKind::in_plane && k != TraceKind::unsupported &&
+         k != TraceKind::not_representable && k != TraceKind::build_failed;
+}
+
+// ------------------------------------------------------------------------------- MeshTruth
+const CrossingPoint* MeshTruth::first_required() const {
+  for (const CrossingPoint& p : points)
+    if (p.required()) return &p;
+  return nullptr;
+}
+
+const MeshContact* MeshTruth::contact_of(std::uint32_t triangle) const {
+  for (const MeshContact& c : contacts)
+    if (c.triangle == triangle) return &c;
+  return nullptr;
+}
+
+std::optional<double> MeshTruth::t_star() const {
+  if (points.empty()) return std::nullopt;
+  return points.front().t;
+}
+
+std::vector<std::uint32_t> MeshTruth::touched() const {
+  std::vector<std::uint32_t> out;
+  for (const MeshContact& c : contacts) out.push_back(c.triangle);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<std::uint32_t> MeshTruth::nearest() const {
+  const CrossingPoint* p = first_required();
+  if (!p && !points.empty()) p = &points.front();
+  if (!p) return {};
+  std::vector<std::uint32_t> out = p->triangles;
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// ------------------------------------------------------------------------------- MeshOracle
+namespace {
+std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
+  return a < b ? (std::uint64_t(a) << 32 | b) : (std::uint64_t(b) << 32 | a);
+}
+// Where a boundary crossing lies on its triangle: an edge (two corners) or a vertex (one).
+struct Feature {
+  std::uint32_t a = 0, b = 0;
+  bool vertex = false;
+  bool operator==(const Feature&) const = default;
+};
+}  // namespace
+
+MeshOracle::MeshOracle(std::shared_ptr<const TriangleMesh> mesh) : mesh_(std::move(mesh)) {
+  const TriangleMesh& m = *mesh_;
+  const std::size_t n = m.triangle_count();
+  std::vector<Bounds> boxes(n);
+  degenerate_.resize(n);
+  around_vertex_.resize(m.vertex_count());
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = m.corners(i);
+    for (std::uint32_t v : c) boxes[i].grow(m.vertex(v));
+    degenerate_[i] = m.degenerate(i);
+    for (int k = 0; k < 3; ++k) {
+      edges_[edge_key(c[k], c[(k + 1) % 3])].push_back(static_cast<std::uint32_t>(i));
+      around_vertex_[c[k]].push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  bvh_ = Bvh(boxes);
+  for (std::int32_t i : bvh_.order()) leaf_order_.push_back(static_cast<std::uint32_t>(i));
+}
+
+ExactParameter MeshOracle::exact_t(const Ray& ray, std::uint32_t triangle) {
+  const Verdict v = with_parameter_.judge(ray, mesh_->triangle(triangle));
+  if (!v.exact_t) return ExactParameter{};  // an in-plane contact without t starts at the origin: t = 0
+  return *v.exact_t;
+}
+
+int MeshOracle::compare_t(const Ray& ray, const MeshContact& a, const MeshContact& b) {
+  // Rounding to nearest is monotone: different rounded values order the exact ones.
+  if (a.t != b.t) return a.t < b.t ? -1 : 1;
+  if (a.triangle == b.triangle) return 0;
+  return compare(exact_t(ray, a.triangle), exact_t(ray, b.triangle));
+}
+
+std::optional<MeshContact> MeshOracle::contact(const TracerRay& r, std::uint32_t triangle) {
+  if (triangle >= mesh_->triangle_count()) return std::nullopt;
+  MeshContact c;
+  c.triangle = triangle;
+  if (degenerate_[triangle]) {
+    // Optional, extent not computed: kept only where its box meets the ray's range at all.
+    c.t = std::numeric_limits<double>::quiet_NaN();
+    Bounds box;
+    for (std::uint32_t v : mesh_->corners(triangle)) box.grow(mesh_->vertex(v));
+    double entry = 0;
+    if (!SlabRay(r.ray).meets(box, r.tmax, entry)) return std::nullopt;
+    return c;
+  }
+  const Verdict v = oracle_.judge(r.ray, mesh_->triangle(triangle));
+  if (v.cls == HitClass::miss) return std::nullopt;
+  if (v.cls == HitClass::tangent) {  // the ray lies in the plane: optional
+    c.t = v.t.value_or(0);  // no t: it starts on the triangle at the origin
+    if (v.t && !(*v.t < r.tmax)) {
+      if (*v.t > r.tmax || compare(exact_t(r.ray, triangle), mpq_class(r.tmax)) >= 0) return std::nullopt;
+    }
+    return c;
+  }
+  c.t = *v.t;
+  c.crossing = true;
+  c.boundary = v.cls == HitClass::boundary;
+  c.front = v.front;
+  // tmin < t < tmax, exactly. tmin and tmax are doubles and rounding is monotone: a rounded t
+  // strictly between them puts the exact t strictly between; equal to one, the exact test decides.
+  if (c.t < r.tmin || c.t > r.tmax) return std::nullopt;
+  if (c.t == r.tmin && compare(exact_t(r.ray, triangle), mpq_class(r.tmin)) <= 0) return std::nullopt;
+  if (c.t == r.tmax && compare(exact_t(r.ray, triangle), mpq_class(r.tmax)) >= 0) return std::nullopt;
+  return c;
+}
+
+void MeshOracle::analyse_point(const Ray& ray, CrossingPoint& point, const MeshTruth& truth) {
+  std::vector<Feature> features;
+  bool facing_front = false, facing_back = false;
+  for (std::uint32_t t : point.triangles) {
+    const MeshContact& c = *truth.contact_of(t);
+    if (!c.boundary) {
+      point.has_interior = true;
+      continue;
+    }
+    (c.front ? facing_front : facing_back) = true;
+    const TriangleSides s = triangle_sides(ray, mesh_->triangle(t));
+    const auto corner = mesh_->corners(t);
+    int zeros = 0, first_zero = -1, second_zero = -1;
+    for (int k = 0; k < 3; ++k)
+      if (s.edge[k] == 0) (zeros++ == 0 ? first_zero : second_zero) = k;
+    if (zeros == 1) {
+      features.push_back({std::min(corner[first_zero], corner[(first_zero + 1) % 3]),
+                          std::max(corner[first_zero], corner[(first_zero + 1) % 3]), false});
+    } else if (zeros == 2) {
+      // Edges k = (v_k, v_k+1): two zero edges meet at the vertex they share.
+      const int v = (second_zero == first_zero + 1) ? second_zero : first_zero;
+      features.push_back({corner[v], corner[v], true});
+    } else {
+      return;  // not a boundary crossing after all: no rule
+    }
+  }
+  if (point.has_interior || features.empty() || (facing_front && facing_back)) return;
+  if (!std::all_of(features.begin(), features.end(), [&](const Feature& f) { return f == features.front(); })) return;
+  const Feature f = features.front();
+  std::set<std::uint32_t> group(point.triangles.begin(), point.triangles.end());
+  if (!f.vertex) {
+    // A manifold edge: exactly two triangles have it, both crossed here, wound oppositely.
+    const auto& having = edges_.at(edge_key(f.a, f.b));
+    if (having.size() != 2 || group != std::set<std::uint32_t>(having.begin(), having.end())) return;
+    auto runs_a_to_b = [&](std::uint32_t t) {
+      const auto c = mesh_->corners(t);
+      for (int k = 0; k < 3; ++k)
+        if (c[k] == f.a && c[(k + 1) % 3] == f.b) return true;
+      return false;
+    };
+    point.one_hit_rule = runs_a_to_b(having[0]) != runs_a_to_b(having[1]);
+    return;
+  }
+  // A closed fan: every triangle around the vertex crossed here; around the centre each
+  // neighbour is left once (centre → x) and arrived at once (y → centre).
+  const auto& around = around_vertex_[f.a];
+  if (around.size() < 3 || group != std::set<std::uint32_t>(around.begin(), around.end())) return;
+  std::multiset<std::uint32_t> leaving, arriving;
+  for (std::uint32_t t : around) {
+    const auto c = mesh_->corners(t);
+    for (int k = 0; k < 3; ++k)
+      if (c[k] == f.a) leaving.insert(c[(k + 1) % 3]), arriving.insert(c[(k + 2) % 3]);
+  }
+  if (leaving != arriving) return;
+  for (std::uint32_t x : leaving)
+    if (leaving.count(x) != 1) return;
+  point.one_hit_rule = true;
+}
+
+MeshTruth MeshOracle::truth(const TracerRay& r, bool complete) {
+  MeshTruth truth;
+  truth.complete = complete;
+  double t_limit = r.tmax;
+  // Nearest mode prunes at the best interior crossing: its exact t lies below next_up(rounded t)
+  // (rounding to nearest moves it by at most half an ulp), so boxes entered beyond cannot hold a
+  // nearer contact. Boundary crossings do not prune: one may turn out not to be required.
+  double best_interior = std::numeric_limits<double>::infinity();
+  bvh_.traverse(r.ray, t_limit, [&](std::int32_t i) {
+    const std::uint32_t tri = leaf_order_[i];
+    const auto c = contact(r, tri);
+    if (!c) return false;
+    truth.contacts.push_back(*c);
+    if (!complete && c->crossing && !c->boundary && c->t < best_interior) {
+      best_interior = c->t;
+      t_limit = std::min(t_limit, std::nextafter(best_interior, std::numeric_limits<double>::infinity()));
+    }
+    return false;
+  });
+  // Exact order: by t (optional contacts with unknown t last), then by triangle.
+  std::sort(truth.contacts.begin(), truth.contacts.end(), [&](const MeshContact& a, const MeshContact& b) {
+    const bool unknown_a = std::isnan(a.t), unknown_b = std::isnan(b.t);
+    if (unknown_a || unknown_b) return unknown_a != unknown_b ? unknown_b : a.triangle < b.triangle;
+    const int c = compare_t(r.ray, a, b);
+    return c != 0 ? c < 0 : a.triangle < b.triangle;
+  });
+  for (std::size_t i = 0; i < truth.contacts.size(); ++i) {
+    const MeshContact& c = truth.contacts[i];
+    if (!c.crossing) continue;
+    if (!truth.points.empty()) {
+      const MeshContact& last = *truth.contact_of(truth.points.back().triangles.front());
+      if (compare_t(r.ray, last, c) == 0) {
+        truth.points.back().triangles.push_back(c.triangle);
+        continue;
+      }
+    }
+    truth.points.push_back({{c.triangle}, c.t});
+  }
+  for (CrossingPoint& p : truth.points) analyse_point(r.ray, p, truth);
+  if (!complete) {  // drop what lies beyond the first required point
+    const CrossingPoint* req = truth.first_required();
+    if (req) {
+      const MeshContact limit = *truth.contact_of(req->triangles.front());
+      std::erase_if(truth.contacts, [&](const MeshContact& c) { return !std::isnan(c.t) && compare_t(r.ray, c, limit) > 0; });
+      truth.points.resize(static_cast<std::size_t>(req - truth.points.data()) + 1);
+    }
+  }
+  return truth;
+}
+
+namespace {
+// t's error in the tracer's precision: double, or floats (the exact t rounded to double, then to
+// float: a double rounding, off by one float ulp only when the double lands on a float midpoint).
+std::optional<std::uint64_t> t_error(double reported, double exact_rounded, Precision p) {
+  if (p == Precision::f64) return ulp_distance(reported, exact_rounded);
+  return ulp_distance_f32(static_cast<float>(reported), static_cast<float>(exact_rounded));
+}
+}  // namespace
+
+TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& truth, const TraceAnswer& a, Precision p) {
+  TraceJudgement j;
+  const CrossingPoint* req = truth.first_required();
+  j.edge_ray = req && req->one_hit_rule && req == &truth.points.front();
+  auto done = [&](TraceKind k) {
+    j.kind = k;
+    if (j.edge_ray) {
+      const bool reported_one = a.hit() && std::find(req->triangles.begin(), req->triangles.end(), a.triangle) != req->triangles.end();
+      j.edge_hole = !reported_one && (k == TraceKind::hole || k == TraceKind::not_nearest);
+    }
+    return j;
+  };
+  if (!a.hit()) {
+    if (req) return done(TraceKind::hole);
+    if (truth.points.empty() && !truth.contacts.empty()) return done(TraceKind::in_plane);
+    return done(TraceKind::right);
+  }
+  if (a.triangle >= mesh_->triangle_count()) {
+    j.detail = "triangle " + std::to_string(a.triangle) + " out of range (" + std::to_string(mesh_->triangle_count()) + " triangles)";
+    return done(TraceKind::tracer_error);
+  }
+  if (std::isnan(a.t)) {
+    j.detail = "t is NaN";
+    return done(TraceKind::tracer_error);
+  }
+  std::optional<MeshContact> c;
+  if (const MeshContact* known = truth.contact_of(a.triangle)) c = *known;
+  else c = contact(r, a.triangle);
+  if (!c) return done(TraceKind::false_hit);
+  if (std::isnan(c->t)) return done(TraceKind::right);  // a degenerate triangle: optional
+  if (!c->crossing) {
+    const bool before = truth.points.empty() || compare_t(r.ray, *c, *truth.contact_of(truth.points.front().triangles.front())) <= 0;
+    return done(before ? TraceKind::right : TraceKind::not_nearest);
+  }
+  if (req && compare_t(r.ray, *c, *truth.contact_of(req->triangles.front())) > 0) return done(TraceKind::not_nearest);
+  j.ulp = t_error(a.t, c->t, p);
+  return done(TraceKind::right);
+}
+
+TraceJudgement MeshOracle::judge_all_hits(const TracerRay& r, const MeshTruth& truth, const AllHitsAnswer& a) {
+  TraceJudgement j;
+  std::set<std::uint32_t> reported;
+  for (std::uint32_t t : a.triangles) {
+    if (t >= mesh_->triangle_count()) {
+      j.detail = "triangle " + std::to_string(t) + " out of range (" + std::to_string(mesh_->triangle_count()) + " triangles)";
+      j.kind = TraceKind::tracer_error;
+      return j;
+    }
+    if (!reported.insert(t).second) {
+      j.detail = "triangle " + std::to_string(t) + " reported twice";
+      j.kind = TraceKind::tracer_error;
+      return j;
+    }
+  }
+  bool hole = false, doubled = false, missed = false, false_hit = false;
+  for (const CrossingPoint& p : truth.points) {
+    std::size_t n = 0;
+    for (std::uint32_t t : p.triangles) {
+      const bool in = reported.contains(t);
+      n += in;
+      if (!in && !truth.contact_of(t)->boundary) missed = true;
+    }
+    if (p.one_hit_rule) {
+      j.edge_ray = true;
+      if (n == 0) hole = j.edge_hole = true;
+      if (n >= 2) doubled = j.edge_double = true;
+    }
+  }
+  if (reported.empty() && truth.first_required()) hole = true;
+  for (std::uint32_t t : reported)
+    if (!truth.contact_of(t)) false_hit = true;
+  if (hole) j.kind = TraceKind::hole;
+  else if (false_hit) j.kind = TraceKind::false_hit;
+  else if (doubled) j.kind = TraceKind::double_hit;
+  else if (missed) j.kind = TraceKind::missed_in_any_hit;
+  else if (reported.empty() && truth.points.empty() && !truth.contacts.empty()) j.kind = TraceKind::in_plane;
+  return j;
+}
+
+}  // namespace rayproof
