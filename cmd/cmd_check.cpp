@@ -8,7 +8,10 @@
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/peers/external.h"
+#include "rayproof/core/mesh_case.h"
+#include "rayproof/fuzz/tracer_campaign.h"
 #include "rayproof/verify/compare.h"
+#include "rayproof/verify/mesh_truth.h"
 #include "rayproof/verify/report.h"
 #include "rayproof/verify/tally.h"
 
@@ -93,6 +96,7 @@ struct CheckOptions {
   std::string rule = "nearest", summary, output, format = "table";
   bool exact_only = false;
   ExternalFlags ext;
+  TracerFlags tracer_flags;
   std::vector<std::string> answers;  // NAME=FILE
 };
 
@@ -104,7 +108,52 @@ struct CheckRun {
   long cases = 0, unreadable = 0, contradicted = 0;  // contradicted: an `expect` the oracle refutes
   long unopened = 0;                                 // files that could not be read at all
   long stopped = 0;                                  // external variants stopped by a crash, timeout or protocol error
+  std::vector<const Tracer*> tracers;                // judged on mesh cases
+  std::map<std::string, std::map<std::string, long>> tracer_kinds;  // tracer → kind → cases
+  long mesh_cases = 0;
 };
+
+// A mesh case (docs/spec/tracer.md): every chosen tracer on it, as it sees it (float tracers: the
+// case rounded to float), judged against the oracle's truth over the mesh.
+void judge_mesh_case(const std::string& path, long line, const MeshCase& c, CheckRun& run, std::ostream& out) {
+  ++run.mesh_cases;
+  MeshOracle oracle(c.mesh);
+  const json expect = fuzz::expect_json(oracle, c.ray);
+  nlohmann::ordered_json result;
+  result["id"] = c.id;
+  result["expect"] = expect;
+  if (c.all) result["all"] = true;
+  nlohmann::ordered_json tracers = nlohmann::ordered_json::object();
+  for (const Tracer* t : run.tracers) {
+    const auto seen = fuzz::as_seen_by(*t, c);
+    if (!seen) {
+      tracers[t->name] = {{"skipped", "not_representable"}};
+      ++run.tracer_kinds[t->name]["not_representable"];
+      continue;
+    }
+    const fuzz::TracerOutcome o = fuzz::judge_tracer_on_case(*t, *seen);
+    nlohmann::ordered_json entry = fuzz::reported_json(o, c.all);
+    entry["kind"] = std::string(to_string(o.kind));
+    if (!o.reason.empty()) entry["reason"] = o.reason;
+    if (o.judgement.ulp) entry["ulp"] = *o.judgement.ulp;
+    tracers[t->name] = entry;
+    ++run.tracer_kinds[t->name][std::string(to_string(o.kind))];
+    if (o.kind == TraceKind::crash || o.kind == TraceKind::timeout) {
+      ++run.stopped;
+      std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id) << "': tracer " << t->name
+                << " stopped: " << to_string(o.kind) << " (" << o.reason << ")\n";
+    }
+  }
+  result["tracers"] = tracers;
+  out << result.dump() << "\n";
+  if (c.expect.is_null()) return;
+  for (const char* key : {"touched", "nearest", "t"})
+    if (c.expect.contains(key) && c.expect.at(key) != expect.at(key)) {
+      ++run.contradicted;
+      std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id) << "': expect." << key
+                << " is " << c.expect.at(key).dump() << ", the exact oracle says " << expect.at(key).dump() << "\n";
+    }
+}
 
 // A chunk of cases read but not yet judged: judged together, so each variant (external code
 // behind a process boundary above all) is asked once per chunk instead of once per case.
@@ -167,6 +216,11 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
       [&](const CaseError& e) {
         ++run.unreadable;
         std::cerr << "rayproof: " << e.to_string() << "\n";
+      },
+      [&](const MeshCase& c, long line) {
+        ++run.cases, ++in_file;
+        judge_mesh_case(path, line, c, run, out);
+        progress.update(run.cases, 0);
       });
   judge_chunk(path, pending, run, out);
   if (!opened) ++run.unopened;
@@ -178,6 +232,7 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
 
 int run_check(const CheckOptions& opts) {
   load_externals(opts.ext);
+  load_tracers(opts.tracer_flags, opts.ext.case_timeout);
   std::vector<const Variant*> answers;
   for (const std::string& text : opts.answers) {
     const auto [name, path] = peers::split_assignment("--answers", text);
@@ -185,6 +240,7 @@ int run_check(const CheckOptions& opts) {
   }
   CheckRun run{parse_variants(opts.variants, parse_shapes(opts.shapes)), parse_rule(opts.rule),
                Oracle(Oracle::Options{!opts.exact_only})};
+  run.tracers = parse_tracers(opts.tracer_flags.names);
   refuse_output_over_input(opts.output, [&] {
     std::vector<std::string> inputs = opts.files;
     for (const std::string& a : opts.answers) inputs.push_back(peers::split_assignment("--answers", a).second);
@@ -201,6 +257,11 @@ int run_check(const CheckOptions& opts) {
   if (file) file->commit();
   else std::cout.flush();
   print_summary_table(run.summary, *table_format_from_string(opts.format), std::cerr);
+  for (const auto& [name, kinds] : run.tracer_kinds) {  // mesh cases: one line per tracer
+    std::cerr << "tracer " << name << ":";
+    for (const auto& [kind, n] : kinds) std::cerr << " " << kind << " " << n;
+    std::cerr << "\n";
+  }
   print_oracle_stats(std::cerr, run.oracle);
   std::cerr << "rayproof check: " << run.cases << " cases, " << run.unreadable << " unreadable, " << run.contradicted
             << " expectations contradicted by the exact oracle\n";
@@ -211,6 +272,8 @@ int run_check(const CheckOptions& opts) {
                        {"expect_disagreements", run.contradicted},
                        {"rule", opts.rule},
                        {"variants", summary_json(run.summary)},
+                       {"mesh_cases", run.mesh_cases},
+                       {"tracers", run.tracer_kinds},
                        {"oracle", oracle_stats_json(run.oracle)}}
                       .dump(2)
                << "\n";
@@ -233,6 +296,7 @@ void add_check_command(CLI::App& app, int& exit_code) {
   add_shapes_flag(cmd, opts->shapes);
   add_rule_flag(cmd, opts->rule);
   add_external_flags(cmd, opts->ext);
+  add_tracer_flags(cmd, opts->tracer_flags);
   cmd->add_option("--answers", opts->answers, "NAME=FILE: answers your own program wrote for the cases (plugin.md); repeatable");
   cmd->add_option("--summary", opts->summary, "also write the summary as JSON to this file");
   cmd->add_option("-o,--output", opts->output, "write the per-case lines here (atomically) instead of stdout");

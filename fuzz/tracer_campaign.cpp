@@ -462,7 +462,8 @@ std::string family_key(TracerFamily f, bool all) { return std::string(to_string(
 std::string finding_line(TracerFamily family, const PendingFinding& f, const TracerCampaignOptions& o) {
   const Tracer& t = *o.tracers[f.tracer];
   MeshCase c = f.seen;
-  c.id = family_key(family, f.all) + "/" + std::to_string(o.seed) + "/" + std::to_string(f.index);
+  // One finding per ray, mode and tracer: the tracer's name keeps the ids unique.
+  c.id = family_key(family, f.all) + "/" + std::to_string(o.seed) + "/" + std::to_string(f.index) + "/" + t.name;
   if (o.shrink) c = shrink_mesh_case(t, c, f.kind);
   const bool shrunk = c.mesh != f.seen.mesh;
   const TracerOutcome now = shrunk ? judge_tracer_on_case(t, c) : f.outcome;

@@ -1,4 +1,5 @@
 #include "rayproof/core/casefile.h"
+#include "rayproof/core/mesh_case.h"
 
 #include <cmath>
 #include <fstream>
@@ -129,7 +130,8 @@ class IdFingerprints {
 
 bool read_case_file(const std::string& path,
                     const std::function<void(const Case&, long line)>& on_case,
-                    const std::function<void(const CaseError&)>& on_error) {
+                    const std::function<void(const CaseError&)>& on_error,
+                    const std::function<void(const MeshCase&, long line)>& on_mesh_case) {
   std::ifstream file;
   if (path != "-") {
     std::error_code ec;
@@ -157,6 +159,21 @@ bool read_case_file(const std::string& path,
     if (line == 1000 && file_size > bytes && !size_error) ids.expect(file_size / (bytes / 1000) * 11 / 10);
     if (text.find_first_not_of(" \t\r") == std::string::npos) continue;
     try {
+      if (text.find("\"mesh\"") != std::string::npos) {  // perhaps a mesh case: read it as one if it is
+        json j;
+        try {
+          j = parse_json_text(text);
+        } catch (const json::parse_error& e) {
+          throw FieldError("", std::string("malformed JSON: ") + e.what());
+        }
+        if (is_mesh_case(j)) {
+          if (!on_mesh_case) throw FieldError("mesh", "a mesh case (docs/spec/tracer.md): `rayproof check` judges tracers on it");
+          MeshCase c = read_mesh_case(j);
+          if (!ids.insert(c.id)) throw FieldError("id", "duplicate id \"" + c.id + "\"");
+          on_mesh_case(c, line);
+          continue;
+        }
+      }
       Case c = parse_case(text);
       if (!ids.insert(c.id)) throw FieldError("id", "duplicate id \"" + c.id + "\"");
       on_case(c, line);

@@ -192,6 +192,44 @@ Hit triangle_watertight(const Ray& ray, const Triangle& tri, HitRule rule) {
   return triangle_hit(t_scaled / det, det > 0, u == 0 || v == 0 || w == 0, rule);
 }
 
+// watertight with a tie rule: a zero edge function counts as inside only on edges the triangle
+// owns — in the sheared 2D frame, edges pointing up, or right when horizontal (the half-open
+// half-plane rule rasterizers use, D3D's top-left rule in spirit). A shared edge is computed
+// bit-identically, reversed, in both triangles (fl(x − y) = −fl(y − x)), so exactly one owns it;
+// at a closed fan's centre exactly one triangle owns both its edges there. What DXR and Vulkan
+// ray tracing promise: one hit per shared edge and vertex.
+Hit triangle_watertight_top_left(const Ray& ray, const Triangle& tri, HitRule rule) {
+  const Vec3& d = ray.direction;
+  int kz = 0;
+  if (std::abs(d.y()) > std::abs(d[kz])) kz = 1;
+  if (std::abs(d.z()) > std::abs(d[kz])) kz = 2;
+  int kx = (kz + 1) % 3;
+  int ky = (kx + 1) % 3;
+  if (d[kz] < 0) std::swap(kx, ky);
+  const double sx = d[kx] / d[kz], sy = d[ky] / d[kz], sz = 1.0 / d[kz];
+  const Vec3 a = tri.v[0] - ray.origin, b = tri.v[1] - ray.origin, c = tri.v[2] - ray.origin;
+  const double ax = a[kx] - sx * a[kz], ay = a[ky] - sy * a[kz];
+  const double bx = b[kx] - sx * b[kz], by = b[ky] - sy * b[kz];
+  const double cx = c[kx] - sx * c[kz], cy = c[ky] - sy * c[kz];
+  double u = cx * by - cy * bx, v = ax * cy - ay * cx, w = bx * ay - by * ax;
+  if (u == 0 || v == 0 || w == 0) {
+    using L = long double;
+    u = static_cast<double>(L(cx) * L(by) - L(cy) * L(bx));
+    v = static_cast<double>(L(ax) * L(cy) - L(ay) * L(cx));
+    w = static_cast<double>(L(bx) * L(ay) - L(by) * L(ax));
+  }
+  if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return Hit::miss();
+  const double det = u + v + w;
+  if (det == 0) return Hit::miss();
+  // u belongs to edge b→c, v to c→a, w to a→b.
+  auto owns = [](double ex, double ey) { return ey > 0 || (ey == 0 && ex > 0); };
+  if (u == 0 && !owns(cx - bx, cy - by)) return Hit::miss();
+  if (v == 0 && !owns(ax - cx, ay - cy)) return Hit::miss();
+  if (w == 0 && !owns(bx - ax, by - ay)) return Hit::miss();
+  const double t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
+  return triangle_hit(t_scaled / det, det > 0, u == 0 || v == 0 || w == 0, rule);
+}
+
 namespace {
 // Shared tail of the box variants: the ray's parameter interval inside the closed box.
 Hit box_hit(double t_min, double t_max, HitRule rule) {
@@ -263,6 +301,8 @@ constexpr Variant kVariants[] = {
      erase<Triangle, triangle_moller_trumbore>},
     {"watertight", ShapeKind::triangle, "Woop, Benthin & Wald, JCGT 2013",
      erase<Triangle, triangle_watertight>},
+    {"watertight-top-left", ShapeKind::triangle, "Woop, Benthin & Wald 2013 + a top-left tie rule on zero edge functions",
+     erase<Triangle, triangle_watertight_top_left>},
     {"slab", ShapeKind::box, "naive slab test, Kay & Kajiya 1986", erase<Box, box_slab>},
     {"robust-slab", ShapeKind::box, "Williams et al. 2005 + Ize 2013",
      erase<Box, box_robust_slab>},

@@ -39,8 +39,12 @@ json case_to_json(const Case& c);
 // Reads a case file line by line, calling on_case for each good case and on_error for each bad
 // one; the rest of the file is still read after an error. Blank lines are skipped. Duplicate
 // ids are errors. Returns false if the file cannot be opened (reported through on_error).
+// Lines holding a "mesh" (docs/spec/tracer.md: mesh cases) go to on_mesh_case, read by
+// read_mesh_case (core/mesh_case.h); without it they are errors.
+struct MeshCase;
 bool read_case_file(const std::string& path,
                     const std::function<void(const Case&, long line)>& on_case,
-                    const std::function<void(const CaseError&)>& on_error);
+                    const std::function<void(const CaseError&)>& on_error,
+                    const std::function<void(const MeshCase&, long line)>& on_mesh_case = {});
 
 }  // namespace rayproof

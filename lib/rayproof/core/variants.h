@@ -23,6 +23,7 @@ Hit sphere_hearn_baker(const Ray& ray, const Sphere& s, HitRule rule);
 Hit plane_direct(const Ray& ray, const Plane& p, HitRule rule);
 Hit triangle_moller_trumbore(const Ray& ray, const Triangle& tri, HitRule rule);
 Hit triangle_watertight(const Ray& ray, const Triangle& tri, HitRule rule);
+Hit triangle_watertight_top_left(const Ray& ray, const Triangle& tri, HitRule rule);
 Hit box_slab(const Ray& ray, const Box& b, HitRule rule);
 Hit box_robust_slab(const Ray& ray, const Box& b, HitRule rule);
 
