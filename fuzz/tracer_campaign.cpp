@@ -377,6 +377,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       result.findings.push_back(std::move(f));
     };
     BuiltScene built = t.build(*s.mesh);
+    if (!built.scene && built.failure == HitFailure::stopped) continue;  // stopped earlier: reported then
     if (!built.scene) {
       const TraceKind k = built.failure == HitFailure::none ? TraceKind::build_failed : kind_of_failure(built.failure);
       TracerOutcome outcome;

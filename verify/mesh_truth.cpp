@@ -4,6 +4,8 @@
 #include <cmath>
 #include <set>
 
+#include "rayproof/core/json_fields.h"
+
 namespace rayproof {
 
 std::string_view to_string(TraceKind k) {
@@ -284,6 +286,12 @@ TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& tr
   }
   if (std::isnan(a.t)) {
     j.detail = "t is NaN";
+    return done(TraceKind::tracer_error);
+  }
+  // A t outside [tmin, tmax] is no answer to this ray (a t equal to an end is judged below: a
+  // contact there is excluded, so reporting it is a false hit).
+  if (a.t < r.tmin || a.t > r.tmax || std::isinf(a.t)) {
+    j.detail = "t " + hex_double(a.t) + " outside (tmin, tmax)";
     return done(TraceKind::tracer_error);
   }
   std::optional<MeshContact> c;

@@ -1,0 +1,70 @@
+/* Tracers that misbehave on purpose, one way each, for tests/test_tracers.cpp: rayproof must
+   count or report each and never crash, keeping what it judged before. */
+#include <math.h>
+#include <signal.h>
+#include <stddef.h>
+#include <unistd.h>
+
+#include "rayproof/tracer.h"
+
+static int scene_token;
+static void* build_ok(const struct rayproof_mesh* mesh) { (void)mesh; return &scene_token; }
+static void* build_crash(const struct rayproof_mesh* mesh) { (void)mesh; raise(SIGSEGV); return NULL; }
+static void* build_null(const struct rayproof_mesh* mesh) { (void)mesh; return NULL; }
+static void release(void* scene) { (void)scene; }
+
+/* Every ray: triangle 0 with t = NaN. */
+static void nearest_nan(void* s, const struct rayproof_ray* rays, size_t n, struct rayproof_trace* out) {
+  (void)s, (void)rays;
+  for (size_t i = 0; i < n; ++i) out[i].triangle = 0, out[i].t = NAN;
+}
+/* Every ray: a triangle index no mesh here has. */
+static void nearest_out_of_range(void* s, const struct rayproof_ray* rays, size_t n, struct rayproof_trace* out) {
+  (void)s, (void)rays;
+  for (size_t i = 0; i < n; ++i) out[i].triangle = 1000000, out[i].t = 1;
+}
+/* Every ray: triangle 0 at a t below tmin. */
+static void nearest_outside(void* s, const struct rayproof_ray* rays, size_t n, struct rayproof_trace* out) {
+  (void)s;
+  for (size_t i = 0; i < n; ++i) out[i].triangle = 0, out[i].t = rays[i].tmin - 1;
+}
+/* Misses everything, until the third call: then it crashes. */
+static int calls;
+static void nearest_crash_later(void* s, const struct rayproof_ray* rays, size_t n, struct rayproof_trace* out) {
+  (void)s, (void)rays;
+  if (++calls >= 3) raise(SIGABRT);
+  for (size_t i = 0; i < n; ++i) out[i].triangle = RAYPROOF_NO_TRIANGLE, out[i].t = 0;
+}
+static void nearest_hang(void* s, const struct rayproof_ray* rays, size_t n, struct rayproof_trace* out) {
+  (void)s, (void)rays, (void)n, (void)out;
+  for (;;) pause();
+}
+/* Any-hit lists every triangle twice. */
+static size_t all_twice(void* s, const struct rayproof_ray* ray, uint32_t* out, size_t capacity) {
+  (void)s, (void)ray;
+  if (capacity >= 2) out[0] = 0, out[1] = 0;
+  return 2;
+}
+/* Any-hit reports 100 hits out of range (more than the first capacity offered): rayproof must ask
+   again with room for all, then count the answer a tracer error. */
+static size_t all_many(void* s, const struct rayproof_ray* ray, uint32_t* out, size_t capacity) {
+  (void)s, (void)ray;
+  for (size_t i = 0; i < 100 && i < capacity; ++i) out[i] = 1000000u + (uint32_t)i;
+  return 100;
+}
+
+static const struct rayproof_tracer kTracers[] = {
+    {"bad-build-crash", "double", "test: segfaults in build", build_crash, nearest_nan, NULL, release},
+    {"bad-build-null", "double", "test: build returns NULL", build_null, nearest_nan, NULL, release},
+    {"bad-nan-t", "double", "test: NaN t", build_ok, nearest_nan, all_twice, release},
+    {"bad-out-of-range", "double", "test: triangle out of range", build_ok, nearest_out_of_range, all_many, release},
+    {"bad-t-outside", "float", "test: t below tmin", build_ok, nearest_outside, NULL, release},
+    {"bad-crash-later", "double", "test: aborts on its third call", build_ok, nearest_crash_later, NULL, release},
+    {"bad-hang", "double", "test: never answers", build_ok, nearest_hang, NULL, release},
+};
+
+const struct rayproof_tracer* rayproof_tracers(int abi, int* count) {
+  if (abi != RAYPROOF_TRACER_ABI) return NULL;
+  *count = (int)(sizeof kTracers / sizeof kTracers[0]);
+  return kTracers;
+}
