@@ -17,6 +17,7 @@ void add_audit_command(CLI::App& app, int& exit_code) {
     bool headroom = false;
     int threads = 0;
     ExternalFlags ext;
+    TracerFlags tracer_flags;
   };
   auto opts = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("audit", "Render a scene exactly and with every variant of its shapes: which variant does it require?");
@@ -26,9 +27,11 @@ void add_audit_command(CLI::App& app, int& exit_code) {
   add_variants_flag(cmd, opts->variants);
   cmd->add_flag("--headroom", opts->headroom, "also translate the scene by 2^k·(1, 0.75, 0.5), k = 0, 2, …, 62");
   add_external_flags(cmd, opts->ext);
+  add_tracer_flags(cmd, opts->tracer_flags);
   add_threads_flag(cmd, opts->threads);
   cmd->callback([opts, &exit_code] {
     load_externals(opts->ext);
+    load_tracers(opts->tracer_flags, opts->ext.case_timeout);
     const Scene scene = load_scene(opts->scene);
     for (const std::string& w : scene.warnings) std::cerr << "rayproof audit: warning: " << printable(w) << "\n";
     if (std::filesystem::exists(opts->dir) && !std::filesystem::is_directory(opts->dir))
@@ -41,6 +44,7 @@ void add_audit_command(CLI::App& app, int& exit_code) {
     }
     studies::SceneAuditOptions ao;
     ao.variants = parse_variants(opts->variants);
+    if (opts->tracer_flags.given()) ao.tracers = parse_tracers(opts->tracer_flags.names);
     ao.headroom = opts->headroom;
     ao.threads = opts->threads;
     std::unique_ptr<Progress> progress;
@@ -73,7 +77,7 @@ void add_audit_command(CLI::App& app, int& exit_code) {
     }
     for (const auto& r : audit.recommendation) {
       std::cerr << "recommendation: " << to_string(r.shape) << ": "
-                << (r.best ? std::string(r.best->variant->name)
+                << (r.best ? r.best->name
                            : std::string(r.audited ? "none exact for this scene" : "no variant of this shape audited"));
       for (size_t i = 0; i < r.close.size(); ++i) std::cerr << (i == 0 ? " (within 10%: " : ", ") << r.close[i]->label;
       std::cerr << (r.close.empty() ? "\n" : ")\n");

@@ -43,6 +43,16 @@ def main(path):
             rate = 1e9 / t
             print(f"ten-triangle scene, BVH + {v}: {rate / 1e6:.2f} M rays/s/core"
                   f"  goal {'met' if rate >= 1e6 else 'NOT met'} (>= 1 M)")
+    # Whole tracers (issue 20).
+    rates = {r["name"]: r.get("items_per_second") or r.get("rays_per_s") for r in runs}
+    truth = rates.get("tracers/ground-truth/bunny-primary")
+    if truth:
+        print(f"ground truth, bunny primary rays: {truth / 1e6:.2f} M rays/s/core  goal {'met' if truth >= 1e6 else 'NOT met'} (>= 1 M)")
+    direct, worker, judged = (rates.get(f"tracers/plugin-nearest/{k}") for k in ("direct", "worker", "judged"))
+    if direct and worker:
+        print(f"tracer plugin nearest through the worker / direct: {direct / worker:.2f}x  goal {'met' if direct / worker <= 1.5 else 'NOT met'} (<= 1.5)")
+    if direct and judged:
+        print(f"tracer plugin judged (worker + truth + kinds) / direct nearest: {direct / judged:.2f}x")
     for shape, base in [("sphere", "stable"), ("triangle", "moller-trumbore"), ("box", "robust-slab"), ("plane", "direct")]:
         ratio(f"oracle class / {base} ({shape}, random-hit, goal <= 2)", f"oracle/{shape}/random-hit/class", f"variant/{base}/random-hit", lambda x: x <= 2)
         ratio(f"oracle filtered / {base} ({shape}, random-hit, goal <= 8)", f"oracle/{shape}/random-hit/filtered", f"variant/{base}/random-hit", lambda x: x <= 8)

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <stdexcept>
 
@@ -70,6 +71,65 @@ void for_rows(int threads, int height, const std::function<State()>& make_state,
   });
 }
 
+// What an audit row draws: a variant (for one kind) or a whole tracer (the triangles).
+struct Contender {
+  const Variant* variant = nullptr;
+  const Tracer* tracer = nullptr;
+  ShapeKind kind = ShapeKind::triangle;
+};
+
+// A tracer built over the scene's triangles: each mesh with its vertices shared as its file
+// shares them (so a tracer's watertightness is judged on the mesh it was given), each lone
+// triangle on its own; float tracers get them rounded to float.
+struct TracerOnScene {
+  std::unique_ptr<TracerScene> scene;
+  std::vector<std::int32_t> primitive_of;  // the built mesh's triangle index → the scene's primitive
+  Precision precision = Precision::f64;
+  std::string failure;  // why it could not be built (then it draws nothing)
+
+  TracerOnScene(const Tracer& t, const SceneIndex& index) : precision(t.precision) {
+    TriangleMesh mesh;
+    std::map<std::pair<std::int32_t, std::uint32_t>, std::uint32_t> shared;  // (object, file vertex) → index
+    for (std::int32_t id = 0; id < static_cast<std::int32_t>(index.primitives().size()); ++id) {
+      const Primitive& p = index.primitive(id);
+      const auto* tri = std::get_if<Triangle>(&p.shape);
+      if (!tri) continue;
+      const SceneObject& object = index.scene().objects[p.object];
+      for (int k = 0; k < 3; ++k) {
+        auto add = [&] {
+          mesh.vertices.insert(mesh.vertices.end(), {tri->v[k].x(), tri->v[k].y(), tri->v[k].z()});
+          return static_cast<std::uint32_t>(mesh.vertex_count() - 1);
+        };
+        if (!object.mesh) {
+          mesh.indices.push_back(add());
+          continue;
+        }
+        const auto [it, fresh] = shared.try_emplace({p.object, object.mesh->corners[p.element][k]}, 0);
+        if (fresh) it->second = add();
+        mesh.indices.push_back(it->second);
+      }
+      primitive_of.push_back(id);
+    }
+    if (primitive_of.empty()) return;
+    if (precision == Precision::f32) {
+      auto rounded = mesh_rounded_to_float(mesh);
+      if (!rounded) {
+        failure = "the scene's triangles overflow float";
+        return;
+      }
+      mesh = std::move(*rounded);
+    }
+    BuiltScene built = t.build(mesh);
+    if (!built.scene) failure = built.reason.empty() ? std::string(to_string(built.failure)) : built.reason;
+    scene = std::move(built.scene);
+  }
+  // The ray as the tracer is given it (float: rounded), or nullopt.
+  std::optional<TracerRay> seen(const Ray& ray, double tmax) const {
+    const TracerRay r{ray, 0, tmax};
+    return precision == Precision::f32 ? ray_rounded_to_float(r) : std::optional(r);
+  }
+};
+
 class Auditor {
  public:
   Auditor(const Scene& scene, const SceneAuditOptions& options)
@@ -126,9 +186,13 @@ class Auditor {
   // One variant of one kind, the other kinds exact (from exact_pass's per-kind contacts).
   // Shaded: colours, shadows and the diff image too.
   // `exact_image`: the exact render the diff image dims (shaded passes).
-  PixelCounts variant_pass(const Variant& v, ShapeKind kind, bool shaded, VariantAudit* out,
-                           const Image* exact_image = nullptr) {
+  PixelCounts variant_pass(const Contender& c, bool shaded, VariantAudit* out, const Image* exact_image = nullptr) {
     const Camera& cam = scene_.camera;
+    std::unique_ptr<TracerOnScene> tracer;
+    if (c.tracer) {
+      tracer = std::make_unique<TracerOnScene>(*c.tracer, index_);
+      if (!tracer->failure.empty() && out) out->stopped = c.tracer->name + ": " + tracer->failure;
+    }
     if (shaded) {
       out->render = Image{cam.width, cam.height, std::vector<std::uint8_t>(3 * exact_.size())};
       out->diff = out->render;
@@ -141,10 +205,12 @@ class Auditor {
     for_rows<State>(
         threads_, cam.height, [&] { return State{ExactTracer(index_)}; },
         [&](State& st, int y) {
+          std::vector<SceneHit> row;  // a tracer answers the row's primary rays in one call
+          if (tracer) row = trace_row(*tracer, y);
           for (int x = 0; x < cam.width; ++x)
-            variant_pixel(st.tracer, v, kind, shaded, x, y, per_row[y], out, exact_image);
+            variant_pixel(st.tracer, c, tracer.get(), tracer ? &row[x] : nullptr, shaded, x, y, per_row[y], out, exact_image);
         },
-        stage_progress(std::string(v.name) + " (" + std::string(to_string(kind)) + ")"));
+        stage_progress((c.tracer ? c.tracer->name : std::string(c.variant->name)) + " (" + std::string(to_string(c.kind)) + ")"));
     PixelCounts total;
     for (const PixelCounts& c : per_row) {
       total.wrong += c.wrong;
@@ -159,7 +225,10 @@ class Auditor {
   // ns per primary ray of the variant against its shape's primitives, on one thread: the
   // fastest of three rounds of whole frames (each at least 0.05 s), so that a busy moment on the
   // machine does not decide a recommendation.
-  double time_variant(const Variant& v, ShapeKind kind) const {
+  double time_variant(const Contender& c) const {
+    if (c.tracer) return time_tracer(*c.tracer);
+    const Variant& v = *c.variant;
+    const ShapeKind kind = c.kind;
     const Camera& cam = scene_.camera;
     double best = std::numeric_limits<double>::infinity(), checksum = 0;
     for (int round = 0; round < 3; ++round) {
@@ -181,6 +250,51 @@ class Auditor {
     volatile double sink = checksum;  // keeps the traced answers alive
     (void)sink;
     return best;
+  }
+
+  // ns per primary ray of a whole tracer over the scene's triangles (building excluded), one
+  // row per call: the best of three frames.
+  double time_tracer(const Tracer& t) const {
+    const TracerOnScene on(t, index_);
+    if (!on.scene) return 0;
+    const Camera& cam = scene_.camera;
+    std::vector<TracerRay> rays;
+    for (int y = 0; y < cam.height; ++y)
+      for (int x = 0; x < cam.width; ++x)
+        if (auto r = on.seen(cam.ray_through(x + 0.5, y + 0.5), std::numeric_limits<double>::infinity())) rays.push_back(*r);
+    std::vector<TraceAnswer> answers(rays.size());
+    double best = std::numeric_limits<double>::infinity();
+    for (int round = 0; round < 3 && !rays.empty(); ++round) {
+      const auto start = std::chrono::steady_clock::now();
+      for (std::size_t i = 0; i < rays.size(); i += static_cast<std::size_t>(cam.width)) {
+        const std::size_t n = std::min<std::size_t>(cam.width, rays.size() - i);
+        on.scene->nearest(std::span(rays).subspan(i, n), std::span(answers).subspan(i, n));
+      }
+      best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() * 1e9 /
+                                static_cast<double>(rays.size()));
+    }
+    return std::isfinite(best) ? best : 0;
+  }
+
+  // A tracer's nearest triangle hit for each primary ray of row y, as scene hits.
+  std::vector<SceneHit> trace_row(const TracerOnScene& on, int y) const {
+    const Camera& cam = scene_.camera;
+    std::vector<SceneHit> out(cam.width);
+    if (!on.scene) return out;
+    std::vector<TracerRay> rays;
+    std::vector<int> at;
+    for (int x = 0; x < cam.width; ++x)
+      if (auto r = on.seen(cam.ray_through(x + 0.5, y + 0.5), std::numeric_limits<double>::infinity()))
+        rays.push_back(*r), at.push_back(x);
+    std::vector<TraceAnswer> answers(rays.size());
+    on.scene->nearest(rays, answers);
+    for (std::size_t i = 0; i < rays.size(); ++i) out[at[i]] = scene_hit(on, answers[i]);
+    return out;
+  }
+  SceneHit scene_hit(const TracerOnScene& on, const TraceAnswer& a) const {
+    if (!a.hit() || a.failure != HitFailure::none || a.triangle >= on.primitive_of.size() || !(a.t > 0)) return {};
+    const std::int32_t id = on.primitive_of[a.triangle];
+    return {index_.primitive(id).object, id, Hit{HitClass::hit, a.t}};
   }
 
   // The exact visible object of each pixel (after exact_pass).
@@ -226,8 +340,11 @@ class Auditor {
   // Whether the variant, for its kind, and the oracle, for the others, see a blocker on the
   // segment (0 < t < 1) other than `self`; `adjacent_blocker` tells whether a blocker of the
   // variant's kind is `self` or its neighbour (the acne test; asked only when it matters).
-  bool variant_blocked(ExactTracer& tracer, const Variant& v, ShapeKind kind, const Ray& segment, std::int32_t self,
-                       bool* adjacent_blocker) const {
+  bool variant_blocked(ExactTracer& tracer, const Contender& c, const TracerOnScene* on, const Ray& segment,
+                       std::int32_t self, bool* adjacent_blocker) const {
+    if (on) return tracer_blocked(tracer, *c.tracer, *on, segment, self, adjacent_blocker);
+    const Variant& v = *c.variant;
+    const ShapeKind kind = c.kind;
     bool blocked = false;
     double t_limit = 1;
     index_.traverse(kind, segment, t_limit, [&](std::int32_t id, const Shape& shape) {
@@ -244,14 +361,43 @@ class Auditor {
     return false;
   }
 
-  void variant_pixel(ExactTracer& tracer, const Variant& v, ShapeKind kind, bool shaded, int x, int y,
-                     PixelCounts& counts, VariantAudit* out, const Image* exact_image) {
+  // A tracer's shadow test on the segment (0 < t < 1): its any-hit list where it has one (so the
+  // primitive the ray leaves is passed over, as for variants), else its nearest hit.
+  bool tracer_blocked(ExactTracer& tracer, const Tracer& t, const TracerOnScene& on, const Ray& segment, std::int32_t self,
+                      bool* adjacent_blocker) const {
+    bool blocked = false;
+    if (const auto r = on.scene ? on.seen(segment, 1) : std::nullopt) {
+      std::vector<std::uint32_t> hits;
+      if (t.has_all_hits) {
+        AllHitsAnswer a;
+        on.scene->all_hits(std::span(&*r, 1), std::span(&a, 1));
+        if (a.failure == HitFailure::none && !a.unsupported) hits = a.triangles;
+      } else {
+        TraceAnswer a;
+        on.scene->nearest(std::span(&*r, 1), std::span(&a, 1));
+        if (a.failure == HitFailure::none && a.hit()) hits.push_back(a.triangle);
+      }
+      for (std::uint32_t h : hits) {
+        if (h >= on.primitive_of.size() || on.primitive_of[h] == self) continue;
+        blocked = true;
+        if (adjacent_blocker && index_.same_or_adjacent(self, on.primitive_of[h])) *adjacent_blocker = true;
+      }
+    }
+    if (blocked) return true;
+    for (ShapeKind other : index_.shapes_used())
+      if (other != ShapeKind::triangle && tracer.blocks(other, segment, self)) return true;
+    return false;
+  }
+
+  void variant_pixel(ExactTracer& tracer, const Contender& c, const TracerOnScene* on, const SceneHit* traced, bool shaded,
+                     int x, int y, PixelCounts& counts, VariantAudit* out, const Image* exact_image) {
+    const ShapeKind kind = c.kind;
     const Camera& cam = scene_.camera;
     const size_t px = size_t(y) * cam.width + x;
     const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
     const ExactPixel& e = exact_[px];
     // The variant's nearest among its kind, against the exact nearest among the other kinds.
-    const SceneHit mine = trace_kind(index_, kind, v, HitRule::nearest_contact, ray);
+    const SceneHit mine = traced ? *traced : trace_kind(index_, kind, *c.variant, HitRule::nearest_contact, ray);
     ExactContact others;
     for (ShapeKind k : index_.shapes_used())
       if (k != kind && tracer.before(ray, e.by_kind[static_cast<int>(k)], others)) others = e.by_kind[static_cast<int>(k)];
@@ -294,12 +440,12 @@ class Auditor {
           if (!(cosines[l] > 0) && !compared) continue;
           const Ray segment{start, scene_.lights[l].position - start};
           bool adjacent = false;
-          const bool blocked = variant_blocked(tracer, v, kind, segment, visible.primitive, nullptr);
+          const bool blocked = variant_blocked(tracer, c, on, segment, visible.primitive, nullptr);
           if (cosines[l] > 0 && !blocked) lit |= bit;
           if (compared && blocked == bool(e.lit & bit)) {  // blocked here, lit exactly, or the reverse
             shadow_wrong = true;
             if (blocked && visible_is_variant) {
-              variant_blocked(tracer, v, kind, segment, visible.primitive, &adjacent);
+              variant_blocked(tracer, c, on, segment, visible.primitive, &adjacent);
               acne = acne || adjacent;
             }
           }
@@ -339,28 +485,35 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
   audit.warnings = scene.warnings;
   Auditor auditor(scene, options);
   audit.shapes = auditor.index().shapes_used();
-  std::vector<std::pair<const Variant*, ShapeKind>> chosen;
+  std::vector<Contender> chosen;
   for (const Variant* v : options.variants)
     for (ShapeKind k : audit.shapes)
-      if (v->handles(k)) chosen.emplace_back(v, k);
+      if (v->handles(k)) chosen.push_back({v, nullptr, k});
+  const bool has_triangles = std::find(audit.shapes.begin(), audit.shapes.end(), ShapeKind::triangle) != audit.shapes.end();
+  for (const Tracer* t : options.tracers)
+    if (has_triangles) chosen.push_back({nullptr, t, ShapeKind::triangle});
+    else audit.warnings.push_back("tracer " + t->name + " not audited: the scene has no triangles");
 
   auditor.exact_pass(true, &audit);
   const std::vector<int> original_objects = auditor.exact_objects();
   audit.variants.reserve(chosen.size());  // recommendation points into it
-  for (const auto& pick : chosen) {
-    const Variant* v = pick.first;  // (not a structured binding: lambdas below capture it)
-    const ShapeKind kind = pick.second;
+  for (const Contender& c : chosen) {
     VariantAudit va;
-    va.variant = v;
-    va.shape = kind;
-    va.label = std::string(v->name);
-    if (v->all_shapes && std::count_if(chosen.begin(), chosen.end(), [&](const auto& c) { return c.first == v; }) > 1) {
+    va.variant = c.variant, va.tracer = c.tracer;
+    va.shape = c.kind;
+    va.name = c.tracer ? c.tracer->name : std::string(c.variant->name);
+    va.precision = std::string(to_string(c.tracer ? c.tracer->precision : c.variant->precision));
+    va.origin = c.tracer ? c.tracer->origin : std::string(c.variant->origin);
+    va.label = va.name;
+    if (c.variant && c.variant->all_shapes &&
+        std::count_if(chosen.begin(), chosen.end(), [&](const Contender& o) { return o.variant == c.variant; }) > 1) {
       va.label += '@';
-      va.label += to_string(kind);
+      va.label += to_string(c.kind);
     }
-    va.counts = auditor.variant_pass(*v, kind, true, &va, &audit.exact);
-    va.ns_per_ray = auditor.time_variant(*v, kind);
-    if (v->external) va.stopped = v->external->stop_reason();
+    va.counts = auditor.variant_pass(c, true, &va, &audit.exact);
+    va.ns_per_ray = auditor.time_variant(c);
+    if (c.variant && c.variant->external) va.stopped = c.variant->external->stop_reason();
+    if (c.tracer && va.stopped.empty()) va.stopped = c.tracer->stop_reason();
     audit.variants.push_back(std::move(va));
   }
   for (ShapeKind kind : audit.shapes) {
@@ -402,7 +555,7 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
       for (size_t j = 0; j < chosen.size(); ++j) {
         VariantAudit& va = audit.variants[j];
         if (va.first_wrong_log2_translate) continue;
-        const long wrong = moved_auditor.variant_pass(*chosen[j].first, chosen[j].second, false, nullptr).wrong;
+        const long wrong = moved_auditor.variant_pass(chosen[j], false, nullptr).wrong;
         va.headroom_wrong[i] = wrong;
         if (wrong > 0) {
           va.first_wrong_log2_translate = ks[i];

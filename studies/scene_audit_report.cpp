@@ -62,10 +62,9 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
                  a.primary_rays > 0 ? double(a.rays_beyond_intervals) / double(a.primary_rays) : 0.0}};
   j["variants"] = json::array();
   for (const VariantAudit& va : a.variants) {
-    const Variant& v = *va.variant;
-    json e = {{"name", std::string(v.name)},
+    json e = {{"name", va.name},
               {"shape", std::string(to_string(va.shape))},
-              {"precision", std::string(to_string(v.precision))},
+              {"precision", va.precision},
               {"ns_per_ray", va.ns_per_ray},
               {"wrong", va.counts.wrong},
               {"holes", va.counts.holes},
@@ -73,16 +72,17 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
               {"shadow_wrong", va.counts.shadow_wrong},
               {"acne", va.counts.acne},
               {"exact_for_scene", va.exact_for_scene()},
-              {"origin", std::string(v.origin)},
+              {"origin", va.origin},
               {"render", file_stem(va.label) + ".png"},
               {"diff", file_stem(va.label) + "-diff.png"}};
     if (!va.stopped.empty()) e["stopped"] = va.stopped;
+    if (va.tracer) e["tracer"] = true;  // a whole tracer (tracer.md), drawing every triangle
     j["variants"].push_back(std::move(e));
   }
   j["recommendation"] = json::object();
   j["recommendation_within_10_percent"] = json::object();
   for (const auto& r : a.recommendation) {
-    j["recommendation"][std::string(to_string(r.shape))] = r.best ? json(std::string(r.best->variant->name)) : json(nullptr);
+    j["recommendation"][std::string(to_string(r.shape))] = r.best ? json(r.best->name) : json(nullptr);
     json close = json::array();
     for (const VariantAudit* c : r.close) close.push_back(c->label);
     j["recommendation_within_10_percent"][std::string(to_string(r.shape))] = close;
@@ -181,7 +181,7 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     h << "<li><b>" << to_string(r.shape) << "</b>: ";
     if (r.best)
     {
-      h << "<b>" << html_escape(r.best->variant->name) << "</b>, the cheapest variant that renders this scene exactly ("
+      h << "<b>" << html_escape(r.best->name) << "</b>, the cheapest variant that renders this scene exactly ("
         << fixed(r.best->ns_per_ray, 1) << " ns per primary ray)";
       for (size_t i = 0; i < r.close.size(); ++i)
         h << (i == 0 ? "; within 10%, as good a choice: " : ", ") << html_escape(r.close[i]->label) << " ("
@@ -206,8 +206,9 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   for (const VariantAudit& va : a.variants) {
     const PixelCounts& c = va.counts;
     h << "<tr" << (va.exact_for_scene() ? " class=\"exact\"" : "") << "><td>" << html_escape(va.label)
-      << (va.variant->origin != "built-in" ? " <small>(" + html_escape(va.variant->origin) + ")</small>" : "")
-      << "</td><td>" << to_string(va.shape) << "</td><td>" << to_string(va.variant->precision) << "</td><td>"
+      << (va.origin != "built-in" ? " <small>(" + html_escape(va.origin) + ")</small>" : "")
+      << (va.tracer ? " <small>[tracer]</small>" : "")
+      << "</td><td>" << to_string(va.shape) << "</td><td>" << va.precision << "</td><td>"
       << fixed(va.ns_per_ray, 1) << "</td><td>" << c.wrong << "</td><td>" << c.holes << "</td><td>" << c.false_hits
       << "</td><td>" << c.shadow_wrong << "</td><td>" << c.acne << "</td><td>"
       << (va.exact_for_scene() ? "yes" : "no") << (va.stopped.empty() ? "" : " (stopped: " + html_escape(va.stopped) + ")")

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
@@ -401,6 +402,30 @@ TEST(TracerBadInput, LoadingErrorsAreOneLineWithExitCode2) {
   const auto family = run_cli("fuzz --tracers bvh-watertight --families tangent -o /dev/null");
   EXPECT_EQ(family.status, 2);
   EXPECT_NE(family.err.find("shared-edges"), std::string::npos) << family.err;
+}
+
+// audit --tracers: rayproof's own BVH tracer with a variant at its leaves draws the scene as the
+// variant does (same conservative BVH, same test), so their rows must agree pixel for pixel; a
+// float tracer is audited on float-rounded triangles; headroom covers tracers.
+TEST(TracerAudit, BvhTracerRowsEqualTheirVariantsRows) {
+  const std::string dir = test_dir();
+  const auto run = run_cli(std::string("audit ") + RAYPROOF_SOURCE_DIR + "/scenes/audit/edge-grid-tilted.json -o " + dir +
+                           "/a --variants moller-trumbore,watertight --tracers bvh-moller-trumbore,bvh-watertight-top-left "
+                           "--tracer " + kExampleTracers + " --tracers naive-float-bvh --headroom");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const json a = json::parse(std::ifstream(dir + "/a/audit.json"));
+  std::map<std::string, json> rows;
+  for (const json& v : a.at("variants")) rows[v.at("name")] = v;
+  ASSERT_TRUE(rows.contains("bvh-moller-trumbore") && rows.contains("naive-float-bvh"));
+  EXPECT_EQ(rows.at("bvh-moller-trumbore").at("tracer"), true);
+  for (const char* key : {"wrong", "holes", "false_hits", "shadow_wrong", "acne"})
+    EXPECT_EQ(rows.at("bvh-moller-trumbore").at(key), rows.at("moller-trumbore").at(key)) << key;
+  EXPECT_GT(rows.at("moller-trumbore").at("holes").get<int>(), 0);  // the tilted grid's cracks
+  EXPECT_EQ(rows.at("bvh-watertight-top-left").at("wrong"), 0);
+  EXPECT_EQ(rows.at("naive-float-bvh").at("precision"), "float");
+  EXPECT_TRUE(std::filesystem::exists(dir + "/a/naive-float-bvh-diff.png"));
+  EXPECT_TRUE(a.at("headroom").contains("bvh-watertight-top-left"));
+  EXPECT_TRUE(a.at("headroom").contains("naive-float-bvh"));
 }
 
 TEST(TracerCli, VariantsListsTracersWithShapeMesh) {

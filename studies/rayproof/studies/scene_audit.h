@@ -12,6 +12,7 @@
 
 #include "rayproof/core/render.h"
 #include "rayproof/core/scene.h"
+#include "rayproof/core/tracer.h"
 #include "rayproof/core/variants.h"
 
 namespace rayproof::studies {
@@ -22,6 +23,9 @@ Vec3 headroom_offset(int k);
 
 struct SceneAuditOptions {
   std::vector<const Variant*> variants;  // those of shapes the scene does not use are left out
+  // Whole tracers (docs/spec/tracer.md): each draws every triangle of the scene (its meshes, with
+  // their vertices shared as in their files, and lone triangles), the other shapes exact.
+  std::vector<const Tracer*> tracers;
   bool headroom = false;
   int threads = 0;  // 0: every hardware thread
   // Called from the calling thread between and within stages (for a progress line).
@@ -39,7 +43,9 @@ struct PixelCounts {
 };
 
 struct VariantAudit {
-  const Variant* variant = nullptr;
+  const Variant* variant = nullptr;  // or
+  const Tracer* tracer = nullptr;    // a whole tracer, drawing the triangles
+  std::string name, precision, origin;  // the variant's or tracer's
   ShapeKind shape = ShapeKind::sphere;  // the shape it drew (an --exec command answers several)
   // The row's name: the variant's, with "@shape" for an --exec command audited on several
   // shapes; file names and headroom keys use it.
