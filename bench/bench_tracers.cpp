@@ -113,7 +113,7 @@ void BM_TracerNearestDirect(benchmark::State& state) {
   }
   t->release(scene);
 }
-BENCHMARK(BM_TracerNearestDirect)->Name("tracers/plugin-nearest/direct")->MinTime(0.5);
+BENCHMARK(BM_TracerNearestDirect)->Name("tracers/plugin-nearest/direct")->MinTime(0.5)->UseRealTime();
 
 const Tracer* loaded_example() {
   static const Tracer* t = []() -> const Tracer* {
@@ -143,7 +143,7 @@ void BM_TracerNearestThroughWorker(benchmark::State& state) {
     state.SetItemsProcessed(state.items_processed() + std::int64_t(n));
   }
 }
-BENCHMARK(BM_TracerNearestThroughWorker)->Name("tracers/plugin-nearest/worker")->MinTime(0.5);
+BENCHMARK(BM_TracerNearestThroughWorker)->Name("tracers/plugin-nearest/worker")->MinTime(0.5)->UseRealTime();  // the work is in another process
 
 // Through the worker and judged: truth over the float mesh plus the kind of each answer.
 void BM_TracerJudged(benchmark::State& state) {
@@ -167,7 +167,7 @@ void BM_TracerJudged(benchmark::State& state) {
   }
   state.counters["right_fraction"] = double(right) / double(state.items_processed());
 }
-BENCHMARK(BM_TracerJudged)->Name("tracers/plugin-nearest/judged")->MinTime(0.5);
+BENCHMARK(BM_TracerJudged)->Name("tracers/plugin-nearest/judged")->MinTime(0.5)->UseRealTime();
 
 }  // namespace
 }  // namespace rayproof::bench

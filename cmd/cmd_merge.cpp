@@ -8,7 +8,9 @@
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/casefile.h"
+#include "rayproof/core/mesh_case.h"
 #include "rayproof/fuzz/campaign.h"
+#include "rayproof/fuzz/tracer_campaign.h"
 
 namespace rayproof::cli {
 
@@ -23,6 +25,7 @@ struct MergeOptions {
 struct FindingKey {
   std::string family, shape;
   std::uint64_t index = 0;
+  std::string tracer;  // mesh findings (tracer.md): "family[-any]/seed/index/tracer"
   auto operator<=>(const FindingKey&) const = default;
 };
 
@@ -34,6 +37,27 @@ FindingKey key_of(const Case& c, const std::string& path, long line) {
   if (parts.size() != 4 || parts[3].empty() || parts[3].find_first_not_of("0123456789") != std::string::npos)
     throw std::runtime_error(path + ":" + std::to_string(line) + ": id '" + printable(c.id) + "' is not a campaign finding's");
   return {parts[0], parts[1], std::stoull(parts[3])};
+}
+
+FindingKey mesh_key_of(const std::string& id, const std::string& path, long line) {
+  std::vector<std::string> parts;
+  std::stringstream ss(id);
+  for (std::string p; std::getline(ss, p, '/');) parts.push_back(p);
+  if (parts.size() != 4 || parts[2].empty() || parts[2].find_first_not_of("0123456789") != std::string::npos)
+    throw std::runtime_error(path + ":" + std::to_string(line) + ": id '" + printable(id) + "' is not a tracer campaign finding's");
+  return {parts[0], "", std::stoull(parts[2]), parts[3]};
+}
+
+json read_summary_json(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    return parse_json_text(text.str());
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path + ": not a campaign summary: " + std::string(e.what()));
+  }
 }
 
 fuzz::CampaignReport read_summary(const std::string& path) {
@@ -60,7 +84,19 @@ int run_merge(const MergeOptions& o) {
   if (!o.summary.empty()) summary_out = std::make_unique<AtomicFile>(o.summary);
 
   fuzz::CampaignReport merged;
+  fuzz::TracerCampaignReport merged_tracers;
+  bool tracers = false;  // the shards are of a tracer campaign (their summaries say "kind": "tracers")
   for (const std::string& path : o.summaries) {
+    const json j = read_summary_json(path);
+    if (j.is_object() && j.value("kind", "") == "tracers") {
+      tracers = true;
+      try {
+        merged_tracers.merge(fuzz::TracerCampaignReport::from_json(j));
+      } catch (const std::exception& e) {
+        throw std::runtime_error(path + ": not a tracer campaign summary: " + std::string(e.what()));
+      }
+      continue;
+    }
     const fuzz::CampaignReport shard = read_summary(path);
     for (const auto& [k, t] : shard.tallies) merged.tallies[k].merge(t);
     for (const auto& [k, s] : shard.seconds) merged.seconds[k] += s;
@@ -76,22 +112,34 @@ int run_merge(const MergeOptions& o) {
       ++line;
       if (text.find_first_not_of(" \t\r") == std::string::npos) continue;
       try {
+        if (text.find("\"mesh\"") != std::string::npos) {
+          const json j = parse_json_text(text);
+          if (is_mesh_case(j)) {
+            const MeshCase c = read_mesh_case(j);
+            findings.emplace(mesh_key_of(c.id, path, line), text);
+            continue;
+          }
+        }
         const Case c = parse_case(text);
         findings.emplace(key_of(c, path, line), text);
+      } catch (const json::parse_error& e) {
+        ++bad;
+        std::cerr << "rayproof: " << CaseError{path, line, "", std::string("malformed JSON: ") + e.what()}.to_string() << "\n";
       } catch (const FieldError& e) {
         ++bad;
         std::cerr << "rayproof: " << CaseError{path, line, e.field, e.what()}.to_string() << "\n";
       }
     }
   }
-  merged.findings_written = findings.size();
+  merged.findings_written = merged_tracers.findings_written = findings.size();
   if (out) {
     for (const auto& [k, text] : findings) out->stream() << text << "\n";
     out->commit();
   }
-  fuzz::print_report(merged, 1, *table_format_from_string(o.format), std::cerr);
+  if (tracers) fuzz::print_tracer_report(merged_tracers, *table_format_from_string(o.format), std::cerr);
+  else fuzz::print_report(merged, 1, *table_format_from_string(o.format), std::cerr);
   if (summary_out) {
-    summary_out->stream() << merged.to_json().dump(2) << "\n";
+    summary_out->stream() << (tracers ? merged_tracers.to_json() : merged.to_json()).dump(2) << "\n";
     summary_out->commit();
   }
   std::cerr << "rayproof merge: " << o.summaries.size() << " summaries, " << findings.size() << " findings from "

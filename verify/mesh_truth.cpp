@@ -99,6 +99,15 @@ MeshOracle::MeshOracle(std::shared_ptr<const TriangleMesh> mesh) : mesh_(std::mo
 }
 
 ExactParameter MeshOracle::exact_t(const Ray& ray, std::uint32_t triangle) {
+  if (!(ray.origin == cached_ray_.origin && ray.direction == cached_ray_.direction)) {
+    cached_ray_ = ray;
+    exact_cache_.clear();
+  }
+  if (const auto it = exact_cache_.find(triangle); it != exact_cache_.end()) return it->second;
+  return exact_cache_[triangle] = exact_t_uncached(ray, triangle);
+}
+
+ExactParameter MeshOracle::exact_t_uncached(const Ray& ray, std::uint32_t triangle) {
   const Verdict v = with_parameter_.judge(ray, mesh_->triangle(triangle));
   if (!v.exact_t) return ExactParameter{};  // an in-plane contact without t starts at the origin: t = 0
   return *v.exact_t;
@@ -108,6 +117,7 @@ int MeshOracle::compare_t(const Ray& ray, const MeshContact& a, const MeshContac
   // Rounding to nearest is monotone: different rounded values order the exact ones.
   if (a.t != b.t) return a.t < b.t ? -1 : 1;
   if (a.triangle == b.triangle) return 0;
+  if (a.crossing && b.crossing) return compare_crossing_parameters(ray, mesh_->triangle(a.triangle), mesh_->triangle(b.triangle));
   return compare(exact_t(ray, a.triangle), exact_t(ray, b.triangle));
 }
 

@@ -771,8 +771,24 @@ HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
       n ? n->shape : shape);
 }
 
+int compare_crossing_parameters(const Ray& ray, const Triangle& a, const Triangle& b) {
+  // t = num/den per triangle: sign(t_a − t_b) = sign(num_a·den_b − num_b·den_a)·sign(den_a·den_b).
+  auto decide = [&](const auto& ta, const auto& tb) -> std::optional<int> {
+    const auto sa = sign_of(ta.den), sb = sign_of(tb.den), s = sign_of(ta.num * tb.den - tb.num * ta.den);
+    if (!sa || !sb || !s) return std::nullopt;
+    return *s * *sa * *sb;
+  };
+  if (const auto r = decide(TrianglePolicy::terms<Expansion>(ray, a), TrianglePolicy::terms<Expansion>(ray, b))) return *r;
+  return *decide(TrianglePolicy::terms<Exact>(ray, a), TrianglePolicy::terms<Exact>(ray, b));
+}
+
 TriangleSides triangle_sides(const Ray& ray, const Triangle& tri) {
-  // The policy's own terms in rationals: the meaning of an edge fixed once, in TrianglePolicy.
+  // The policy's own terms: the meaning of an edge fixed once, in TrianglePolicy. Exact
+  // expansions first (exact while no product under- or overflows, which they report), else
+  // rationals.
+  const auto e = TrianglePolicy::terms<Expansion>(ray, tri);
+  const auto sd = sign_of(e.den), s0 = sign_of(e.edge[0]), s1 = sign_of(e.edge[1]), s2 = sign_of(e.edge[2]);
+  if (sd && s0 && s1 && s2) return {*sd, {*s0, *s1, *s2}};
   const auto t = TrianglePolicy::terms<Exact>(ray, tri);
   TriangleSides out;
   out.plane = sgn(t.den);

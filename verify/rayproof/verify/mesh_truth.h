@@ -96,6 +96,7 @@ class MeshOracle {
 
  private:
   ExactParameter exact_t(const Ray& ray, std::uint32_t triangle);
+  ExactParameter exact_t_uncached(const Ray& ray, std::uint32_t triangle);
   int compare_t(const Ray& ray, const MeshContact& a, const MeshContact& b);  // sign(t_a − t_b), exact
   void analyse_point(const Ray& ray, CrossingPoint& point, const MeshTruth& truth);
   std::shared_ptr<const TriangleMesh> mesh_;
@@ -107,6 +108,10 @@ class MeshOracle {
   std::vector<std::vector<std::uint32_t>> around_vertex_;
   Oracle oracle_;
   Oracle with_parameter_{{.keep_exact_parameter = true}};
+  // Exact parameters of the ray last asked about, by triangle: a fan's centre puts a dozen
+  // contacts at one rounded t, and sorting them would otherwise rebuild each in rationals.
+  Ray cached_ray_{Vec3::Constant(NAN), Vec3::Constant(NAN)};
+  std::unordered_map<std::uint32_t, ExactParameter> exact_cache_;
 };
 
 }  // namespace rayproof

@@ -75,6 +75,9 @@ struct TriangleSides {
   std::array<int, 3> edge{};
 };
 TriangleSides triangle_sides(const Ray& ray, const Triangle& tri);
+// sign(t_a − t_b) for the parameters where the ray crosses the planes of two triangles (neither
+// parallel to the ray), exactly: expansions first, else rationals.
+int compare_crossing_parameters(const Ray& ray, const Triangle& a, const Triangle& b);
 
 class Oracle {
  public:
