@@ -21,6 +21,21 @@ if [ -f "$build/plugins/weekend_sphere.so" ]; then
     --families tangent,near-origin --count 20000 --max-findings 10 -o "$out/plugin-findings.jsonl" 2>&1 \
     | grep -E "^(family|(tangent|near-origin)(-full)? +weekend)|findings in" || true
 fi
+echo "rayproof fuzz --tracer: whole tracers (BVH, box test, triangle test, precision together) on adversarial"
+echo "meshes, with the one-hit-per-shared-edge rule GPU APIs promise (docs/spec/tracer.md):"
+tracers=bvh-moller-trumbore,bvh-watertight-top-left,cgal-aabb
+"$rp" variants | grep -q '^embree-robust' && tracers+=,embree,embree-robust
+tracer_lib=()
+if [ -f "$build/plugins/naive_float_bvh.so" ]; then
+  tracer_lib=(--tracer "$build/plugins/naive_float_bvh.so")
+  tracers+=,naive-float-bvh,naive-float-bvh-nan,float-bvh-top-left-1e30
+fi
+"$rp" fuzz "${tracer_lib[@]}" --tracers "$tracers" --families shared-edges,fans,needles,spawned --count 2048 \
+  --max-findings 3 -o "$out/tracer-findings.jsonl" --summary "$out/tracer-summary.json" 2>&1 \
+  | grep -E "one hit per|findings in" || true
+echo "... each finding shrunk to a few triangles and replayed by check (its kind again):"
+"$rp" check "$out/tracer-findings.jsonl" "${tracer_lib[@]}" --tracers "$tracers" -o "$out/tracer-check.jsonl" 2>&1 \
+  | grep -E "^tracer|rayproof check" || true
 echo "rayproof audit: which intersector does a scene need? (docs/spec/audit.md)"
 "$rp" audit scenes/audit/edge-grid-tilted.json -o "$out/audit-edge-grid-tilted" 2>&1 | grep -E "^(variant|moller|watertight|recommendation)" || true
 if [ -f "$build/scenes/bunny.json" ]; then

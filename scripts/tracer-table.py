@@ -46,7 +46,8 @@ def main(path, findings=None):
     print("| ns per ray (nearest) | " + " | ".join(f"`{x}`" for x in tracers) + " |")
     print("|---|" + "---:|" * len(tracers))
     for fam in FAMILIES:
-        print(f"| {fam} | " + " | ".join(f"{t[f'{fam}\t{x}']['ns_per_ray']:.0f}" if f"{fam}\t{x}" in t else "-" for x in tracers) + " |")
+        keys = [fam + "\t" + x for x in tracers]
+        print(f"| {fam} | " + " | ".join(f"{t[k]['ns_per_ray']:.0f}" if k in t else "-" for k in keys) + " |")
     secs = sum(s["seconds"].values())
     rays = sum(s["rays"].values())
     print()
