@@ -31,17 +31,8 @@ const BunnyMesh* bunny_mesh() {
     if (!std::filesystem::exists(path)) return nullptr;
     const Scene scene = load_scene(path);
     auto* out = new BunnyMesh{std::make_shared<TriangleMesh>(), {}};
-    for (const SceneObject& o : scene.objects) {
-      if (!o.mesh) continue;
-      std::vector<double> position(3 * o.mesh->vertex_count, 0);
-      for (std::size_t t = 0; t < o.mesh->triangles.size(); ++t)
-        for (int k = 0; k < 3; ++k)
-          for (int c = 0; c < 3; ++c) position[3 * o.mesh->corners[t][k] + c] = o.mesh->triangles[t].v[k][c];
-      const auto base = static_cast<std::uint32_t>(out->mesh->vertex_count());
-      out->mesh->vertices.insert(out->mesh->vertices.end(), position.begin(), position.end());
-      for (const auto& c : o.mesh->corners)
-        for (std::uint32_t v : c) out->mesh->indices.push_back(base + v);
-    }
+    for (const SceneObject& o : scene.objects)
+      if (o.mesh) append_mesh(*out->mesh, triangle_mesh_of(*o.mesh));
     const Camera& cam = scene.camera;
     for (int y = 0; y < cam.height; ++y)
       for (int x = 0; x < cam.width; ++x) out->rays.push_back({cam.ray_through(x + 0.5, y + 0.5), 0, INFINITY});

@@ -2,9 +2,11 @@
 
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <numbers>
 
+#include "rayproof/core/mesh.h"
 #include "rayproof/fuzz/generators.h"
 
 namespace rayproof::fuzz {
@@ -332,7 +334,46 @@ MeshWork shells(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, TracerF
   return w;
 }
 
+// The bundled meshes (the terrain in scenes/audit/, the bunny CGAL's data gives the build), read
+// once; those missing on this machine are left out.
+const std::vector<std::shared_ptr<const TriangleMesh>>& bundled_meshes() {
+  static const std::vector<std::shared_ptr<const TriangleMesh>> all = [] {
+    std::vector<std::shared_ptr<const TriangleMesh>> out;
+    for (const char* path : {RAYPROOF_BUNDLED_TERRAIN, RAYPROOF_BUNDLED_BUNNY}) {
+      if (!std::filesystem::is_regular_file(path)) continue;
+      try {
+        out.push_back(std::make_shared<const TriangleMesh>(triangle_mesh_of(load_mesh(path))));
+      } catch (const std::exception&) {  // unreadable: not bundled here
+      }
+    }
+    return out;
+  }();
+  return all;
+}
+
+// Random rays at a bundled mesh: from outside its box, aimed at points inside it.
+MeshWork random_at_bundled(std::shared_ptr<const TriangleMesh> mesh, std::uint64_t seed, std::uint64_t m,
+                           std::uint64_t rays, TracerFamily f) {
+  Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+  for (std::size_t i = 0; i < mesh->vertex_count(); ++i) lo = lo.cwiseMin(mesh->vertex(i)), hi = hi.cwiseMax(mesh->vertex(i));
+  const Vec3 centre = (lo + hi) / 2, half = (hi - lo) / 2;
+  MeshWork w{std::move(mesh), {}, {}, 0};
+  for (std::uint64_t i = 0; i < rays; ++i) {
+    Rng rr(seed, static_cast<std::uint64_t>(f), m, i);
+    const Vec3 from = centre + 3 * half.norm() * Vec3(rr.unit() - 0.5, rr.unit() - 0.5, rr.unit() - 0.5).normalized();
+    const Vec3 to = centre + Vec3(rr.unit() - 0.5, rr.unit() - 0.5, rr.unit() - 0.5).cwiseProduct(2 * half);
+    Vec3 d = to - from;
+    if (d == Vec3::Zero()) d = Vec3(1, 0, 0);
+    w.rays.push_back({Ray{from, d}, 0, std::numeric_limits<double>::infinity()});
+    w.details.push_back("random at a bundled mesh");
+  }
+  return w;
+}
+
 MeshWork random_rays(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, TracerFamily f) {
+  // Every fourth mesh is a bundled one (where this machine has them), the others UV spheres.
+  const auto& bundled = bundled_meshes();
+  if (m % 4 == 3 && !bundled.empty()) return random_at_bundled(bundled[(m / 4) % bundled.size()], seed, m, rays, f);
   Rng r(seed, static_cast<std::uint64_t>(f), m, ~0ull);
   Builder b;
   // A UV sphere (poles shared by their fans), in double from cos and sin: whatever they round to.

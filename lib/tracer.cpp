@@ -8,10 +8,29 @@
 #include <stdexcept>
 
 #include "rayproof/core/bvh.h"
+#include "rayproof/core/mesh.h"
 
 namespace rayproof {
 
 bool TriangleMesh::degenerate(std::size_t i) const { return degenerate_reason(triangle(i)).has_value(); }
+
+TriangleMesh triangle_mesh_of(const Mesh& m) {
+  TriangleMesh out;
+  out.vertices.assign(3 * m.vertex_count, 0);
+  for (std::size_t t = 0; t < m.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t v = m.corners[t][k];
+      for (int c = 0; c < 3; ++c) out.vertices[3 * v + c] = m.triangles[t].v[k][c];
+      out.indices.push_back(v);
+    }
+  return out;
+}
+
+void append_mesh(TriangleMesh& mesh, const TriangleMesh& more) {
+  const auto base = static_cast<std::uint32_t>(mesh.vertex_count());
+  mesh.vertices.insert(mesh.vertices.end(), more.vertices.begin(), more.vertices.end());
+  for (std::uint32_t i : more.indices) mesh.indices.push_back(base + i);
+}
 
 std::optional<std::string> invalid_mesh_reason(const TriangleMesh& mesh) {
   constexpr std::size_t kMost = 0xfffffffeu;  // RAYPROOF_NO_TRIANGLE is not an index

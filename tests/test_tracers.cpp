@@ -351,14 +351,17 @@ TEST(TracerBadInput, ExecTracersThatMisbehave) {
   const std::string echo_mesh = script("bad_mesh.sh", "read line; echo '{\"error\": \"bad mesh\"}'; cat > /dev/null");
   const std::string wrong_id = script("wrong_id.sh", "read mesh; while read line; do echo '{\"id\": \"nope\", \"triangle\": null}'; done");
   const std::string silent = script("silent.sh", "cat > /dev/null");
+  // Answers the mesh line as if it were a ray: every answer after it is one line late.
+  const std::string answers_mesh = script("answers_mesh.sh", "read mesh; echo '{\"id\": \"mesh\", \"triangle\": null}'; while read line; do echo '{\"id\": \"late\", \"triangle\": null}'; done");
   const auto run = run_cli("fuzz --tracer-exec bad-mesh=\"" + echo_mesh + "\" --tracer-exec wrong-id=\"" + wrong_id +
-                           "\" --tracer-exec silent=\"" + silent + "\" --tracers bvh-watertight --families fans --count 128 "
+                           "\" --tracer-exec silent=\"" + silent + "\" --tracer-exec answers-mesh=\"" + answers_mesh + "\" --tracers bvh-watertight --families fans --count 128 "
                            "--case-timeout 0.5 --threads 1 -o " + dir + "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
   EXPECT_GT(t.at("fans\tbad-mesh").value("tracer_errors", 0), 0);
   EXPECT_EQ(t.at("fans\twrong-id").value("tracer_errors", 0) + t.at("fans\twrong-id").value("crash", 0), 1);
   EXPECT_EQ(t.at("fans\tsilent").value("timeout", 0), 1);
+  EXPECT_EQ(t.at("fans\tanswers-mesh").value("tracer_errors", 0), 1);  // its ids run one behind: a protocol error
   EXPECT_EQ(t.at("fans\tbvh-watertight").at("cases"), 128);
 }
 

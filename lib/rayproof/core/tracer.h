@@ -37,6 +37,14 @@ struct TriangleMesh {
   bool degenerate(std::size_t i) const;
 };
 
+struct Mesh;
+// A scene mesh (core/mesh.h) as the ABI's mesh: its vertices indexed as in its file (shared edges
+// stay shared by index), its placed triangles in order. A file vertex no triangle uses is kept
+// at the position 0.
+TriangleMesh triangle_mesh_of(const Mesh& mesh);
+// `more` appended to `mesh`, its indices shifted past mesh's vertices.
+void append_mesh(TriangleMesh& mesh, const TriangleMesh& more);
+
 // Why a mesh cannot be traced (an index out of range, a NaN or infinite vertex, no triangles,
 // more than 2^32 − 2 of anything), or nullopt. Readers and generators check with this.
 std::optional<std::string> invalid_mesh_reason(const TriangleMesh& mesh);
