@@ -123,7 +123,10 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen) {
   TracerOutcome out;
   BuiltScene built = t.build(*seen.mesh);
   if (!built.scene) {
-    out.kind = built.failure == HitFailure::none ? TraceKind::build_failed : kind_of_failure(built.failure);
+    // A tracer that stopped earlier answers nothing more: no kind of its own to show (shrinking
+    // then keeps the case as found).
+    const bool declined = built.failure == HitFailure::none || built.failure == HitFailure::stopped;
+    out.kind = declined ? TraceKind::build_failed : kind_of_failure(built.failure);
     out.reason = built.reason;
     return out;
   }

@@ -352,9 +352,12 @@ TEST(TracerBadInput, ExecTracersThatMisbehave) {
   const std::string wrong_id = script("wrong_id.sh", "read mesh; while read line; do echo '{\"id\": \"nope\", \"triangle\": null}'; done");
   const std::string silent = script("silent.sh", "cat > /dev/null");
   // Answers the mesh line as if it were a ray: every answer after it is one line late.
+  // An id with a byte that is not UTF-8: the reason written into the findings must still be
+  // valid JSON (it is escaped), and the campaign must finish.
+  const std::string bad_utf8 = script("bad_utf8.sh", "read mesh; while read line; do printf '{\"id\": \"\\377\", \"triangle\": null}\\n'; done");
   const std::string answers_mesh = script("answers_mesh.sh", "read mesh; echo '{\"id\": \"mesh\", \"triangle\": null}'; while read line; do echo '{\"id\": \"late\", \"triangle\": null}'; done");
   const auto run = run_cli("fuzz --tracer-exec bad-mesh=\"" + echo_mesh + "\" --tracer-exec wrong-id=\"" + wrong_id +
-                           "\" --tracer-exec silent=\"" + silent + "\" --tracer-exec answers-mesh=\"" + answers_mesh + "\" --tracers bvh-watertight --families fans --count 128 "
+                           "\" --tracer-exec silent=\"" + silent + "\" --tracer-exec answers-mesh=\"" + answers_mesh + "\" --tracer-exec bad-utf8=\"" + bad_utf8 + "\" --tracers bvh-watertight --families fans --count 128 "
                            "--case-timeout 0.5 --threads 1 -o " + dir + "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
@@ -362,6 +365,12 @@ TEST(TracerBadInput, ExecTracersThatMisbehave) {
   EXPECT_EQ(t.at("fans\twrong-id").value("tracer_errors", 0) + t.at("fans\twrong-id").value("crash", 0), 1);
   EXPECT_EQ(t.at("fans\tsilent").value("timeout", 0), 1);
   EXPECT_EQ(t.at("fans\tanswers-mesh").value("tracer_errors", 0), 1);  // its ids run one behind: a protocol error
+  EXPECT_EQ(t.at("fans\tbad-utf8").value("tracer_errors", 0), 1);
+  bool escaped = false;
+  for (const json& f : read_lines(dir + "/f.jsonl"))  // json::parse refuses invalid UTF-8: each line parsed
+    if (f.at("found").at("tracer") == "bad-utf8")
+      escaped = f.at("found").at("reason").get<std::string>().find("\\xff") != std::string::npos;
+  EXPECT_TRUE(escaped);
   EXPECT_EQ(t.at("fans\tbvh-watertight").at("cases"), 128);
 }
 
