@@ -217,6 +217,9 @@ struct EdgeEvidence {
   bool shared_edge = false;
   Verdict exact;
   std::vector<bool> variant_hit;  // by variant, in the order of `variants`
+  // By variant: the verdict on what it saw where that differs from the case (float variants see
+  // the case rounded to float: a hole is judged on those numbers, as every other answer is).
+  std::vector<std::optional<Verdict>> own;
 };
 
 struct Worker {
@@ -251,6 +254,11 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
   judged.edges.resize(pairs_of_triangles ? b.size() : 0);
   const int threads = static_cast<int>(workers.size());
   const bool external = std::any_of(variants.begin(), variants.end(), [](const Variant* v) { return v->external; });
+  // Queries are kept for every variant not judged case by case in the hot loop below (external
+  // code, float variants: they are given the chunk, rounded where they compute in float).
+  const bool keep_queries = std::any_of(variants.begin(), variants.end(), [](const Variant* v) {
+    return !(v->kernel && v->precision == Precision::f64 && !v->fixed_rule);
+  });
   const std::uint64_t chunk_size = external ? kChunkExternal : kChunkBuiltIn;
   run_workers(threads, [&](int w) {
     Worker& me = workers[w];
@@ -268,13 +276,14 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
       cases.clear(), queries.clear(), exact.clear();
       for (size_t k = 0; k < n; ++k) {
         cases.push_back(generate(b.family, b.shape, o.seed, chunk + k, b.construction));
-        if (external) queries.push_back(cases.back());
+        if (keep_queries) queries.push_back(cases.back());
         exact.push_back(me.oracle.judge(cases.back().ray, cases.back().shape, o.rule));
       }
       first.assign(n, nullptr), failure.assign(n, HitFailure::none);
       for (size_t k = 0; k < n && pairs_of_triangles; ++k) {
         EdgeEvidence& edge = judged.edges[chunk + k - b.start];
         edge.shared_edge = is_shared_edge_pair(cases[k]), edge.exact = exact[k], edge.variant_hit.resize(variants.size());
+        edge.own.assign(variants.size(), std::nullopt);
       }
       for (size_t vi = 0; vi < variants.size(); ++vi) {
         // Built-in double code is judged case by case as it answers (nothing stored: the
@@ -312,7 +321,12 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           const bool finding = r.hit.failed() ? stops_variant(r.hit.failure) || is_plugin_error(r.hit.failure)
                                               : r.agreement != Agreement::agrees;
           if (finding && !first[k]) first[k] = variants[vi], failure[k] = r.hit.failure;
-          if (pairs_of_triangles) judged.edges[chunk + k - b.start].variant_hit[vi] = !r.hit.failed() && r.hit.cls != HitClass::miss;
+          if (pairs_of_triangles) {
+            EdgeEvidence& edge = judged.edges[chunk + k - b.start];
+            edge.variant_hit[vi] = !r.hit.failed() && r.hit.cls != HitClass::miss;
+            if (r.own_exact) edge.own[vi] = Verdict{r.own_exact->cls, r.own_exact->t, std::nullopt, r.own_exact->front};
+            else if (r.hit.failure == HitFailure::not_representable) edge.own[vi] = Verdict{};  // not asked: no hole
+          }
         }
       }
       for (size_t k = 0; k < n; ++k)
@@ -334,10 +348,13 @@ void count_shared_edge_holes(const Batch& b, const Judged& judged, const std::ve
                              CampaignReport& report) {
   for (size_t i = 0; i + 1 < judged.edges.size(); i += 2) {
     const EdgeEvidence &first = judged.edges[i], &second = judged.edges[i + 1];
-    if (!first.shared_edge || !crosses_shared_edge(first.exact, second.exact)) continue;
-    for (size_t vi = 0; vi < variants.size(); ++vi)
-      if (!first.variant_hit[vi] && !second.variant_hit[vi])
+    if (!first.shared_edge) continue;
+    for (size_t vi = 0; vi < variants.size(); ++vi) {
+      const Verdict& a = first.own[vi] ? *first.own[vi] : first.exact;
+      const Verdict& c = second.own[vi] ? *second.own[vi] : second.exact;
+      if (crosses_shared_edge(a, c) && !first.variant_hit[vi] && !second.variant_hit[vi])
         ++report.tallies[{family_label(b.family, b.construction), std::string(variants[vi]->name)}].shared_edge_holes;
+    }
   }
 }
 

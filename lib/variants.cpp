@@ -11,248 +11,265 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 namespace rayproof {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+// Every formula is written once, over the scalar type T it computes in: double for the variants
+// of the case format, float for their NAME-f32 twins (what GPUs and Embree compute in). A float
+// variant is given the case rounded to float (verify/ rounds it; plugin.md), so converting its
+// doubles to float here is exact. Products and sums are written out in a fixed order, as in
+// core/geometry.h, so the double instantiation is the same arithmetic as before.
+template <class T>
+struct V3 {
+  T x, y, z;
+  T operator[](int i) const { return i == 0 ? x : i == 1 ? y : z; }
+};
+template <class T> V3<T> lift(const Vec3& v) { return {static_cast<T>(v.x()), static_cast<T>(v.y()), static_cast<T>(v.z())}; }
+template <class T> V3<T> operator-(const V3<T>& a, const V3<T>& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+template <class T> V3<T> operator*(T k, const V3<T>& a) { return {k * a.x, k * a.y, k * a.z}; }
+template <class T> T dot(const V3<T>& a, const V3<T>& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+template <class T> V3<T> cross(const V3<T>& a, const V3<T>& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+template <class T> struct RayOf {
+  V3<T> o, d;
+  explicit RayOf(const Ray& r) : o(lift<T>(r.origin)), d(lift<T>(r.direction)) {}
+  V3<T> at(T t) const { return {o.x + t * d.x, o.y + t * d.y, o.z + t * d.z}; }
+};
+
+// γ(n) in T's unit roundoff (fp.h's γ for double, checked below; 2^-24 for float).
+template <class T> constexpr T gamma_of(int n) {
+  constexpr T u = std::numeric_limits<T>::epsilon() / 2;
+  return (n * u) / (1 - n * u);
+}
 
 // From the two real roots t0 <= t1 of the sphere's quadratic to a Hit under a rule.
 // `touching` says the variant computed a zero discriminant (it believes the ray is tangent).
-Hit sphere_hit_from_roots(const Ray& ray, const Sphere& s, double t0, double t1, bool touching,
-                          HitRule rule) {
+template <class T>
+Hit sphere_hit_from_roots(const RayOf<T>& ray, const V3<T>& center, T t0, T t1, bool touching, HitRule rule) {
   if (rule == HitRule::enter_only) {
-    // First tutorial: a root counts only where the ray enters, (p − m)·d < 0, evaluated in double.
-    for (double t : {t0, t1}) {
-      if (t > 0 && dot(ray.at(t) - s.center, ray.direction) < 0) return {HitClass::enter, t};
+    // First tutorial: a root counts only where the ray enters, (p − m)·d < 0, evaluated in T.
+    for (T t : {t0, t1}) {
+      if (t > 0 && dot(ray.at(t) - center, ray.d) < 0) return {HitClass::enter, double(t)};
     }
     return Hit::miss();
   }
-  if (touching) return t0 > 0 ? Hit{HitClass::tangent, t0} : Hit::miss();
-  if (t0 > 0) return {HitClass::enter, t0};
-  if (t1 > 0) return {HitClass::exit, t1};
+  if (touching) return t0 > 0 ? Hit{HitClass::tangent, double(t0)} : Hit::miss();
+  if (t0 > 0) return {HitClass::enter, double(t0)};
+  if (t1 > 0) return {HitClass::exit, double(t1)};
   return Hit::miss();
 }
 
 // The sphere's quadratic a t² + b t + c = 0 with a = d·d, b = 2 d·(o−m), c = |o−m|² − r²
 // (Rietmann 2020, Aufgabe 1), shared by the variants that start from it.
-struct Quadratic {
-  double a, b, c;
+template <class T> struct Quadratic {
+  T a, b, c;
 };
-Quadratic sphere_quadratic(const Ray& ray, const Sphere& s) {
-  const Vec3 oc = ray.origin - s.center;
-  return {dot(ray.direction, ray.direction), 2 * dot(ray.direction, oc), dot(oc, oc) - s.radius * s.radius};
+template <class T> Quadratic<T> sphere_quadratic(const RayOf<T>& ray, const V3<T>& m, T r) {
+  const V3<T> oc = ray.o - m;
+  return {dot(ray.d, ray.d), 2 * dot(ray.d, oc), dot(oc, oc) - r * r};
 }
 
 // The stable roots q = −½(b + sgn(b)√D), q/a and c/q with sgn(0) = +1, sorted.
-std::pair<double, double> stable_roots(const Quadratic& k, double disc) {
-  const double root = std::sqrt(disc);
-  const double q = -0.5 * (k.b + (k.b >= 0 ? root : -root));
-  const double x1 = q / k.a;
-  const double x2 = q == 0 ? 0.0 : k.c / q;  // q = 0 only when b = D = 0, hence c = 0: both roots 0
+template <class T> std::pair<T, T> stable_roots(const Quadratic<T>& k, T disc) {
+  const T root = std::sqrt(disc);
+  const T q = T(-0.5) * (k.b + (k.b >= 0 ? root : -root));
+  const T x1 = q / k.a;
+  const T x2 = q == 0 ? T(0) : k.c / q;  // q = 0 only when b = D = 0, hence c = 0: both roots 0
   return {std::min(x1, x2), std::max(x1, x2)};
 }
 
-}  // namespace
-
 // Textbook quadratic formula, t = (−b ± √(b² − 4ac)) / 2a (Rietmann, "Raytracing und
 // Vektorgeometrie", 2020, Aufgabe 1). Cancels catastrophically in −b + √D when b² ≫ 4ac.
-Hit sphere_textbook(const Ray& ray, const Sphere& s, HitRule rule) {
-  const auto [a, b, c] = sphere_quadratic(ray, s);
-  const double disc = b * b - 4 * a * c;
+template <class T> Hit textbook(const Ray& r, const Sphere& s, HitRule rule) {
+  const RayOf<T> ray(r);
+  const V3<T> m = lift<T>(s.center);
+  const auto [a, b, c] = sphere_quadratic(ray, m, T(s.radius));
+  const T disc = b * b - 4 * a * c;
   if (disc < 0) return Hit::miss();
-  const double root = std::sqrt(disc);
-  const double t0 = (-b - root) / (2 * a);
-  const double t1 = (-b + root) / (2 * a);
-  return sphere_hit_from_roots(ray, s, t0, t1, disc == 0, rule);
+  const T root = std::sqrt(disc);
+  const T t0 = (-b - root) / (2 * a);
+  const T t1 = (-b + root) / (2 * a);
+  return sphere_hit_from_roots(ray, m, t0, t1, disc == 0, rule);
 }
 
 // Stable quadratic roots q = −½(b + sgn(b)√D), t1 = q/a, t2 = c/q with sgn(0) = +1
 // (DGL Wiki, "Tutorial Raytracing – Grundlagen I", 2012; Numerical Recipes §5.6).
-Hit sphere_stable(const Ray& ray, const Sphere& s, HitRule rule) {
-  const Quadratic k = sphere_quadratic(ray, s);
-  const double disc = k.b * k.b - 4 * k.a * k.c;
+template <class T> Hit stable(const Ray& r, const Sphere& s, HitRule rule) {
+  const RayOf<T> ray(r);
+  const V3<T> m = lift<T>(s.center);
+  const Quadratic<T> k = sphere_quadratic(ray, m, T(s.radius));
+  const T disc = k.b * k.b - 4 * k.a * k.c;
   if (disc < 0) return Hit::miss();
   const auto [t0, t1] = stable_roots(k, disc);
-  return sphere_hit_from_roots(ray, s, t0, t1, disc == 0, rule);
+  return sphere_hit_from_roots(ray, m, t0, t1, disc == 0, rule);
 }
 
 // As `stable`, but the discriminant b² − 4ac is computed with Kahan's FMA-compensated
 // difference of products (Kahan, "On the Cost of Floating-Point Computation Without
 // Extra-Precise Arithmetic", 2004): D is accurate to a few ulps even when b² ≈ 4ac.
-Hit sphere_stable_fma(const Ray& ray, const Sphere& s, HitRule rule) {
-  const Quadratic k = sphere_quadratic(ray, s);
-  const double four_a = 4 * k.a;
-  const double w = four_a * k.c;
-  const double e = std::fma(-four_a, k.c, w);        // exact error of the product 4a·c
-  const double disc = std::fma(k.b, k.b, -w) + e;    // b² − 4ac with one rounding in b²−w
+template <class T> Hit stable_fma(const Ray& r, const Sphere& s, HitRule rule) {
+  const RayOf<T> ray(r);
+  const V3<T> m = lift<T>(s.center);
+  const Quadratic<T> k = sphere_quadratic(ray, m, T(s.radius));
+  const T four_a = 4 * k.a;
+  const T w = four_a * k.c;
+  const T e = std::fma(-four_a, k.c, w);        // exact error of the product 4a·c
+  const T disc = std::fma(k.b, k.b, -w) + e;    // b² − 4ac with one rounding in b²−w
   if (disc < 0) return Hit::miss();
   const auto [t0, t1] = stable_roots(k, disc);
-  return sphere_hit_from_roots(ray, s, t0, t1, disc == 0, rule);
+  return sphere_hit_from_roots(ray, m, t0, t1, disc == 0, rule);
 }
 
 // Discriminant from the distance of the centre to the ray's line, Δ = r² − |f − (f·d/d·d) d|²
 // with f = o − m, and the stable root choice q = b′ + sgn(b′)√(aΔ), b′ = −f·d, t0 = c/q,
 // t1 = q/a (Haines, Günther, Akenine-Möller, Ray Tracing Gems ch. 7, eqs. 7–10, 2019).
-Hit sphere_hearn_baker(const Ray& ray, const Sphere& s, HitRule rule) {
-  const Vec3 f = ray.origin - s.center;
-  const double a = dot(ray.direction, ray.direction);
-  const double f_dot_d = dot(f, ray.direction);
-  const double b_prime = -f_dot_d;
-  const Vec3 l = f - (f_dot_d / a) * ray.direction;  // f minus its projection on d
-  const double r2 = s.radius * s.radius;
-  const double delta = r2 - dot(l, l);
+template <class T> Hit hearn_baker(const Ray& r, const Sphere& s, HitRule rule) {
+  const RayOf<T> ray(r);
+  const V3<T> m = lift<T>(s.center);
+  const V3<T> f = ray.o - m;
+  const T a = dot(ray.d, ray.d);
+  const T f_dot_d = dot(f, ray.d);
+  const T b_prime = -f_dot_d;
+  const V3<T> l = f - (f_dot_d / a) * ray.d;  // f minus its projection on d
+  const T r2 = T(s.radius) * T(s.radius);
+  const T delta = r2 - dot(l, l);
   if (delta < 0) return Hit::miss();
-  const double c = dot(f, f) - r2;
-  const double root = std::sqrt(a * delta);
-  const double q = b_prime + (b_prime >= 0 ? root : -root);
-  const double t0 = q == 0 ? 0.0 : c / q;
-  const double t1 = q / a;
-  return sphere_hit_from_roots(ray, s, std::min(t0, t1), std::max(t0, t1), delta == 0, rule);
+  const T c = dot(f, f) - r2;
+  const T root = std::sqrt(a * delta);
+  const T q = b_prime + (b_prime >= 0 ? root : -root);
+  const T t0 = q == 0 ? T(0) : c / q;
+  const T t1 = q / a;
+  return sphere_hit_from_roots(ray, m, std::min(t0, t1), std::max(t0, t1), delta == 0, rule);
 }
 
 // Plane in normal form n·x = d: t = (d − n·o) / (n·dir) (DGL Wiki tutorial, "Ebenen").
-Hit plane_direct(const Ray& ray, const Plane& p, HitRule rule) {
-  const double denom = dot(p.normal, ray.direction);
-  const double num = p.offset - dot(p.normal, ray.origin);
+template <class T> Hit direct(const Ray& r, const Plane& p, HitRule rule) {
+  const RayOf<T> ray(r);
+  const V3<T> n = lift<T>(p.normal);
+  const T denom = dot(n, ray.d);
+  const T num = T(p.offset) - dot(n, ray.o);
   if (denom == 0) {
     // Parallel: the ray lies in the plane (tangent, no single t) or never meets it.
     return (num == 0 && rule == HitRule::nearest_contact) ? Hit{HitClass::tangent} : Hit::miss();
   }
-  const double t = num / denom;
+  const T t = num / denom;
   if (!(t > 0)) return Hit::miss();
-  if (denom < 0) return {HitClass::enter, t};  // arrives from the side the normal points to
-  return rule == HitRule::enter_only ? Hit::miss() : Hit{HitClass::exit, t};
+  if (denom < 0) return {HitClass::enter, double(t)};  // arrives from the side the normal points to
+  return rule == HitRule::enter_only ? Hit::miss() : Hit{HitClass::exit, double(t)};
 }
 
-namespace {
 // Shared tail of the triangle variants: the hit is on the front face when `front`,
 // on an edge or vertex when `on_edge`.
-Hit triangle_hit(double t, bool front, bool on_edge, HitRule rule) {
+template <class T> Hit triangle_hit(T t, bool front, bool on_edge, HitRule rule) {
   if (!(t > 0)) return Hit::miss();
   if (!front && rule == HitRule::enter_only) return Hit::miss();
-  if (on_edge) return {HitClass::boundary, t};
-  return {front ? HitClass::enter : HitClass::exit, t};
+  if (on_edge) return {HitClass::boundary, double(t)};
+  return {front ? HitClass::enter : HitClass::exit, double(t)};
 }
-}  // namespace
 
 // Möller & Trumbore, "Fast, Minimum Storage Ray/Triangle Intersection", JGT 1997.
 // det = e1·(d × e2) = −d·n, so det > 0 means the ray meets the front face.
-Hit triangle_moller_trumbore(const Ray& ray, const Triangle& tri, HitRule rule) {
-  const Vec3 e1 = tri.v[1] - tri.v[0];
-  const Vec3 e2 = tri.v[2] - tri.v[0];
-  const Vec3 p = cross(ray.direction, e2);
-  const double det = dot(e1, p);
+template <class T> Hit moller_trumbore(const Ray& r, const Triangle& tri, HitRule rule) {
+  const RayOf<T> ray(r);
+  const V3<T> v0 = lift<T>(tri.v[0]);
+  const V3<T> e1 = lift<T>(tri.v[1]) - v0;
+  const V3<T> e2 = lift<T>(tri.v[2]) - v0;
+  const V3<T> p = cross(ray.d, e2);
+  const T det = dot(e1, p);
   if (det == 0) return Hit::miss();  // parallel: MT cannot tell a coplanar ray
-  const double inv_det = 1 / det;
-  const Vec3 s = ray.origin - tri.v[0];
-  const double u = dot(s, p) * inv_det;
+  const T inv_det = 1 / det;
+  const V3<T> s = ray.o - v0;
+  const T u = dot(s, p) * inv_det;
   if (u < 0 || u > 1) return Hit::miss();
-  const Vec3 q = cross(s, e1);
-  const double v = dot(ray.direction, q) * inv_det;
+  const V3<T> q = cross(s, e1);
+  const T v = dot(ray.d, q) * inv_det;
   if (v < 0 || u + v > 1) return Hit::miss();
-  const double t = dot(e2, q) * inv_det;
+  const T t = dot(e2, q) * inv_det;
   return triangle_hit(t, det > 0, u == 0 || v == 0 || u + v == 1, rule);
 }
 
+// The wider type a zero edge function is recomputed in (Woop et al. §3.3): double for float
+// inputs, long double for double ones. For float inputs the recomputation is exact in sign: the
+// sheared coordinates are floats, a product of two floats (24 + 24 bits) is exact in double's 53,
+// and the difference of two exact products rounds once, which keeps its sign (fl(a − b) = 0 only
+// when a = b). For double inputs long double's 64 bits make it more often right, never certain.
+template <class T> using Wider = std::conditional_t<std::is_same_v<T, float>, double, long double>;
+
 // Woop, Benthin & Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1), 2013: shear the
 // vertices into the ray's frame, then 2D edge functions U, V, W; a zero edge function is
-// recomputed in higher precision (here long double) as the paper does for float.
-Hit triangle_watertight(const Ray& ray, const Triangle& tri, HitRule rule) {
-  const Vec3& d = ray.direction;
+// recomputed in the wider type. With `top_left`, a zero edge function counts as inside only on
+// edges the triangle owns — in the sheared frame, edges pointing up, or right when horizontal
+// (the half-open half-plane rule rasterizers use, D3D's top-left rule in spirit). A shared edge
+// is computed bit-identically, reversed, in both triangles (fl(x − y) = −fl(y − x)), so exactly
+// one owns it; at a closed fan's centre exactly one triangle owns both its edges there: what DXR
+// and Vulkan ray tracing promise, one hit per shared edge and vertex.
+template <class T, bool top_left> Hit watertight(const Ray& r, const Triangle& tri, HitRule rule) {
+  const RayOf<T> ray(r);
+  const V3<T>& d = ray.d;
   int kz = 0;
-  if (std::abs(d.y()) > std::abs(d[kz])) kz = 1;
-  if (std::abs(d.z()) > std::abs(d[kz])) kz = 2;
+  if (std::abs(d.y) > std::abs(d[kz])) kz = 1;
+  if (std::abs(d.z) > std::abs(d[kz])) kz = 2;
   int kx = (kz + 1) % 3;
   int ky = (kx + 1) % 3;
   if (d[kz] < 0) std::swap(kx, ky);  // keep the winding: det > 0 stays the front face
-  const double sx = d[kx] / d[kz];
-  const double sy = d[ky] / d[kz];
-  const double sz = 1.0 / d[kz];
-  const Vec3 a = tri.v[0] - ray.origin;
-  const Vec3 b = tri.v[1] - ray.origin;
-  const Vec3 c = tri.v[2] - ray.origin;
-  const double ax = a[kx] - sx * a[kz], ay = a[ky] - sy * a[kz];
-  const double bx = b[kx] - sx * b[kz], by = b[ky] - sy * b[kz];
-  const double cx = c[kx] - sx * c[kz], cy = c[ky] - sy * c[kz];
-  double u = cx * by - cy * bx;
-  double v = ax * cy - ay * cx;
-  double w = bx * ay - by * ax;
+  const T sx = d[kx] / d[kz];
+  const T sy = d[ky] / d[kz];
+  const T sz = T(1) / d[kz];
+  const V3<T> a = lift<T>(tri.v[0]) - ray.o;
+  const V3<T> b = lift<T>(tri.v[1]) - ray.o;
+  const V3<T> c = lift<T>(tri.v[2]) - ray.o;
+  const T ax = a[kx] - sx * a[kz], ay = a[ky] - sy * a[kz];
+  const T bx = b[kx] - sx * b[kz], by = b[ky] - sy * b[kz];
+  const T cx = c[kx] - sx * c[kz], cy = c[ky] - sy * c[kz];
+  T u = cx * by - cy * bx;
+  T v = ax * cy - ay * cx;
+  T w = bx * ay - by * ax;
   if (u == 0 || v == 0 || w == 0) {
-    using L = long double;
-    u = static_cast<double>(L(cx) * L(by) - L(cy) * L(bx));
-    v = static_cast<double>(L(ax) * L(cy) - L(ay) * L(cx));
-    w = static_cast<double>(L(bx) * L(ay) - L(by) * L(ax));
+    using L = Wider<T>;
+    u = static_cast<T>(L(cx) * L(by) - L(cy) * L(bx));
+    v = static_cast<T>(L(ax) * L(cy) - L(ay) * L(cx));
+    w = static_cast<T>(L(bx) * L(ay) - L(by) * L(ax));
   }
   if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return Hit::miss();
-  const double det = u + v + w;
+  const T det = u + v + w;
   if (det == 0) return Hit::miss();
-  const double t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
+  if constexpr (top_left) {  // u belongs to edge b→c, v to c→a, w to a→b
+    auto owns = [](T ex, T ey) { return ey > 0 || (ey == 0 && ex > 0); };
+    if (u == 0 && !owns(cx - bx, cy - by)) return Hit::miss();
+    if (v == 0 && !owns(ax - cx, ay - cy)) return Hit::miss();
+    if (w == 0 && !owns(bx - ax, by - ay)) return Hit::miss();
+  }
+  const T t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
   return triangle_hit(t_scaled / det, det > 0, u == 0 || v == 0 || w == 0, rule);
 }
 
-// watertight with a tie rule: a zero edge function counts as inside only on edges the triangle
-// owns — in the sheared 2D frame, edges pointing up, or right when horizontal (the half-open
-// half-plane rule rasterizers use, D3D's top-left rule in spirit). A shared edge is computed
-// bit-identically, reversed, in both triangles (fl(x − y) = −fl(y − x)), so exactly one owns it;
-// at a closed fan's centre exactly one triangle owns both its edges there. What DXR and Vulkan
-// ray tracing promise: one hit per shared edge and vertex.
-Hit triangle_watertight_top_left(const Ray& ray, const Triangle& tri, HitRule rule) {
-  const Vec3& d = ray.direction;
-  int kz = 0;
-  if (std::abs(d.y()) > std::abs(d[kz])) kz = 1;
-  if (std::abs(d.z()) > std::abs(d[kz])) kz = 2;
-  int kx = (kz + 1) % 3;
-  int ky = (kx + 1) % 3;
-  if (d[kz] < 0) std::swap(kx, ky);
-  const double sx = d[kx] / d[kz], sy = d[ky] / d[kz], sz = 1.0 / d[kz];
-  const Vec3 a = tri.v[0] - ray.origin, b = tri.v[1] - ray.origin, c = tri.v[2] - ray.origin;
-  const double ax = a[kx] - sx * a[kz], ay = a[ky] - sy * a[kz];
-  const double bx = b[kx] - sx * b[kz], by = b[ky] - sy * b[kz];
-  const double cx = c[kx] - sx * c[kz], cy = c[ky] - sy * c[kz];
-  double u = cx * by - cy * bx, v = ax * cy - ay * cx, w = bx * ay - by * ax;
-  if (u == 0 || v == 0 || w == 0) {
-    using L = long double;
-    u = static_cast<double>(L(cx) * L(by) - L(cy) * L(bx));
-    v = static_cast<double>(L(ax) * L(cy) - L(ay) * L(cx));
-    w = static_cast<double>(L(bx) * L(ay) - L(by) * L(ax));
-  }
-  if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return Hit::miss();
-  const double det = u + v + w;
-  if (det == 0) return Hit::miss();
-  // u belongs to edge b→c, v to c→a, w to a→b.
-  auto owns = [](double ex, double ey) { return ey > 0 || (ey == 0 && ex > 0); };
-  if (u == 0 && !owns(cx - bx, cy - by)) return Hit::miss();
-  if (v == 0 && !owns(ax - cx, ay - cy)) return Hit::miss();
-  if (w == 0 && !owns(bx - ax, by - ay)) return Hit::miss();
-  const double t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
-  return triangle_hit(t_scaled / det, det > 0, u == 0 || v == 0 || w == 0, rule);
-}
-
-namespace {
 // Shared tail of the box variants: the ray's parameter interval inside the closed box.
-Hit box_hit(double t_min, double t_max, HitRule rule) {
+template <class T> Hit box_hit(T t_min, T t_max, HitRule rule) {
   if (!(t_min <= t_max)) return Hit::miss();
   if (t_min > 0) {
-    if (t_min == t_max) return rule == HitRule::enter_only ? Hit::miss() : Hit{HitClass::tangent, t_min};
-    return {HitClass::enter, t_min};
+    if (t_min == t_max) return rule == HitRule::enter_only ? Hit::miss() : Hit{HitClass::tangent, double(t_min)};
+    return {HitClass::enter, double(t_min)};
   }
-  if (t_max > 0 && rule == HitRule::nearest_contact) return {HitClass::exit, t_max};
+  if (t_max > 0 && rule == HitRule::nearest_contact) return {HitClass::exit, double(t_max)};
   return Hit::miss();
 }
-}  // namespace
 
 // Naive slab test as usually written (Kay & Kajiya 1986; Scratchapixel's ray–box lesson):
 // per-axis division by d and plain comparisons, no care for zero or −0.0 components — 0/0 is
 // NaN when the origin lies on a slab plane, and a NaN bound then poisons the interval.
-Hit box_slab(const Ray& ray, const Box& b, HitRule rule) {
-  double t_min = (b.min.x() - ray.origin.x()) / ray.direction.x();
-  double t_max = (b.max.x() - ray.origin.x()) / ray.direction.x();
+template <class T> Hit slab(const Ray& r, const Box& box, HitRule rule) {
+  const RayOf<T> ray(r);
+  const V3<T> lo = lift<T>(box.min), hi = lift<T>(box.max);
+  T t_min = (lo.x - ray.o.x) / ray.d.x;
+  T t_max = (hi.x - ray.o.x) / ray.d.x;
   if (t_min > t_max) std::swap(t_min, t_max);
   for (int i = 1; i < 3; ++i) {
-    double t0 = (b.min[i] - ray.origin[i]) / ray.direction[i];
-    double t1 = (b.max[i] - ray.origin[i]) / ray.direction[i];
+    T t0 = (lo[i] - ray.o[i]) / ray.d[i];
+    T t1 = (hi[i] - ray.o[i]) / ray.d[i];
     if (t0 > t1) std::swap(t0, t1);
     if (t0 > t_max || t_min > t1) return Hit::miss();
     if (t0 > t_min) t_min = t0;
@@ -264,16 +281,19 @@ Hit box_slab(const Ray& ray, const Box& b, HitRule rule) {
 // Williams, Barrus, Morley & Shirley, "An Efficient and Robust Ray–Box Intersection
 // Algorithm", JGT 2005 (inverse direction, near/far bound chosen by the sign bit so −0.0 works),
 // with NaN-safe, boundary-inclusive min/max ordering and the far distance widened by
-// 1 + 2γ(3) (Ize, "Robust BVH Ray Traversal", JCGT 2013).
-Hit box_robust_slab(const Ray& ray, const Box& b, HitRule rule) {
-  double t_min = -kInf, t_max = kInf;
+// 1 + 2γ(3) in T's own unit roundoff (Ize, "Robust BVH Ray Traversal", JCGT 2013).
+template <class T> Hit robust_slab(const Ray& r, const Box& box, HitRule rule) {
+  const RayOf<T> ray(r);
+  const V3<T> lo = lift<T>(box.min), hi = lift<T>(box.max);
+  constexpr T kInf = std::numeric_limits<T>::infinity();
+  T t_min = -kInf, t_max = kInf;
   for (int i = 0; i < 3; ++i) {
-    const double inv = 1 / ray.direction[i];  // ±inf for ±0.0
+    const T inv = T(1) / ray.d[i];  // ±inf for ±0.0
     const bool negative = std::signbit(inv);
-    const double near_plane = negative ? b.max[i] : b.min[i];
-    const double far_plane = negative ? b.min[i] : b.max[i];
-    const double t_near = (near_plane - ray.origin[i]) * inv;
-    const double t_far = (far_plane - ray.origin[i]) * inv * (1 + 2 * gamma(3));
+    const T near_plane = negative ? hi[i] : lo[i];
+    const T far_plane = negative ? lo[i] : hi[i];
+    const T t_near = (near_plane - ray.o[i]) * inv;
+    const T t_far = (far_plane - ray.o[i]) * inv * (1 + 2 * gamma_of<T>(3));
     // Written so that a NaN (0·inf: origin on the slab plane, zero direction) leaves the bound alone.
     t_min = t_near > t_min ? t_near : t_min;
     t_max = t_far < t_max ? t_far : t_max;
@@ -281,7 +301,29 @@ Hit box_robust_slab(const Ray& ray, const Box& b, HitRule rule) {
   return box_hit(t_min, t_max, rule);
 }
 
+static_assert(gamma_of<double>(3) == gamma(3), "one γ(n): fp.h's, for double");
+
+}  // namespace
+
+Hit sphere_textbook(const Ray& ray, const Sphere& s, HitRule rule) { return textbook<double>(ray, s, rule); }
+Hit sphere_stable(const Ray& ray, const Sphere& s, HitRule rule) { return stable<double>(ray, s, rule); }
+Hit sphere_stable_fma(const Ray& ray, const Sphere& s, HitRule rule) { return stable_fma<double>(ray, s, rule); }
+Hit sphere_hearn_baker(const Ray& ray, const Sphere& s, HitRule rule) { return hearn_baker<double>(ray, s, rule); }
+Hit plane_direct(const Ray& ray, const Plane& p, HitRule rule) { return direct<double>(ray, p, rule); }
+Hit triangle_moller_trumbore(const Ray& ray, const Triangle& t, HitRule rule) { return moller_trumbore<double>(ray, t, rule); }
+Hit triangle_watertight(const Ray& ray, const Triangle& t, HitRule rule) { return watertight<double, false>(ray, t, rule); }
+Hit triangle_watertight_top_left(const Ray& ray, const Triangle& t, HitRule rule) {
+  return watertight<double, true>(ray, t, rule);
+}
+Hit box_slab(const Ray& ray, const Box& b, HitRule rule) { return slab<double>(ray, b, rule); }
+Hit box_robust_slab(const Ray& ray, const Box& b, HitRule rule) { return robust_slab<double>(ray, b, rule); }
+
 namespace {
+constexpr Variant f32(Variant v) {
+  v.precision = Precision::f32;
+  return v;
+}
+
 template <class S, Hit (*F)(const Ray&, const S&, HitRule)>
 Hit erase(const Ray& ray, const Shape& shape, HitRule rule) {
   return F(ray, std::get<S>(shape), rule);
@@ -306,6 +348,21 @@ constexpr Variant kVariants[] = {
     {"slab", ShapeKind::box, "naive slab test, Kay & Kajiya 1986", erase<Box, box_slab>},
     {"robust-slab", ShapeKind::box, "Williams et al. 2005 + Ize 2013",
      erase<Box, box_robust_slab>},
+    // The same formulas computed in float (what GPUs and Embree run): given the case rounded to
+    // float and judged on it (verify/compare.cpp), as float plugins are.
+    f32({"textbook-f32", ShapeKind::sphere, "textbook in float", erase<Sphere, textbook<float>>}),
+    f32({"stable-f32", ShapeKind::sphere, "stable in float", erase<Sphere, stable<float>>}),
+    f32({"stable-fma-f32", ShapeKind::sphere, "stable-fma in float (fmaf)", erase<Sphere, stable_fma<float>>}),
+    f32({"hearn-baker-f32", ShapeKind::sphere, "hearn-baker in float", erase<Sphere, hearn_baker<float>>}),
+    f32({"direct-f32", ShapeKind::plane, "direct in float", erase<Plane, direct<float>>}),
+    f32({"moller-trumbore-f32", ShapeKind::triangle, "moller-trumbore in float", erase<Triangle, moller_trumbore<float>>}),
+    f32({"watertight-f32", ShapeKind::triangle, "watertight in float, zero edge functions recomputed in double (exact in sign)",
+         erase<Triangle, watertight<float, false>>}),
+    f32({"watertight-top-left-f32", ShapeKind::triangle, "watertight-top-left in float",
+         erase<Triangle, watertight<float, true>>}),
+    f32({"slab-f32", ShapeKind::box, "slab in float", erase<Box, slab<float>>}),
+    f32({"robust-slab-f32", ShapeKind::box, "robust-slab in float, widened by 1 + 2 gamma(3) of float",
+         erase<Box, robust_slab<float>>}),
 };
 }  // namespace
 

@@ -79,3 +79,64 @@ TEST(Compare, SharedEdgeCrossingRule) {
 
 }  // namespace
 }  // namespace rayproof
+
+namespace rayproof {
+namespace {
+
+// The built-in float variants (NAME-f32) are judged as float plugins are (plugin.md): on the case
+// rounded to float, against the oracle's verdict on those numbers, with the t error in floats;
+// a case that overflows float is not_representable.
+std::vector<const Variant*> float_variants() {
+  std::vector<const Variant*> out;
+  for (const Variant& v : all_variants())
+    if (v.precision == Precision::f32 && v.kernel) out.push_back(&v);
+  return out;
+}
+
+Shape sample_shape(ShapeKind k, double wobble) {
+  switch (k) {
+    case ShapeKind::sphere: return Sphere{Vec3(0.1, -0.2, 0.3 + wobble), 1.1};
+    case ShapeKind::plane: return Plane{Vec3(0.1, 0.2, 1), 0.7 + wobble};
+    case ShapeKind::triangle: return Triangle{{Vec3(-1.1, -0.9, 0.3), Vec3(1.3, -1, 0.1 + wobble), Vec3(0.2, 1.7, -0.1)}};
+    case ShapeKind::box: return Box{Vec3(-0.9, -1.1, -0.7 + wobble), Vec3(1.3, 0.9, 1.1)};
+  }
+  return {};
+}
+
+TEST(FloatVariants, EveryFormulaHasAFloatTwinJudgedOnTheFloatRoundedCase) {
+  const std::vector<const Variant*> floats = float_variants();
+  EXPECT_EQ(floats.size(), 10u);
+  for (const Variant* v : floats) {
+    const std::string name(v->name);
+    ASSERT_TRUE(name.ends_with("-f32")) << name;
+    EXPECT_NE(find_variant(name.substr(0, name.size() - 4)), nullptr) << name;  // its double twin
+    Oracle oracle;
+    int agree = 0, judged = 0;
+    for (int i = 0; i < 200; ++i) {
+      // 0.1, 0.3 + i·1e-9, ... are not floats: the variant sees them rounded.
+      const Query q{Ray{Vec3(0.01 * i - 1, 0.3, 5.1), Vec3(0.001 * i, -0.01, -1)}, sample_shape(v->shape, 1e-9 * i), {}};
+      const Verdict exact = oracle.judge(q.ray, q.shape);
+      const VariantOutcome o = compare_variant(oracle, *v, exact, q, HitRule::nearest_contact);
+      ASSERT_FALSE(o.hit.failed()) << name << " " << i;
+      ASSERT_TRUE(o.own_exact) << name;  // judged on what it saw
+      const Query seen = *rounded_to_float(q);
+      const Verdict truth = oracle.judge(seen.ray, seen.shape);
+      EXPECT_EQ(o.own_exact->cls, truth.cls) << name << " " << i;
+      EXPECT_EQ(o.own_exact->t, truth.t) << name << " " << i;
+      ++judged, agree += o.agreement == Agreement::agrees;
+      if (o.agreement == Agreement::agrees && truth.t && o.hit.has_t()) {
+        ASSERT_TRUE(o.ulp_own) << name;
+        EXPECT_LE(*o.ulp_own, 64u) << name << " " << i;  // a few float ulps on these tame cases
+      }
+    }
+    EXPECT_GE(agree, judged * 9 / 10) << name;
+    // Beyond float's range: not representable, never a wrong answer.
+    const Query huge{Ray{Vec3(1e39, 0, 5), Vec3(0, 0, -1)}, sample_shape(v->shape, 0), {}};
+    EXPECT_EQ(compare_variant(oracle, *v, oracle.judge(huge.ray, huge.shape), huge, HitRule::nearest_contact).hit.failure,
+              HitFailure::not_representable)
+        << name;
+  }
+}
+
+}  // namespace
+}  // namespace rayproof

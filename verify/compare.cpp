@@ -59,7 +59,7 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
     o.variant = &v;
     if (f32 && truth.t && hits[k].has_t())
       o.ulp_own = ulp_distance_f32(static_cast<float>(hits[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
-    o.own_exact = VariantOutcome::OwnVerdict{truth.cls, truth.t};
+    o.own_exact = VariantOutcome::OwnVerdict{truth.cls, truth.t, truth.front};
   }
 }
 

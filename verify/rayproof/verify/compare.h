@@ -44,6 +44,7 @@ struct VariantOutcome {
   struct OwnVerdict {
     HitClass cls;
     std::optional<double> t;
+    bool front = false;  // the contact's side (planes, triangles): shared-edge hole counts need it
   };
   std::optional<OwnVerdict> own_exact;   // (class and t only: outcomes are many, and small)
   std::optional<std::uint64_t> ulp_own;  // f32 code: t's error in floats (fp.h, ulp_distance_f32)
