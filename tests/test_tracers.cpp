@@ -193,7 +193,8 @@ const std::string kExampleTracers = std::string(RAYPROOF_PLUGIN_DIR) + "/naive_f
 
 TEST(TracerCampaign, BuiltInAndPeerTracersOnEveryFamily) {
   const std::string dir = test_dir();
-  const auto run = run_cli("fuzz --tracers all --count 256 --threads 2 -o " + dir + "/f.jsonl --summary " + dir + "/s.json");
+  const auto run = run_cli("fuzz --tracers all --count 256 --threads 2 --max-findings 4 -o " + dir + "/f.jsonl --summary " +
+                           dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json s = json::parse(std::ifstream(dir + "/s.json"));
   std::set<std::string> tracers;
@@ -243,7 +244,7 @@ TEST(TracerCampaign, ExampleTracersBugsAreFoundShrunkAndReplayed) {
   const std::string dir = test_dir();
   const auto run = run_cli("fuzz --tracer " + kExampleTracers +
                            " --tracers naive-float-bvh,naive-float-bvh-nan,float-bvh-careful-slab,float-bvh-top-left,"
-                           "float-bvh-top-left-1e30 --families shared-edges,fans,needles,spawned --count 2048 -o " +
+                           "float-bvh-top-left-1e30 --families shared-edges,fans,needles,spawned --count 2048 --max-findings 5 -o " +
                            dir + "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
@@ -291,7 +292,7 @@ TEST(TracerCampaign, ExecTracerSpeaksTheProtocolInBothModes) {
 TEST(TracerCampaign, ResumesToTheSameReport) {
   const std::string dir = test_dir();
   const std::string common = "fuzz --tracers bvh-watertight,bvh-moller-trumbore --families shared-edges,needles --count 640 "
-                             "--threads 2 ";
+                             "--threads 2 --no-shrink ";
   ASSERT_EQ(run_cli(common + "-o " + dir + "/whole.jsonl --summary " + dir + "/whole.json").status, 0);
   EXPECT_NE(run_cli(common + "-o " + dir + "/cut.jsonl --crash-after-batches 0").status, 0);
   const auto resumed = run_cli(common + "-o " + dir + "/cut.jsonl --resume --summary " + dir + "/cut.json");
@@ -312,7 +313,9 @@ TEST(TracerCampaign, ResumesToTheSameReport) {
 TEST(TracerBadInput, MisbehavingTracersAreCountedOrReportedNeverFatal) {
   const std::string dir = test_dir();
   const auto run = run_cli(std::string("fuzz --tracer ") + MISBEHAVING_TRACER +
-                           " --tracers all --families shared-edges --count 192 --threads 1 --case-timeout 0.5 -o " + dir +
+                           " --tracers bad-build-crash,bad-build-null,bad-nan-t,bad-out-of-range,bad-t-outside,"
+                           "bad-crash-later,bad-hang,bvh-watertight --no-shrink --families shared-edges --count 192 "
+                           "--threads 1 --case-timeout 0.5 -o " + dir +
                            "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
