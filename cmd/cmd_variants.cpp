@@ -19,16 +19,18 @@ void add_variants_command(CLI::App& app, int& exit_code) {
     load_tracers(*tracer_flags, ext->case_timeout);
     const std::vector<ShapeKind> chosen = parse_shapes(*shapes);
     auto listed = [&](ShapeKind k) { return std::find(chosen.begin(), chosen.end(), k) != chosen.end(); };
+    // NAME<TAB>SHAPE<TAB>PRECISION<TAB>SOURCE: double, float, or exact (the oracle's own).
     for (const Variant& v : all_variants()) {
       if (!std::any_of(chosen.begin(), chosen.end(), [&](ShapeKind k) { return v.handles(k); })) continue;
-      std::cout << v.name << "\t" << (v.all_shapes ? "any" : to_string(v.shape)) << "\t" << v.source;
+      std::cout << v.name << "\t" << (v.all_shapes ? "any" : to_string(v.shape)) << "\t"
+                << (v.is_oracle ? "exact" : to_string(v.precision)) << "\t" << v.source;
       if (v.origin != "built-in") std::cout << " [" << v.origin << ", " << to_string(v.precision)
                                             << (v.fixed_rule ? ", " + std::string(to_string(*v.fixed_rule)) : std::string()) << "]";
       std::cout << "\n";
     }
     for (const BatchedVariant& b : batched_variants())
       if (listed(b.shape))
-        std::cout << b.name << "\t" << to_string(b.shape) << "\tstructure-of-arrays form of " << b.scalar
+        std::cout << b.name << "\t" << to_string(b.shape) << "\tdouble\tstructure-of-arrays form of " << b.scalar
                   << ", bit-identical (nearest rule; used by trade and the benchmarks)\n";
     // Whole tracers (tracer.md): NAME, "mesh", PRECISION, SOURCE; listed unless --shapes narrows.
     if (shapes->empty() || split_list(*shapes) == std::vector<std::string>{"all"})

@@ -182,8 +182,10 @@ HoleCount embree_shared_edge_holes(std::uint64_t pairs, std::uint64_t seed, bool
 }
 
 std::vector<studies::Contender> embree_contenders() {
-  return {contender(ShapeKind::triangle, false), contender(ShapeKind::triangle, true),
-          contender(ShapeKind::sphere, false), contender(ShapeKind::sphere, true)};
+  std::vector<studies::Contender> all = {contender(ShapeKind::triangle, false), contender(ShapeKind::triangle, true),
+                                         contender(ShapeKind::sphere, false), contender(ShapeKind::sphere, true)};
+  for (studies::Contender& c : all) c.precision = "float";
+  return all;
 }
 
 }  // namespace rayproof::peers

@@ -33,6 +33,7 @@ std::vector<Contender> variant_contenders() {
                 },
                 {}};
     if (v.precision == Precision::f32) c.effective_input = rounded_to_float;
+    c.precision = v.is_oracle ? "exact" : std::string(to_string(v.precision));
     c.rule = v.rule_for(HitRule::nearest_contact);
     c.users_code = v.external != nullptr;
     out.push_back(std::move(c));
@@ -53,6 +54,9 @@ std::vector<Contender> batched_contenders() {
                                      [hits](size_t i) { return hits->at(i); }};
                    },
                    {}});
+    const Variant* scalar = find_variant(b.scalar);
+    if (scalar && scalar->precision == Precision::f32) out.back().effective_input = rounded_to_float;
+    if (scalar) out.back().precision = std::string(to_string(scalar->precision));
   }
   return out;
 }
@@ -139,6 +143,7 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
         for (size_t i = 0; i < inputs.size(); ++i) hits[i] = prepared.answer(i);
         TradeRow row{c.name, shape, family, time_per_query(c, inputs)};
         row.users_code = c.users_code;
+        row.precision = c.precision;
         row.tally.not_representable = not_representable;
         for (size_t i = 0; i < inputs.size(); ++i) row.tally.add(judge[i].cls, judge_answer(judge[i], hits[i]));
         rows.push_back(std::move(row));
@@ -150,14 +155,14 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
 }
 
 void write_trade_csv(const std::vector<TradeRow>& rows, std::ostream& out) {
-  out << "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max\n";
+  out << "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max,precision\n";
   char buf[64];
   for (const TradeRow& r : rows) {
     std::snprintf(buf, sizeof buf, "%.3f", r.ns_per_test);
     out << r.variant << "," << to_string(r.shape) << "," << to_string(r.family) << "," << r.tally.cases << "," << buf
         << "," << r.tally.disagreements() << ",";
     std::snprintf(buf, sizeof buf, "%.9g", r.tally.disagreement_rate());
-    out << buf << "," << r.tally.ulps.quantile(0.99) << "," << r.tally.ulps.max() << "\n";
+    out << buf << "," << r.t_error().quantile(0.99) << "," << r.t_error().max() << "," << r.precision << "\n";
   }
 }
 
@@ -168,8 +173,9 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
       j.push_back({{"variant", r.variant}, {"shape", std::string(to_string(r.shape))},
                    {"family", std::string(to_string(r.family))}, {"ns_per_test", r.ns_per_test},
                    {"cases", r.tally.cases}, {"disagreements", r.tally.disagreements()},
-                   {"disagreement_rate", r.tally.disagreement_rate()}, {"ulp_p99", r.tally.ulps.quantile(0.99)},
-                   {"ulp_max", r.tally.ulps.max()}, {"bits", bits_json(r.tally)}, {"pareto", r.pareto}});
+                   {"disagreement_rate", r.tally.disagreement_rate()}, {"ulp_p99", r.t_error().quantile(0.99)},
+                   {"ulp_max", r.t_error().max()}, {"bits", bits_json(r.t_error())}, {"pareto", r.pareto},
+                   {"precision", r.precision}});
     out << j.dump(2) << "\n";
     return;
   }
@@ -183,11 +189,11 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
     out << svg::format("%-9s %-12s %-22s %9s %11s %9s %20s %20s  %s\n", "shape", "family", "variant", "ns/test",
                        "disagree", "bits-p99", "ulp-p99", "ulp-max", "pareto");
   for (const TradeRow& r : rows) {
-    const std::string bits = r.tally.ulps.count() ? svg::format("%.1f", bits_of_error(r.tally.ulps.quantile(0.99))) : "-";
+    const std::string bits = r.t_error().count() ? svg::format("%.1f", bits_of_error(r.t_error().quantile(0.99))) : "-";
     out << svg::format(row_format, std::string(to_string(r.shape)).c_str(), std::string(to_string(r.family)).c_str(),
                        r.variant.c_str(), r.ns_per_test, 100 * r.tally.disagreement_rate(), bits.c_str(),
-                       static_cast<unsigned long long>(r.tally.ulps.quantile(0.99)),
-                       static_cast<unsigned long long>(r.tally.ulps.max()), r.pareto ? "★" : "");
+                       static_cast<unsigned long long>(r.t_error().quantile(0.99)),
+                       static_cast<unsigned long long>(r.t_error().max()), r.pareto ? "★" : "");
   }
   out << (md ? "\n" : "") << "Disagreement: the class differs from the exact one; t error (ULPs, bits = log2(ulps + 1)) "
       << "over the cases whose class agrees; ★ Pareto-optimal on its shape and family.\n";
@@ -243,17 +249,25 @@ struct TradeFrame {
 };
 
 // One marker shape per family (six shapes for the six families), filled with the contender's colour.
-std::string trade_marker(double x, double y, size_t family, const std::string& colour) {
+// The family's shape in the contender's colour; float contenders hollow (a white fill inside the
+// colour), exact ones with a black dot in the middle, double ones solid.
+std::string trade_marker(double x, double y, size_t family, const std::string& colour, const std::string& precision) {
   const char* c = colour.c_str();
+  const std::string paint = precision == "float" ? svg::format("fill='#fff' stroke='%s' stroke-width='2'", c)
+                                                 : svg::format("fill='%s'", c);
+  std::string m;
   switch (family % 6) {
-    case 0: return svg::format("<circle cx='%.1f' cy='%.1f' r='5' fill='%s'/>", x, y, c);
-    case 1: return svg::rect(x - 4.5, y - 4.5, 9, 9, colour);
-    case 2: return svg::format("<path d='M%.1f %.1f l5.5 9.5 l-11 0 z' fill='%s'/>", x, y - 6, c);
-    case 3: return svg::format("<path d='M%.1f %.1f l5.5 -9.5 l-11 0 z' fill='%s'/>", x, y + 6, c);
-    case 4: return svg::format("<path d='M%.1f %.1f l6 6 l-6 6 l-6 -6 z' fill='%s'/>", x, y - 6, c);
+    case 0: m = svg::format("<circle cx='%.1f' cy='%.1f' r='5' %s/>", x, y, paint.c_str()); break;
+    case 1: m = svg::format("<rect x='%.1f' y='%.1f' width='9' height='9' %s/>", x - 4.5, y - 4.5, paint.c_str()); break;
+    case 2: m = svg::format("<path d='M%.1f %.1f l5.5 9.5 l-11 0 z' %s/>", x, y - 6, paint.c_str()); break;
+    case 3: m = svg::format("<path d='M%.1f %.1f l5.5 -9.5 l-11 0 z' %s/>", x, y + 6, paint.c_str()); break;
+    case 4: m = svg::format("<path d='M%.1f %.1f l6 6 l-6 6 l-6 -6 z' %s/>", x, y - 6, paint.c_str()); break;
     default:
-      return svg::format("<path d='M%.1f %.1f h10 M%.1f %.1f v10' stroke='%s' stroke-width='3'/>", x - 5, y, x, y - 5, c);
+      m = svg::format("<path d='M%.1f %.1f h10 M%.1f %.1f v10' stroke='%s' stroke-width='%s'/>", x - 5, y, x, y - 5, c,
+                      precision == "float" ? "1.5" : "3");
   }
+  if (precision == "exact") m += svg::format("<circle cx='%.1f' cy='%.1f' r='1.8' fill='#000'/>", x, y);
+  return m;
 }
 
 // A colour per contender, never repeated: Kelly's 22 colours of maximum contrast (white and
@@ -308,7 +322,7 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
       out << "<g><title>"
           << svg::escape(r.variant + (r.users_code ? " (your code)" : "") + " / " + std::string(to_string(r.family)) +
                          svg::format(": %g ns, rate %g", r.ns_per_test, r.tally.disagreement_rate()))
-          << "</title>" << trade_marker(x, y, fi, contender_colour(vi));
+          << "</title>" << trade_marker(x, y, fi, contender_colour(vi), r.precision);
       if (r.users_code)  // the user's own code: ringed (and named in bold in the legend), found at a glance
         out << svg::format("<circle cx='%.1f' cy='%.1f' r='10' fill='none' stroke='#000' stroke-width='2'/>", x, y);
       out << "</g>\n";
@@ -324,7 +338,11 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
     }
     ly += 8;
     for (size_t i = 0; i < families.size(); ++i, ly += 16)
-      out << trade_marker(lx + 26, ly - 4, i, "#444") << svg::text(lx + 38, ly, to_string(families[i])) << "\n";
+      out << trade_marker(lx + 26, ly - 4, i, "#444", "double") << svg::text(lx + 38, ly, to_string(families[i])) << "\n";
+    for (const char* p : {"float (hollow)", "exact (dotted)"}) {  // how precision is drawn, on any family's mark
+      out << trade_marker(lx + 26, ly - 4, 0, "#444", std::string(p).substr(0, 5)) << svg::text(lx + 38, ly, p) << "\n";
+      ly += 16;
+    }
     out << svg::line(lx + 20, ly, lx + 34, ly, "stroke='#888' stroke-width='1.2'") << svg::text(lx + 38, ly + 4, "Pareto front") << "\n";
   }
   svg::end(out);

@@ -365,7 +365,7 @@ TEST(TradeCli, CsvHasExactlyTheSpecifiedColumnsAndTheCertifiedVariantsNeverDisag
             0);
   const auto csv = lines_of(dir + "/trade.csv");
   ASSERT_FALSE(csv.empty());
-  EXPECT_EQ(csv[0], "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max");
+  EXPECT_EQ(csv[0], "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max,precision");
   // Every sphere and box variant (scalar and batched; Embree when built) on both families.
   std::set<std::string> cells, variants;
   for (size_t i = 1; i < csv.size(); ++i) {
@@ -529,7 +529,8 @@ namespace {
 TEST(TradeCli, BatchedRowsEqualTheScalarRows) {
   const std::string dir = rayproof::testing_support::test_dir();
   ASSERT_EQ(run("trade --count 1500 --families random,tangent,grazing --shapes sphere,triangle --variants "
-                "stable,stable-batch,moller-trumbore,moller-trumbore-batch -o '" + dir + "/t.csv'"),
+                "stable,stable-batch,moller-trumbore,moller-trumbore-batch,stable-f32,stable-f32-batch,moller-trumbore-f32,"
+                "moller-trumbore-f32-batch -o '" + dir + "/t.csv'"),
             0);
   std::map<std::string, std::string> judged;  // "variant|shape|family" -> columns 4, 6-9
   std::stringstream csv(read(dir + "/t.csv"));
@@ -539,12 +540,14 @@ TEST(TradeCli, BatchedRowsEqualTheScalarRows) {
     std::vector<std::string> c;
     std::stringstream ss(line);
     for (std::string x; std::getline(ss, x, ',');) c.push_back(x);
-    ASSERT_EQ(c.size(), 9u) << line;
-    judged[c[0] + "|" + c[1] + "|" + c[2]] = c[3] + "," + c[5] + "," + c[6] + "," + c[7] + "," + c[8];
+    ASSERT_EQ(c.size(), 10u) << line;
+    judged[c[0] + "|" + c[1] + "|" + c[2]] = c[3] + "," + c[5] + "," + c[6] + "," + c[7] + "," + c[8] + "," + c[9];
   }
   for (const char* family : {"random", "tangent", "grazing"}) {
     for (auto [scalar, batch, shape] : {std::tuple{"stable", "stable-batch", "sphere"},
-                                        std::tuple{"moller-trumbore", "moller-trumbore-batch", "triangle"}}) {
+                                        std::tuple{"moller-trumbore", "moller-trumbore-batch", "triangle"},
+                                        std::tuple{"stable-f32", "stable-f32-batch", "sphere"},
+                                        std::tuple{"moller-trumbore-f32", "moller-trumbore-f32-batch", "triangle"}}) {
       const std::string a = std::string(scalar) + "|" + shape + "|" + family, b = std::string(batch) + "|" + shape + "|" + family;
       ASSERT_TRUE(judged.count(a) && judged.count(b)) << a;
       EXPECT_EQ(judged[a], judged[b]) << a;

@@ -54,7 +54,7 @@ const std::string kPlugin = std::string(" --plugin ") + MISBEHAVING_PLUGIN + " "
 TEST(Plugins, ListedWithTheirSourcePrecisionAndRule) {
   const CliRun r = run("variants --shapes sphere" + kPlugin);
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.out.find("test-float\tsphere\ttests: the textbook quadratic in float ["), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("test-float\tsphere\tfloat\ttests: the textbook quadratic in float ["), std::string::npos) << r.out;
   EXPECT_NE(r.out.find(", float, nearest]"), std::string::npos);
   EXPECT_NE(r.out.find("test-crashing\tsphere"), std::string::npos);
 }

@@ -394,3 +394,64 @@ TEST(Batched, SphereStableBatchMatchesTheScalarVariantOnOverflowAndNaN) {
 
 }  // namespace
 }  // namespace rayproof
+
+namespace rayproof {
+namespace {
+
+// The float batches against their scalar float twins, on the case rounded to float (what both
+// are given), every instruction set this CPU runs: ordinary cases, exact edges and tangents,
+// magnitudes that overflow float products (inf, NaN), subnormal inputs and ±0 directions.
+std::vector<std::pair<Ray, Shape>> float_batch_cases(ShapeKind kind) {
+  std::mt19937_64 rng(kind == ShapeKind::sphere ? 7 : 8);
+  std::uniform_real_distribution<double> u(-2, 2);
+  std::uniform_int_distribution<int> small(-3, 3), e(-30, 30);
+  std::vector<std::pair<Ray, Shape>> out;
+  for (int i = 0; i < 20000; ++i) {
+    Ray r{Vec3(u(rng), u(rng), 3), Vec3(u(rng) * 0.3, u(rng) * 0.3, -1)};
+    Shape s = kind == ShapeKind::sphere ? Shape(Sphere{Vec3(u(rng), u(rng), u(rng)), std::abs(u(rng)) + 0.1})
+                                        : Shape(Triangle{{Vec3(-1, -1, u(rng)), Vec3(1, -1, u(rng)), Vec3(u(rng), 1, u(rng))}});
+    if (i % 4 == 0) {  // small integers and halves: exact edges, vertices, tangents, zero discriminants
+      r = Ray{Vec3(small(rng) * 0.5, small(rng) * 0.5, small(rng)), Vec3(0, small(rng) == 0 ? -0.0 : 0, -1)};
+      s = kind == ShapeKind::sphere ? Shape(Sphere{Vec3(small(rng), small(rng), small(rng) - 4), double(1 + std::abs(small(rng)))})
+                                    : Shape(Triangle{{Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0)}});
+    }
+    if (i % 5 == 1) r.origin *= std::ldexp(1.0, 4 * e(rng)), r.direction *= std::ldexp(1.0, 4 * e(rng));  // overflow, underflow
+    if (i % 97 == 2) r.direction = Vec3(0x1p-140, -0x1p-145, 0x1p-130);  // float subnormals
+    // Keep only what float can hold: the scalar twin is judged on rounded cases only.
+    if (const auto q = rounded_to_float(Query{r, s, {}})) out.push_back({q->ray, q->shape});
+  }
+  return out;
+}
+
+TEST(Batched, FloatBatchesAreBitIdenticalToTheirScalarFloatTwins) {
+  for (ShapeKind kind : {ShapeKind::sphere, ShapeKind::triangle}) {
+    const auto cases = float_batch_cases(kind);
+    ASSERT_GT(cases.size(), 15000u);
+    RaysSoAF rays;
+    SpheresSoAF spheres;
+    TrianglesSoAF tris;
+    for (const auto& [r, s] : cases) {
+      rays.push(r);
+      if (kind == ShapeKind::sphere) spheres.push(std::get<Sphere>(s));
+      else tris.push(std::get<Triangle>(s));
+    }
+    const Variant& scalar = *find_variant(kind == ShapeKind::sphere ? "stable-f32" : "moller-trumbore-f32");
+    for (BatchIsa isa : every_isa_or_skip()) {
+      HitsSoAF out;
+      if (kind == ShapeKind::sphere) sphere_stable_f32_batch(rays, spheres, out, isa);
+      else triangle_moller_trumbore_f32_batch(rays, tris, out, isa);
+      int hits = 0;
+      for (size_t i = 0; i < cases.size(); ++i) {
+        const Hit h = scalar.intersect(cases[i].first, cases[i].second, HitRule::nearest_contact);
+        ASSERT_EQ(out.at(i).cls, h.cls) << to_string(kind) << " " << i << " isa " << int(isa);
+        ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t)))
+            << to_string(kind) << " " << i << " isa " << int(isa);
+        hits += h.cls != HitClass::miss;
+      }
+      EXPECT_GT(hits, 1000) << to_string(kind);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace rayproof
