@@ -145,7 +145,12 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
         row.users_code = c.users_code;
         row.precision = c.precision;
         row.tally.not_representable = not_representable;
-        for (size_t i = 0; i < inputs.size(); ++i) row.tally.add(judge[i].cls, judge_answer(judge[i], hits[i]));
+        for (size_t i = 0; i < inputs.size(); ++i) {
+          VariantOutcome o = judge_answer(judge[i], hits[i]);
+          if (c.precision == "float" && judge[i].t && hits[i].has_t() && o.agreement == Agreement::agrees)
+            o.ulp_own = ulp_distance_f32(static_cast<float>(hits[i].t), exact_t_as_float(inputs[i], c.rule, *judge[i].t));
+          row.tally.add(judge[i].cls, o);
+        }
         rows.push_back(std::move(row));
       }
     }
@@ -196,7 +201,8 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
                        static_cast<unsigned long long>(r.t_error().max()), r.pareto ? "★" : "");
   }
   out << (md ? "\n" : "") << "Disagreement: the class differs from the exact one; t error (ULPs, bits = log2(ulps + 1)) "
-      << "over the cases whose class agrees; ★ Pareto-optimal on its shape and family.\n";
+      << "over the cases whose class agrees, in the contender's own precision (float code: float ulps against the exact t "
+      << "rounded to float); ★ Pareto-optimal on its shape and family.\n";
 }
 
 namespace {

@@ -5,7 +5,6 @@
 
 namespace rayproof {
 
-namespace {
 // The exact t rounded to the nearest float (ties to even), from its correctly rounded double d.
 // fl32(d) = fl32(t) unless d is itself a float midpoint: a midpoint m strictly between t and d
 // would be a double nearer t than d. Only then is t's side of m decided exactly, in rationals.
@@ -23,7 +22,6 @@ float exact_t_as_float(const Query& q, HitRule rule, double d) {
   std::memcpy(&bits, &lower, sizeof bits);
   return bits % 2 == 0 ? lower : upper;  // ties to even
 }
-}  // namespace
 
 void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs, std::span<const Verdict> exact,
                        HitRule rule, std::vector<VariantOutcome>& out) {

@@ -5,6 +5,7 @@
 #include <set>
 
 #include "rayproof/core/json_fields.h"
+#include "rayproof/verify/compare.h"
 
 namespace rayproof {
 
@@ -265,11 +266,11 @@ MeshTruth MeshOracle::truth(const TracerRay& r, bool complete) {
 }
 
 namespace {
-// t's error in the tracer's precision: double, or floats (the exact t rounded to double, then to
-// float: a double rounding, off by one float ulp only when the double lands on a float midpoint).
-std::optional<std::uint64_t> t_error(double reported, double exact_rounded, Precision p) {
+// t's error in the tracer's precision: doubles, or floats against the exact t correctly rounded
+// to float (verify/compare.h).
+std::optional<std::uint64_t> t_error(double reported, double exact_rounded, Precision p, const Query& q) {
   if (p == Precision::f64) return ulp_distance(reported, exact_rounded);
-  return ulp_distance_f32(static_cast<float>(reported), static_cast<float>(exact_rounded));
+  return ulp_distance_f32(static_cast<float>(reported), exact_t_as_float(q, HitRule::nearest_contact, exact_rounded));
 }
 }  // namespace
 
@@ -314,7 +315,7 @@ TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& tr
     return done(before ? TraceKind::right : TraceKind::not_nearest);
   }
   if (req && compare_t(r.ray, *c, *truth.contact_of(req->triangles.front())) > 0) return done(TraceKind::not_nearest);
-  j.ulp = t_error(a.t, c->t, p);
+  j.ulp = t_error(a.t, c->t, p, Query{r.ray, mesh_->triangle(a.triangle), {}});
   return done(TraceKind::right);
 }
 

@@ -70,6 +70,11 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
 // The same for one query.
 VariantOutcome compare_variant(Oracle& oracle, const Variant& v, const Verdict& exact, const Query& q, HitRule rule);
 
+// The exact t of the query's contact correctly rounded to float, from `d`, that t correctly rounded
+// to double (the oracle's Verdict::t): fl32(d) unless d is a float midpoint, decided then in
+// rationals. Float code's t error is measured against this (ulp_distance_f32).
+float exact_t_as_float(const Query& q, HitRule rule, double d);
+
 // One result line: {"id", "exact": {"class", "t"}, "variants": {name: {"class", "t", "ulp", "agrees"}}}.
 // An f32 variant's entry adds its own "exact" and "ulp_own"; a case it could not be given is
 // {"skipped": "not_representable"}; an answer it failed to give is {"error": why} (plugin.md).
