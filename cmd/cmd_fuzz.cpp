@@ -1,6 +1,7 @@
 // rayproof fuzz: every variant against the oracle on generated families; findings replayable.
 #include <algorithm>
 #include <iomanip>
+#include <limits>
 #include <cstdlib>
 #include <memory>
 #include <iostream>
@@ -55,7 +56,8 @@ struct FuzzOptions {
   TracerFlags tracers;
   std::vector<std::string> families{"all"}, shapes{"all"}, variants;
   std::string shard = "0/1", output, rule = "nearest", summary, format = "table", spawn_csv, construction = "both";
-  std::uint64_t count = 100000, seed = 1, max_findings = 0, batch = 8192;  // max_findings 0: the mode's default
+  static constexpr std::uint64_t kModeDefault = std::numeric_limits<std::uint64_t>::max();
+  std::uint64_t count = 100000, seed = 1, max_findings = kModeDefault, batch = 8192;  // findings: 1000 (variants) or 20 (tracers)
   int threads = 0;
   bool resume = false, no_shrink = false, keep_checkpoint = false;
   long crash_after = -1;
@@ -69,7 +71,7 @@ fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
   o.shapes = parse_shapes(opts.shapes);
   if (!opts.variants.empty()) o.variants = parse_variants(opts.variants, o.shapes);
   std::tie(o.shard, o.shards) = parse_shard(opts.shard);
-  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings ? opts.max_findings : 1000, o.batch = opts.batch;
+  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings == FuzzOptions::kModeDefault ? 1000 : opts.max_findings, o.batch = opts.batch;
   o.threads = thread_count(opts.threads);
   o.rule = parse_rule(opts.rule);
   o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
@@ -83,7 +85,7 @@ void run_tracer_fuzz(const FuzzOptions& opts) {
   o.families = parse_tracer_families(opts.families);
   o.tracers = parse_tracers(opts.tracers.names);
   std::tie(o.shard, o.shards) = parse_shard(opts.shard);
-  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings ? opts.max_findings : 20;
+  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings == FuzzOptions::kModeDefault ? 20 : opts.max_findings;
   o.threads = thread_count(opts.threads);
   o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
   o.crash_after_batches = opts.crash_after;
