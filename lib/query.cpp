@@ -1,5 +1,7 @@
 #include "rayproof/core/query.h"
 
+#include "rayproof/core/fp.h"
+
 #include <cmath>
 
 namespace rayproof {
@@ -9,8 +11,9 @@ namespace {
 // FLT_MAX + ½ulp = 0x1.ffffffp+127 on, round-to-nearest overflows. (Converting an out-of-range
 // double to float is undefined in C++, hence the test before the cast.)
 std::optional<double> to_float(double x) {
-  if (!(std::fabs(x) < 0x1.ffffffp+127)) return std::nullopt;
-  return static_cast<double>(static_cast<float>(x));
+  const float f = to_nearest_float(x);
+  if (std::isinf(f)) return std::nullopt;
+  return static_cast<double>(f);
 }
 }  // namespace
 

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "rayproof/core/bvh.h"
+#include "rayproof/core/fp.h"
 #include "rayproof/core/mesh.h"
 
 namespace rayproof {
@@ -60,7 +61,7 @@ std::optional<std::string> invalid_ray_reason(const TracerRay& r) {
 namespace {
 std::optional<double> to_float(double x) {
   if (std::isinf(x)) return x;
-  const float f = static_cast<float>(x);
+  const float f = to_nearest_float(x);
   if (std::isinf(f)) return std::nullopt;
   return static_cast<double>(f);
 }

@@ -27,7 +27,12 @@ struct V3 {
   T x, y, z;
   T operator[](int i) const { return i == 0 ? x : i == 1 ? y : z; }
 };
-template <class T> V3<T> lift(const Vec3& v) { return {static_cast<T>(v.x()), static_cast<T>(v.y()), static_cast<T>(v.z())}; }
+// A double as T: itself, or rounded to the nearest float (±inf beyond float's range, fp.h).
+template <class T> T as(double x) {
+  if constexpr (std::is_same_v<T, float>) return to_nearest_float(x);
+  else return x;
+}
+template <class T> V3<T> lift(const Vec3& v) { return {as<T>(v.x()), as<T>(v.y()), as<T>(v.z())}; }
 template <class T> V3<T> operator-(const V3<T>& a, const V3<T>& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 template <class T> V3<T> operator*(T k, const V3<T>& a) { return {k * a.x, k * a.y, k * a.z}; }
 template <class T> T dot(const V3<T>& a, const V3<T>& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
@@ -87,7 +92,7 @@ template <class T> std::pair<T, T> stable_roots(const Quadratic<T>& k, T disc) {
 template <class T> Hit textbook(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
-  const auto [a, b, c] = sphere_quadratic(ray, m, T(s.radius));
+  const auto [a, b, c] = sphere_quadratic(ray, m, as<T>(s.radius));
   const T disc = b * b - 4 * a * c;
   if (disc < 0) return Hit::miss();
   const T root = std::sqrt(disc);
@@ -101,7 +106,7 @@ template <class T> Hit textbook(const Ray& r, const Sphere& s, HitRule rule) {
 template <class T> Hit stable(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
-  const Quadratic<T> k = sphere_quadratic(ray, m, T(s.radius));
+  const Quadratic<T> k = sphere_quadratic(ray, m, as<T>(s.radius));
   const T disc = k.b * k.b - 4 * k.a * k.c;
   if (disc < 0) return Hit::miss();
   const auto [t0, t1] = stable_roots(k, disc);
@@ -114,7 +119,7 @@ template <class T> Hit stable(const Ray& r, const Sphere& s, HitRule rule) {
 template <class T> Hit stable_fma(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
-  const Quadratic<T> k = sphere_quadratic(ray, m, T(s.radius));
+  const Quadratic<T> k = sphere_quadratic(ray, m, as<T>(s.radius));
   const T four_a = 4 * k.a;
   const T w = four_a * k.c;
   const T e = std::fma(-four_a, k.c, w);        // exact error of the product 4a·c
@@ -135,7 +140,7 @@ template <class T> Hit hearn_baker(const Ray& r, const Sphere& s, HitRule rule) 
   const T f_dot_d = dot(f, ray.d);
   const T b_prime = -f_dot_d;
   const V3<T> l = f - (f_dot_d / a) * ray.d;  // f minus its projection on d
-  const T r2 = T(s.radius) * T(s.radius);
+  const T r2 = as<T>(s.radius) * as<T>(s.radius);
   const T delta = r2 - dot(l, l);
   if (delta < 0) return Hit::miss();
   const T c = dot(f, f) - r2;
@@ -151,7 +156,7 @@ template <class T> Hit direct(const Ray& r, const Plane& p, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> n = lift<T>(p.normal);
   const T denom = dot(n, ray.d);
-  const T num = T(p.offset) - dot(n, ray.o);
+  const T num = as<T>(p.offset) - dot(n, ray.o);
   if (denom == 0) {
     // Parallel: the ray lies in the plane (tangent, no single t) or never meets it.
     return (num == 0 && rule == HitRule::nearest_contact) ? Hit{HitClass::tangent} : Hit::miss();

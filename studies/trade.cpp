@@ -148,7 +148,7 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
         for (size_t i = 0; i < inputs.size(); ++i) {
           VariantOutcome o = judge_answer(judge[i], hits[i]);
           if (c.precision == "float" && judge[i].t && hits[i].has_t() && o.agreement == Agreement::agrees)
-            o.ulp_own = ulp_distance_f32(static_cast<float>(hits[i].t), exact_t_as_float(inputs[i], c.rule, *judge[i].t));
+            o.ulp_own = ulp_distance_f32(to_nearest_float(hits[i].t), exact_t_as_float(inputs[i], c.rule, *judge[i].t));
           row.tally.add(judge[i].cls, o);
         }
         rows.push_back(std::move(row));

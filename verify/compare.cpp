@@ -9,7 +9,8 @@ namespace rayproof {
 // fl32(d) = fl32(t) unless d is itself a float midpoint: a midpoint m strictly between t and d
 // would be a double nearer t than d. Only then is t's side of m decided exactly, in rationals.
 float exact_t_as_float(const Query& q, HitRule rule, double d) {
-  const float f = static_cast<float>(d);
+  const float f = to_nearest_float(d);
+  if (std::isinf(f)) return f;  // beyond float's range either way
   const double below = std::nextafter(f, -INFINITY), above = std::nextafter(f, INFINITY);
   const double m = d < f ? (f + below) / 2 : (f + above) / 2;  // exact: floats have 24 bits, doubles 53
   if (d != m) return f;
@@ -56,7 +57,7 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
     o = judge_answer(truth, hits[k]);
     o.variant = &v;
     if (f32 && truth.t && hits[k].has_t())
-      o.ulp_own = ulp_distance_f32(static_cast<float>(hits[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
+      o.ulp_own = ulp_distance_f32(to_nearest_float(hits[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
     o.own_exact = VariantOutcome::OwnVerdict{truth.cls, truth.t, truth.front};
   }
 }

@@ -270,7 +270,7 @@ namespace {
 // to float (verify/compare.h).
 std::optional<std::uint64_t> t_error(double reported, double exact_rounded, Precision p, const Query& q) {
   if (p == Precision::f64) return ulp_distance(reported, exact_rounded);
-  return ulp_distance_f32(static_cast<float>(reported), exact_t_as_float(q, HitRule::nearest_contact, exact_rounded));
+  return ulp_distance_f32(to_nearest_float(reported), exact_t_as_float(q, HitRule::nearest_contact, exact_rounded));
 }
 }  // namespace
 

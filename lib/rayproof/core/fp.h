@@ -53,6 +53,15 @@ inline std::optional<std::uint64_t> ulp_distance_f32(float a, float b) {
   return std::uint64_t(ia > ib ? ia - ib : ib - ia);
 }
 
+// x rounded to the nearest float (ties to even): ±inf from FLT_MAX + ½ulp = 0x1.ffffffp+127 on,
+// where round-to-nearest overflows, NaN for NaN. The one double-to-float conversion of rayproof:
+// casting an out-of-range double to float is undefined in C++, so the test comes first.
+inline float to_nearest_float(double x) {
+  if (std::isnan(x)) return std::numeric_limits<float>::quiet_NaN();
+  if (!(std::fabs(x) < 0x1.ffffffp+127)) return x > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
+  return static_cast<float>(x);
+}
+
 // x moved by `ulps` representable doubles (negative: downwards).
 inline double nudge(double x, int ulps) {
   for (; ulps > 0; --ulps) x = std::nextafter(x, INFINITY);
