@@ -116,7 +116,8 @@ Vec3 shade(const SceneIndex& index, const Intersectors& isect, const Ray& ray) {
   if (scene.shading == Shading::diffuse) {
     Vec3 n = outward_normal(index.primitive(sh.primitive).shape, p);
     if (dot(n, ray.direction) > 0) n = -n;  // the side the ray arrived from
-    const Vec3 start = offset_by_error_bound(ray, sh.hit.t, p, n);
+    const Variant* drew = isect.by_shape[static_cast<int>(kind_of(index.primitive(sh.primitive).shape))];
+    const Vec3 start = spawn_origin(ray, sh.hit.t, p, n, drew ? drew->precision : Precision::f64);
     for (const PointLight& light : scene.lights) {
       const double c = diffuse_cosine(p, n, light);
       terms.push_back(c > 0 && !in_shadow(index, isect, sh.primitive, start, light.position) ? c : 0);

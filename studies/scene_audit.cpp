@@ -429,7 +429,10 @@ class Auditor {
       // point rounded, as in the exact render, where another kind is visible.
       const Vec3 p = visible_is_variant ? ray.at(visible.hit.t) : tracer.hit_point(ray, others);
       const Vec3 n = facing_normal(prim.shape, p, ray);
-      const Vec3 start = visible_is_variant ? offset_by_error_bound(ray, visible.hit.t, p, n) : p;
+      // The contender's own spawn: pbrt's error bound for double code, Wächter & Binder's float
+      // offset from the float hit point for float code (core/offset.h).
+      const Precision own = c.tracer ? c.tracer->precision : c.variant->precision;
+      const Vec3 start = visible_is_variant ? spawn_origin(ray, visible.hit.t, p, n, own) : p;
       std::vector<double> cosines(scene_.lights.size(), 0);
       std::uint64_t lit = 0;
       if (scene_.shading == Shading::diffuse) {

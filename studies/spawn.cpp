@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <ostream>
 
+#include "rayproof/core/fp.h"
 #include "rayproof/core/offset.h"
 #include "rayproof/core/parallel.h"
 #include "rayproof/fuzz/generators.h"
@@ -21,6 +22,7 @@ std::string_view to_string(SpawnStrategy s) {
     case SpawnStrategy::epsilon: return "epsilon";
     case SpawnStrategy::ulp_offset: return "ulp-offset";
     case SpawnStrategy::error_bound: return "error-bound";
+    case SpawnStrategy::ulp_offset_f32: return "ulp-offset-f32";
   }
   return "?";
 }
@@ -38,6 +40,7 @@ SpawnedRay spawn(SpawnStrategy s, const Ray& primary, double t, const Vec3& n, c
     case SpawnStrategy::epsilon: return {Ray{p, direction}, 1e-3};  // the hobby tracer's fixed t_min
     case SpawnStrategy::ulp_offset: return {Ray{offset_by_ulps(p, n), direction}, 0};
     case SpawnStrategy::error_bound: return {Ray{offset_by_error_bound(primary, t, p, n), direction}, 0};
+    case SpawnStrategy::ulp_offset_f32: return {Ray{spawn_origin(primary, t, p, n, Precision::f32), direction}, 0};
   }
   return {Ray{p, direction}, 0};
 }
@@ -114,7 +117,7 @@ void print_spawn_table(const std::vector<SpawnCell>& cells, std::ostream& out) {
     if (std::find(scales.begin(), scales.end(), c.log2_scale) == scales.end()) scales.push_back(c.log2_scale);
   out << "self-intersection rate (%) of rays spawned from each variant's own hit point, by scale 2^k\n";
   char buf[64];
-  std::snprintf(buf, sizeof buf, "%-17s%-13s", "variant", "strategy");
+  std::snprintf(buf, sizeof buf, "%-25s%-16s", "variant", "strategy");
   out << buf;
   for (int k : scales) {
     std::snprintf(buf, sizeof buf, "%8s", ("2^" + std::to_string(k)).c_str());
@@ -122,7 +125,7 @@ void print_spawn_table(const std::vector<SpawnCell>& cells, std::ostream& out) {
   }
   out << "\n";
   for (size_t i = 0; i < cells.size(); i += scales.size()) {
-    std::snprintf(buf, sizeof buf, "%-17s%-13s", std::string(cells[i].variant->name).c_str(),
+    std::snprintf(buf, sizeof buf, "%-25s%-16s", std::string(cells[i].variant->name).c_str(),
                   std::string(to_string(cells[i].strategy)).c_str());
     out << buf;
     for (size_t j = 0; j < scales.size() && i + j < cells.size(); ++j) {

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "rayproof/core/geometry.h"
+#include "rayproof/core/variants.h"
 
 namespace rayproof {
 
@@ -18,5 +19,17 @@ Vec3 offset_by_error_bound(const Ray& primary, double t, const Vec3& p, const Ve
 // near zero where ulps vanish. The chapter's constants, its float scale moved from float's 24-bit
 // to double's 53-bit significand.
 Vec3 offset_by_ulps(const Vec3& p, const Vec3& n);
+
+// The same chapter as written, in float: p and n rounded to float, each coordinate moved
+// int_scale = 256 float ulps along n, or by n/65536 within 1/32 of zero (the chapter's
+// constants). What a float renderer (a GPU's, Embree's) spawns with.
+Vec3 offset_by_ulps_f32(const Vec3& p, const Vec3& n);
+
+// Where a renderer computing in `precision` starts a secondary ray from the hit at t of
+// `primary` (p = primary.at(t) in double, n facing the side the new ray leaves by): double code
+// by pbrt's error bound, float code from the hit point computed in float (o + t·d, every number
+// rounded to float) moved by Wächter & Binder's float offset. The renderer's shadow rays, the
+// audit's and the spawn study's ulp-offset-f32 strategy all start here.
+Vec3 spawn_origin(const Ray& primary, double t, const Vec3& p, const Vec3& n, Precision precision);
 
 }  // namespace rayproof

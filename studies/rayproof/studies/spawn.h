@@ -14,9 +14,12 @@
 
 namespace rayproof::studies {
 
-enum class SpawnStrategy { none, epsilon, ulp_offset, error_bound };
+// ulp_offset_f32: the hit point computed in float (o + t·d, each rounded to float) and moved by
+// Wächter & Binder's float offset, as a float renderer spawns.
+enum class SpawnStrategy { none, epsilon, ulp_offset, error_bound, ulp_offset_f32 };
 inline constexpr SpawnStrategy kAllSpawnStrategies[] = {SpawnStrategy::none, SpawnStrategy::epsilon,
-                                                        SpawnStrategy::ulp_offset, SpawnStrategy::error_bound};
+                                                        SpawnStrategy::ulp_offset, SpawnStrategy::error_bound,
+                                                        SpawnStrategy::ulp_offset_f32};
 std::string_view to_string(SpawnStrategy s);
 std::optional<SpawnStrategy> spawn_strategy_from_string(std::string_view s);
 
