@@ -362,10 +362,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
     Seen& s = view(t.precision);
     TracerTally& near = result.tallies[{ti, false}];
     TracerTally& any = result.tallies[{ti, true}];
-    auto count = [](TracerTally& tally, TraceKind k) {
-      ++tally.cases;
-      ++tally.kinds[std::string(k == TraceKind::tracer_error ? "tracer_errors" : to_string(k))];
-    };
+    auto count = [](TracerTally& tally, TraceKind k) { tally.add(to_string(k)); };
     std::vector<std::size_t> live;  // rays this tracer can be given
     for (std::size_t i = 0; i < s.rays.size(); ++i) {
       if (s.rays[i]) live.push_back(i);
@@ -386,7 +383,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       TracerOutcome outcome;
       outcome.kind = k, outcome.reason = built.reason;
       if (k == TraceKind::build_failed) {
-        for (std::size_t i : live) count(near, k), count(any, k);
+        for (std::size_t n = live.size(); n > 0; --n) count(near, k), count(any, k);
       } else if (!states[ti].stopped.exchange(true)) {
         count(near, k);
         finding(live.front(), false, k, outcome);

@@ -134,9 +134,8 @@ void cube_surface(Builder& b, Rng& r, int n) {
 }
 
 // Rays through exact feature points of random triangles, entering the front side where asked.
-void aim_at_features(MeshWork& w, Rng& mesh_rng, std::uint64_t seed, TracerFamily f, std::uint64_t m, std::uint64_t rays,
+void aim_at_features(MeshWork& w, std::uint64_t seed, TracerFamily f, std::uint64_t m, std::uint64_t rays,
                      bool from_front) {
-  (void)mesh_rng;
   for (std::uint64_t i = 0; i < rays; ++i) {
     Rng r(seed, static_cast<std::uint64_t>(f), m, i);
     const std::uint32_t t = static_cast<std::uint32_t>(r.g.next() % w.mesh->triangle_count());
@@ -171,7 +170,7 @@ MeshWork shared_edges(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, T
     for (std::size_t i = 0; i < b.mesh.vertices.size(); ++i) b.mesh.vertices[i] *= scale[i % 3];
   }
   MeshWork w{std::make_shared<TriangleMesh>(std::move(b.mesh)), {}, {}, 0};
-  aim_at_features(w, r, seed, f, m, rays, closed || r.coin());
+  aim_at_features(w, seed, f, m, rays, closed || r.coin());
   if (full_precision)
     for (std::string& d : w.details) d += " (full precision)";
   return w;

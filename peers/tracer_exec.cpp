@@ -44,19 +44,11 @@ std::uint32_t read_triangle(const json& j, const std::string& field) {
   return static_cast<std::uint32_t>(j.get<std::uint64_t>());
 }
 
-struct ExecTracerState {
+struct ExecTracerState : StopReason {
   std::string command;
   ExternalOptions options;
   ProcessPool<ExecProcess> processes;
-  std::atomic<bool> stopped{false};
   std::atomic<std::uint64_t> next_id{0};
-  std::mutex mutex;
-  std::string reason;
-  void stop(const std::string& why) {
-    if (stopped.exchange(true)) return;
-    std::lock_guard lock(mutex);
-    reason = why;
-  }
 };
 
 class ExecTracerScene final : public TracerScene {
@@ -163,8 +155,7 @@ class ExecTracerScene final : public TracerScene {
     if (why.empty()) return HitFailure::none;
     healthy_ = false;  // never handed back
     if (kind == HitFailure::bad_answer) {
-      std::lock_guard l(state_.mutex);
-      if (state_.reason.empty()) state_.reason = why;
+      state_.note(why);
       return kind;
     }
     state_.stop(why);
@@ -199,10 +190,7 @@ const Tracer& add_exec_tracer(const std::string& name, const std::string& comman
     if (state.stopped) return {nullptr, HitFailure::stopped, "stopped earlier"};
     return {std::make_unique<ExecTracerScene>(state, mesh)};
   };
-  t.stop_reason = [&state] {
-    std::lock_guard lock(state.mutex);
-    return state.reason;
-  };
+  t.stop_reason = [&state] { return state.reason(); };
   try {
     return register_tracer(std::move(t));
   } catch (const std::exception& e) {

@@ -240,18 +240,10 @@ struct TracerLibrary {
 };
 
 // One tracer of a library; stops for good after a crash or a hang.
-struct PluginTracerState {
-  TracerLibrary* library;
-  std::uint32_t index;
+struct PluginTracerState : StopReason {
+  TracerLibrary* library = nullptr;
+  std::uint32_t index = 0;
   ExternalOptions options;
-  std::atomic<bool> stopped{false};
-  std::mutex mutex;
-  std::string reason;
-  void stop(const std::string& why) {
-    if (stopped.exchange(true)) return;
-    std::lock_guard lock(mutex);
-    reason = why;
-  }
 };
 
 HitFailure failure_of(bool timed_out) { return timed_out ? HitFailure::timeout : HitFailure::crash; }
@@ -401,10 +393,7 @@ std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const Ext
     r.origin = file;
     r.has_all_hits = t.all_hits != nullptr;
     r.build = [&state](const TriangleMesh& mesh) { return build_plugin_scene(state, mesh); };
-    r.stop_reason = [&state] {
-      std::lock_guard lock(state.mutex);
-      return state.reason;
-    };
+    r.stop_reason = [&state] { return state.reason(); };
     try {
       out.push_back(&register_tracer(std::move(r)));
     } catch (const std::exception& e) {

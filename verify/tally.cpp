@@ -138,6 +138,11 @@ std::uint64_t TracerTally::count(std::string_view kind) const {
   return it == kinds.end() ? 0 : it->second;
 }
 
+void TracerTally::add(std::string_view kind) {
+  ++cases;
+  ++kinds[kind_key(kind)];
+}
+
 std::uint64_t TracerTally::disagreements() const {
   std::uint64_t n = 0;
   for (const char* k : {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit", "tracer_errors", "crash", "timeout"})

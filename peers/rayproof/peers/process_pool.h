@@ -7,6 +7,7 @@
 #include <string.h>
 #include <sys/wait.h>
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -23,6 +24,29 @@ inline std::string signal_reason(int status) {
   if (WIFEXITED(status)) return "exited with status " + std::to_string(WEXITSTATUS(status));
   return "ended";
 }
+
+// Why a piece of external code stopped (a crash, a hang, a protocol error): the first stop's
+// reason, read from any thread. `note` records a reason without stopping, where none is yet.
+struct StopReason {
+  std::atomic<bool> stopped{false};
+  void stop(const std::string& why) {
+    if (stopped.exchange(true)) return;
+    std::lock_guard lock(mutex_);
+    reason_ = why;
+  }
+  void note(const std::string& why) {
+    std::lock_guard lock(mutex_);
+    if (reason_.empty()) reason_ = why;
+  }
+  std::string reason() const {
+    std::lock_guard lock(mutex_);
+    return reason_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::string reason_;
+};
 
 template <class Process>
 class ProcessPool {

@@ -70,6 +70,7 @@ struct TracerTally {
   double seconds = 0;  // inside the tracer's calls (round trips included for external code)
   std::uint64_t timed_rays = 0;
   std::uint64_t count(std::string_view kind) const;
+  void add(std::string_view kind);  // one ray of that kind (to_string(TraceKind)): cases and its count
   std::uint64_t disagreements() const;  // the kinds of the spec's table plus tracer errors, crashes, timeouts
   double ns_per_ray() const { return timed_rays ? seconds * 1e9 / static_cast<double>(timed_rays) : 0; }
   void merge(const TracerTally& o);
