@@ -16,6 +16,17 @@ double half_area(const Bounds& b) {
   return e.x() * e.y() + e.y() * e.z() + e.z() * e.x();
 }
 
+// The bin of centroid coordinate c in the centroid box [lo, hi] along one axis. Halves first, so
+// hi − lo cannot overflow when centroids sit at ±1e308; a NaN (an infinite box's centroid) goes
+// to bin 0 and a ratio that rounds to 1 or beyond to the last bin, so the index is always valid.
+// Binning and partition call this one function, so a box always lands on the same side.
+int bin_of(double c, double lo, double hi) {
+  const double ratio = (0.5 * c - 0.5 * lo) / (0.5 * hi - 0.5 * lo);
+  if (!(ratio > 0)) return 0;
+  if (!(ratio < 1)) return Bvh::kBins - 1;
+  return std::min(Bvh::kBins - 1, static_cast<int>(ratio * Bvh::kBins));
+}
+
 // Past this depth a node becomes a leaf whatever its size, so traversal's fixed stack holds.
 constexpr int kMaxDepth = 100;
 
@@ -44,12 +55,12 @@ struct Builder {
     int best_axis = -1, best_plane = 0;
     double best_cost = half_area(box) * n;  // the cost of not splitting, in the same units
     for (int axis = 0; axis < 3; ++axis) {
-      const double lo = centre_box.lo[axis], extent = centre_box.hi[axis] - lo;
-      if (!(extent > 0)) continue;
+      const double lo = centre_box.lo[axis], hi = centre_box.hi[axis];
+      if (!(hi > lo)) continue;
       std::array<Bounds, Bvh::kBins> bin_box;
       std::array<int, Bvh::kBins> bin_count{};
       for (std::int32_t i = begin; i < end; ++i) {
-        const int b = std::min(Bvh::kBins - 1, static_cast<int>((centroids[order[i]][axis] - lo) / extent * Bvh::kBins));
+        const int b = bin_of(centroids[order[i]][axis], lo, hi);
         bin_box[b].grow(boxes[order[i]]);
         ++bin_count[b];
       }
@@ -76,10 +87,8 @@ struct Builder {
     }
     std::int32_t mid;
     if (best_axis >= 0) {
-      const double lo = centre_box.lo[best_axis], extent = centre_box.hi[best_axis] - lo;
-      auto left_of_plane = [&](std::int32_t p) {
-        return std::min(Bvh::kBins - 1, static_cast<int>((centroids[p][best_axis] - lo) / extent * Bvh::kBins)) < best_plane;
-      };
+      const double lo = centre_box.lo[best_axis], hi = centre_box.hi[best_axis];
+      auto left_of_plane = [&](std::int32_t p) { return bin_of(centroids[p][best_axis], lo, hi) < best_plane; };
       mid = static_cast<std::int32_t>(std::stable_partition(order.begin() + begin, order.begin() + end, left_of_plane) -
                                       order.begin());
     } else if (n > 4 * Bvh::kLeafSize) {

@@ -88,7 +88,7 @@ Soup read_off(const std::string& path) {
   if (!in.next(tok)) fail(path, in.line(), "empty OFF file");
   const std::string_view header = tok[0];
   if (header.size() < 3 || header.substr(header.size() - 3) != "OFF")
-    fail(path, in.line(), "expected the OFF header, got '" + printable(header) + "'");
+    fail(path, in.line(), "expected the OFF header (not an OFF file; nothing of it is shown)");
   if (header.find('4') != std::string_view::npos || header.find('n') != std::string_view::npos)
     fail(path, in.line(), "only 3-dimensional OFF is supported");
   std::vector<std::string_view> counts(tok.begin() + 1, tok.end());
@@ -176,7 +176,8 @@ Mesh load_mesh(const std::string& path, double scale, const Vec3& translate) {
   Soup soup;
   if (ext == "off") soup = read_off(path);
   else if (ext == "obj") soup = read_obj(path);
-  else if (ext == "ply" || ext == "stl") soup = mesh_detail::read_cgal_soup(path, ext);
+  else if (ext == "ply") soup = mesh_detail::read_ply(path);
+  else if (ext == "stl") soup = mesh_detail::read_stl(path);
   else fail(path, 0, "unknown mesh format '" + printable(ext) + "' (OFF, OBJ, PLY or STL)");
 
   Mesh mesh;

@@ -11,10 +11,13 @@ namespace rayproof::mesh_detail {
 struct Soup {
   std::vector<std::array<double, 3>> points;
   std::vector<std::vector<std::size_t>> faces;  // vertex indices, 0-based
-  std::vector<long> face_lines;                 // each face's line in a text file (empty for PLY, STL)
+  std::vector<long> face_lines;                 // each face's line in a text file (empty for binary files)
 };
 
-// PLY or STL ("ply", "stl") through CGAL (mesh_cgal.cpp).
-Soup read_cgal_soup(const std::string& path, std::string_view format);
+// STL through CGAL (mesh_cgal.cpp).
+Soup read_stl(const std::string& path);
+
+// PLY, ASCII or binary (mesh_ply.cpp).
+Soup read_ply(const std::string& path);
 
 }  // namespace rayproof::mesh_detail

@@ -1,7 +1,9 @@
 #include "rayproof/core/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
@@ -50,12 +52,13 @@ Camera read_camera(const json& j) {
   cam.width = read_positive_int(j["width"], "camera.width", 16384);
   cam.height = read_positive_int(j["height"], "camera.height", 16384);
   const Vec3 view = look_at - cam.eye;
-  const double view_length = length(view);
+  // hypot, not sqrt(dot): a look_at 1e154 away is a finite distance whose square overflows.
+  const double view_length = std::hypot(view.x(), view.y(), view.z());
   if (!(view_length > 0) || !std::isfinite(view_length))
     throw FieldError("camera.look_at", "must differ from eye by a finite, non-zero distance");
   cam.forward = view / view_length;
   const Vec3 side = cross(cam.forward, up);
-  const double side_length = length(side);
+  const double side_length = std::hypot(side.x(), side.y(), side.z());
   if (!(side_length > 0) || !std::isfinite(side_length))
     throw FieldError("camera.up", "must be finite and not parallel to the view direction");
   cam.right = side / side_length;
@@ -77,6 +80,17 @@ Camera read_camera(const json& j) {
     cam.window_top = half;
     cam.window_bottom = -half;
   }
+  // Every ray the camera makes must be finite (the exact oracle cannot hold ∞). A direction is
+  // forward + sx·right + sy·up with unit vectors and sx between left and right (sy between top
+  // and bottom, each rounded by at most 2u), so each component is at most 1 + max|sx| + max|sy|:
+  // refuse when that, or the window's width or height, is not comfortably finite.
+  const double widest = std::max(std::abs(cam.window_left), std::abs(cam.window_right));
+  const double tallest = std::max(std::abs(cam.window_top), std::abs(cam.window_bottom));
+  constexpr double kLargest = std::numeric_limits<double>::max() / 4;
+  if (!(std::abs(cam.window_right - cam.window_left) <= kLargest && std::abs(cam.window_bottom - cam.window_top) <= kLargest &&
+        1 + widest + tallest <= kLargest))
+    throw FieldError(window ? "camera.right" : "camera.fov_deg",
+                     "the window is so wide that ray directions would overflow (every camera ray must be finite)");
   return cam;
 }
 

@@ -2,6 +2,8 @@
 // double, fans, degenerate triangles, and every bad file named with its line.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cstdlib>
 #include <fstream>
 
@@ -63,6 +65,53 @@ TEST(Meshes, FourFormatsReadToTheSameDoubles) {
   expect_tetra(load_mesh(write("t.stl", stl + "endsolid t\n")), "STL");
 }
 
+// Binary PLY in both byte orders: doubles as written, floats widened exactly; a list count in
+// a binary face that claims 4·10⁹ indices is refused from the bytes that remain.
+std::string ply_bytes(bool big_endian, bool doubles, std::uint32_t list_length) {
+  std::string out = std::string("ply\nformat ") + (big_endian ? "binary_big_endian" : "binary_little_endian") +
+                    " 1.0\ncomment written by test_meshes\nelement vertex 3\nproperty " + (doubles ? "double" : "float") +
+                    " x\nproperty " + (doubles ? "double" : "float") + " y\nproperty " + (doubles ? "double" : "float") +
+                    " z\nproperty uchar red\nelement face 1\nproperty list uint uint vertex_indices\nend_header\n";
+  auto put = [&](const void* p, std::size_t n) {
+    std::string b(static_cast<const char*>(p), n);
+    if (big_endian) std::reverse(b.begin(), b.end());  // this test runs on little-endian machines
+    out += b;
+  };
+  const double coords[9] = {0.1, 0, 0, 1, 0, 0, 0, 1, 4.9406564584124654e-320};
+  for (int v = 0; v < 3; ++v) {
+    for (int k = 0; k < 3; ++k) {
+      if (doubles) put(&coords[3 * v + k], 8);
+      else {
+        const float f = static_cast<float>(coords[3 * v + k]);
+        put(&f, 4);
+      }
+    }
+    out += '\x07';  // red
+  }
+  put(&list_length, 4);
+  for (std::uint32_t i = 0; i < 3; ++i) put(&i, 4);
+  return out;
+}
+
+TEST(Meshes, BinaryPlyInBothByteOrders) {
+  static_assert(std::endian::native == std::endian::little);
+  for (bool big : {false, true}) {
+    const Mesh d = load_mesh(write("d.ply", ply_bytes(big, true, 3)));
+    ASSERT_EQ(d.triangles.size(), 1u);
+    EXPECT_EQ(d.triangles[0].v[0].x(), 0.1) << "big endian " << big;
+    EXPECT_EQ(d.triangles[0].v[2].z(), 4.9406564584124654e-320) << "big endian " << big;
+    const Mesh f = load_mesh(write("f.ply", ply_bytes(big, false, 3)));
+    EXPECT_EQ(f.triangles[0].v[0].x(), static_cast<double>(0.1f)) << "big endian " << big;
+    try {
+      load_mesh(write("l.ply", ply_bytes(big, true, 4000000000u)));
+      ADD_FAILURE() << "a list of 4e9 indices read";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("l.ply: face 0: a list of 4000000000 values is longer than the rest of the file (12 bytes)"),
+                std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Meshes, QuadsAreFannedAndPlacementIsInDouble) {
   const Mesh m = load_mesh(write("q.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n"), 0.1, Vec3(3, 0, 0));
   ASSERT_EQ(m.triangles.size(), 2u);
@@ -101,11 +150,26 @@ TEST(Meshes, BadFilesAreErrorsNamingFileAndLine) {
       {"header.off", "FOO\n", "header.off:1: expected the OFF header"},
       {"empty.obj", "", "empty.obj: the mesh has no non-degenerate triangles"},
       {"mesh.xyz", "1 2 3\n", "mesh.xyz: unknown mesh format 'xyz'"},
-      {"bad.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nend_header\nnot-a-number\n",
-       "bad.ply: CGAL's PLY reader could not read this file"},
+      {"bad.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\nproperty double z\n"
+                  "element face 0\nproperty list uchar int vertex_indices\nend_header\nnot-a-number 0 0\n",
+       "bad.ply:10: vertex 0 x: expected a number, got 'not-a-number'"},
+      // A list count before its data: refused before anything is allocated for it (issue 26).
+      {"list.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+                   "element face 1\nproperty list uint int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n250000000 0 1 2\n",
+       "list.ply:13: face 0: a list of 250000000 values is longer than the rest of the file"},
+      {"count.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nproperty float x\nproperty float y\n"
+                    "property float z\nend_header\n",
+       "count.ply: the header's element counts need at least 24000000000 bytes"},
+      {"two.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+                  "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n",
+       "two.ply:13: face 0 has 2 vertices (a face needs at least 3)"},
+      {"noz.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+                  "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0\n0 1\n3 0 1 2\n",
+       "noz.ply: the vertex element has no 'z' property"},
+      {"env.off", "SECRET=hunter2\n", "env.off:1: expected the OFF header (not an OFF file"},
       {"range.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
                     "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n",
-       "range.ply: face 0: vertex index 9 out of range (3 vertices)"},
+       "range.ply:13: face 0: vertex index 9 out of range (3 vertices)"},
   };
   for (const BadMesh& c : cases) {
     const std::string path = write(c.name, c.text);

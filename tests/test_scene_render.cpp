@@ -277,6 +277,48 @@ TEST(Cli, BadScenesGiveAClearErrorAndNonZeroExit) {
   }
 }
 
+// Issue 26: coordinates at the ends of the double range. Centroids at ±1e308 made the BVH's bin
+// index NaN → INT_MIN (SIGSEGV); a sphere whose bounds overflow to ∞ did too. Both scenes render,
+// the near sphere is where it is, and audit's exact oracle judges them.
+TEST(Hostile, ObjectsAtTheEndsOfTheDoubleRangeBuildABvhAndRender) {
+  std::string objects = R"({"type": "sphere", "center": [0,0,0], "radius": 1, "color": [1,0,0]})";
+  for (const char* x : {"1e308", "-1e308", "5e307", "-5e307", "1.7e308"})
+    objects += std::string(R"(, {"type": "sphere", "center": [)") + x + R"(,0,0], "radius": 1})" +
+               R"(, {"type": "box", "min": [)" + x + R"(,0,0], "max": [1.7976931348623157e308,1,1]})" +
+               R"(, {"type": "triangle", "vertices": [[)" + x + R"(,0,0],[0,-1e308,0],[0,0,-1e308]]})";
+  objects += R"(, {"type": "sphere", "center": [1e308,1e308,0], "radius": 1e308})";  // bounds overflow to ∞
+  const std::string text = R"({"camera": {"eye": [0,0,-7], "look_at": [0,0,0], "up": [0,1,0], "fov_deg": 30,
+      "width": 9, "height": 9}, "shading": "flat", "objects": [)" + objects + "]}";
+  const Scene scene = parse_scene(text, "extreme.json");
+  const Image image = render(scene);
+  const auto centre = image.at(4, 4);
+  EXPECT_EQ(centre[0], 255);
+  EXPECT_EQ(centre[1], 0) << "the centre pixel should see the red sphere at the origin";
+  const std::string path = write_temp("extreme.json", text);
+  const CliResult r = run_cli("audit " + path + " --variants stable -o " + rayproof::testing_support::test_dir() + "/extreme");
+  EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// Issue 26: a window whose rays would be infinite is refused (the oracle cannot hold ∞, and GMP
+// raised SIGFPE); a look_at 1e154 away is a finite distance whose square overflows, and is kept.
+TEST(Hostile, CameraRaysAreFiniteOrTheSceneIsRefused) {
+  try {
+    parse_scene(R"({"camera": {"eye": [0,0,-5], "left": -1e308, "right": 1e308, "top": 1, "bottom": -1,
+        "width": 8, "height": 8}, "objects": []})", "window.json");
+    ADD_FAILURE() << "a window of width 2e308 was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("camera.right"), std::string::npos) << e.what();
+  }
+  const Scene far = parse_scene(R"({"camera": {"eye": [0,0,0], "look_at": [0,0,1e154], "up": [0,1,0], "fov_deg": 60,
+      "width": 8, "height": 8}, "objects": []})", "far.json");
+  EXPECT_EQ(far.camera.forward, Vec3(0, 0, 1));
+  for (double x : {0.0, 8.0})
+    for (double y : {0.0, 8.0}) {
+      const Ray corner = far.camera.ray_through(x, y);
+      EXPECT_TRUE(std::isfinite(corner.direction.x()) && std::isfinite(corner.direction.y()));
+    }
+}
+
 TEST(Cli, IntersectReportsBadLinesAndKeepsTheGoodOnes) {
   const std::string path = write_temp("mixed-cases.jsonl",
       R"({"id": "ok", "ray": {"origin": [-3,0,0], "direction": [1,0,0]}, "shape": {"type": "sphere", "center": [0,0,0], "radius": 1}})" "\n"
