@@ -1,5 +1,8 @@
 // rayproof audit SCENE -o DIR: which variant does this scene require (docs/spec/audit.md).
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 
@@ -9,6 +12,33 @@
 #include "rayproof/studies/scene_audit.h"
 
 namespace rayproof::cli {
+
+namespace {
+// An audit keeps per pixel the exact hit, each contender's hit, shadows and images: measured at
+// 115-133 bytes per pixel for 1-4 variants on a diffuse 1024x1024 scene, so 128 + 16 per
+// contender, times the samples per pixel. A scene that needs more than the machine has free is
+// refused with the number before anything is rendered, not ended by std::bad_alloc after.
+void refuse_beyond_memory(const Scene& scene, std::size_t contenders) {
+  const double pixels = double(scene.camera.width) * scene.camera.height * std::max(1, scene.samples);
+  const double needed = pixels * (128.0 + 16.0 * double(contenders));
+  std::ifstream meminfo("/proc/meminfo");
+  std::string key;
+  double available_kb = 0;
+  for (double value; meminfo >> key >> value;) {
+    if (key == "MemAvailable:") available_kb = value;
+    meminfo.ignore(64, '\n');
+  }
+  if (available_kb > 0 && needed > available_kb * 1024) {
+    char message[320];
+    std::snprintf(message, sizeof message,
+                  "an audit of %dx%d pixels (%d samples each) with %zu variants needs about %.1f GB, and this machine "
+                  "has %.1f GB available: lower camera.width and camera.height, or audit fewer variants",
+                  scene.camera.width, scene.camera.height, std::max(1, scene.samples), contenders, needed / 1e9,
+                  available_kb * 1024 / 1e9);
+    throw std::runtime_error(message);
+  }
+}
+}  // namespace
 
 void add_audit_command(CLI::App& app, int& exit_code) {
   struct Options {
@@ -57,6 +87,7 @@ void add_audit_command(CLI::App& app, int& exit_code) {
       }
       progress->update(done, total);
     };
+    refuse_beyond_memory(scene, ao.variants.size() + ao.tracers.size());
     const studies::SceneAudit audit = studies::audit_scene(scene, ao);
     if (progress) progress->finish();
     studies::write_scene_audit(audit, opts->scene, opts->dir);

@@ -145,7 +145,7 @@ void judge_mesh_case(const std::string& path, long line, const MeshCase& c, Chec
     }
   }
   result["tracers"] = tracers;
-  out << result.dump() << "\n";
+  out << json_text(result) << "\n";
   if (c.expect.is_null()) return;
   for (const char* key : {"touched", "nearest", "t"})
     if (c.expect.contains(key) && c.expect.at(key) != expect.at(key)) {
@@ -187,7 +187,7 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
   for (size_t i = 0; i < pending.size(); ++i) {
     const Case& c = pending[i].c;
     add_to_summary(run.summary, exact[i], outcomes[i]);
-    out << check_line(c.id, exact[i], outcomes[i]).dump() << "\n";
+    out << json_text(check_line(c.id, exact[i], outcomes[i])) << "\n";
     if (c.expect && run.rule == HitRule::nearest_contact) {
       const std::string why = expectation_mismatch(*c.expect, exact[i]);
       if (!why.empty()) {
@@ -267,15 +267,14 @@ int run_check(const CheckOptions& opts) {
             << " expectations contradicted by the exact oracle\n";
   if (summary_file) {
     AtomicFile& s = *summary_file;
-    s.stream() << json{{"cases", run.cases},
+    s.stream() << json_text(json{{"cases", run.cases},
                        {"unreadable", run.unreadable},
                        {"expect_disagreements", run.contradicted},
                        {"rule", opts.rule},
                        {"variants", summary_json(run.summary)},
                        {"mesh_cases", run.mesh_cases},
                        {"tracers", run.tracer_kinds},
-                       {"oracle", oracle_stats_json(run.oracle)}}
-                      .dump(2)
+                       {"oracle", oracle_stats_json(run.oracle)}}, 2)
                << "\n";
     s.commit();
   }

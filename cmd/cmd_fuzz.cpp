@@ -1,5 +1,6 @@
 // rayproof fuzz: every variant against the oracle on generated families; findings replayable.
 #include <algorithm>
+#include <charconv>
 #include <iomanip>
 #include <limits>
 #include <cstdlib>
@@ -9,6 +10,7 @@
 
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
+#include "rayproof/core/json_fields.h"
 #include "rayproof/fuzz/campaign.h"
 #include "rayproof/fuzz/tracer_campaign.h"
 
@@ -19,20 +21,32 @@ namespace {
 // (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), Kubernetes Indexed Jobs (JOB_COMPLETION_INDEX,
 // with the completion count given as auto/N since Kubernetes does not export it).
 std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
-  auto number = [](const char* value, const std::string& what) -> unsigned long {
+  // Whole numbers only, as written (no sign, no spaces), and at most 2^32 − 1: a value that a
+  // wider or signed reader would wrap is an error naming where it came from, never a shard.
+  auto number = [](const char* value, const std::string& what) -> std::uint64_t {
     if (!value || !*value) throw CLI::ValidationError("--shard", what + " is not set");
-    char* end = nullptr;
-    const unsigned long n = std::strtoul(value, &end, 10);
-    if (*end != '\0') throw CLI::ValidationError("--shard", what + " is not a whole number: '" + std::string(value) + "'");
+    const std::string_view v(value);
+    std::uint64_t n = 0;
+    const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), n);
+    if (ec == std::errc::result_out_of_range || (ec == std::errc() && end == v.data() + v.size() && n > 0xffffffffu))
+      throw CLI::ValidationError("--shard", what + " is out of range (at most 4294967295): '" + printable(v) + "'");
+    if (ec != std::errc() || end != v.data() + v.size())
+      throw CLI::ValidationError("--shard", what + " is not a whole number >= 0: '" + printable(v) + "'");
     return n;
   };
-  unsigned long i = 0, n = 0;
+  std::uint64_t i = 0, n = 0;
   if (text == "auto" || text.rfind("auto/", 0) == 0) {
     if (text == "auto" && std::getenv("SLURM_ARRAY_TASK_ID")) {
       i = number(std::getenv("SLURM_ARRAY_TASK_ID"), "SLURM_ARRAY_TASK_ID");
       n = number(std::getenv("SLURM_ARRAY_TASK_COUNT"), "SLURM_ARRAY_TASK_COUNT");
       // Slurm arrays may start at 1 (--array=1-4): shift by SLURM_ARRAY_TASK_MIN when set.
-      if (const char* min = std::getenv("SLURM_ARRAY_TASK_MIN")) i -= number(min, "SLURM_ARRAY_TASK_MIN");
+      if (const char* min_text = std::getenv("SLURM_ARRAY_TASK_MIN")) {
+        const std::uint64_t min = number(min_text, "SLURM_ARRAY_TASK_MIN");
+        if (i < min)
+          throw CLI::ValidationError("--shard", "SLURM_ARRAY_TASK_ID " + std::to_string(i) + " is below SLURM_ARRAY_TASK_MIN " +
+                                                    std::to_string(min));
+        i -= min;
+      }
     } else if (std::getenv("JOB_COMPLETION_INDEX")) {
       i = number(std::getenv("JOB_COMPLETION_INDEX"), "JOB_COMPLETION_INDEX");
       if (text == "auto") throw CLI::ValidationError("--shard", "on Kubernetes give the completion count: --shard auto/N");
@@ -41,10 +55,11 @@ std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
       throw CLI::ValidationError("--shard", "auto: neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX is set");
     }
   } else {
-    char slash = 0;
-    std::stringstream ss(text);
-    if (!(ss >> i >> slash >> n) || slash != '/' || !ss.eof())
-      throw CLI::ValidationError("--shard", "expected i/n with 0 <= i < n, or auto, got '" + text + "'");
+    const std::size_t slash = text.find('/');
+    if (slash == std::string::npos)
+      throw CLI::ValidationError("--shard", "expected i/n with 0 <= i < n, or auto, got '" + printable(text) + "'");
+    i = number(text.substr(0, slash).c_str(), "the shard index i in i/n");
+    n = number(text.substr(slash + 1).c_str(), "the shard count n in i/n");
   }
   if (n == 0 || i >= n)
     throw CLI::ValidationError("--shard", "shard " + std::to_string(i) + " of " + std::to_string(n) + ": need 0 <= i < n");
@@ -111,7 +126,7 @@ void run_tracer_fuzz(const FuzzOptions& opts) {
             << o.threads << " threads), " << report.findings_written << " findings in " << o.output << "\n"
             << std::defaultfloat;
   if (summary) {
-    summary->stream() << report.to_json().dump(2) << "\n";
+    summary->stream() << json_text(report.to_json(), 2) << "\n";
     summary->commit();
   }
 }
@@ -142,7 +157,7 @@ void run_fuzz(const FuzzOptions& opts) {
                      opts.spawn_csv);
   }
   if (summary) {
-    summary->stream() << report.to_json().dump(2) << "\n";
+    summary->stream() << json_text(report.to_json(), 2) << "\n";
     summary->commit();
   }
 }

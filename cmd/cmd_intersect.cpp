@@ -42,7 +42,7 @@ void add_intersect_command(CLI::App& app, int& exit_code) {
                   {"class", std::string(to_string(h.cls))},
                   {"t", h.has_t() ? json(hex_double(h.t)) : json(nullptr)}};
             }
-            std::cout << out.dump() << "\n";
+            std::cout << json_text(out) << "\n";
           },
           [&](const CaseError& e) {
             ++errors;

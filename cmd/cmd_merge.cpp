@@ -139,7 +139,7 @@ int run_merge(const MergeOptions& o) {
   if (tracers) fuzz::print_tracer_report(merged_tracers, *table_format_from_string(o.format), std::cerr);
   else fuzz::print_report(merged, 1, *table_format_from_string(o.format), std::cerr);
   if (summary_out) {
-    summary_out->stream() << (tracers ? merged_tracers.to_json() : merged.to_json()).dump(2) << "\n";
+    summary_out->stream() << json_text(tracers ? merged_tracers.to_json() : merged.to_json(), 2) << "\n";
     summary_out->commit();
   }
   std::cerr << "rayproof merge: " << o.summaries.size() << " summaries, " << findings.size() << " findings from "

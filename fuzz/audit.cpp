@@ -119,7 +119,7 @@ std::string AuditReport::summary() const {
   std::vector<TallyRow> rows;
   for (const auto& [group, t] : by_family) rows.push_back({group, name, shape, t});
   write_tally_table(std::move(rows), TableFormat::table, out);
-  for (const Case& c : findings) out << case_to_json(c).dump() << "\n";
+  for (const Case& c : findings) out << json_text(case_to_json(c)) << "\n";
   return out.str();
 }
 

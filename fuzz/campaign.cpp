@@ -126,11 +126,10 @@ struct Checkpoint {
 
 void save(const std::string& path, const CampaignOptions& o, const Checkpoint& c) {
   AtomicFile f(path);
-  f.stream() << json{{"fingerprint", fingerprint(o)}, {"pair", c.pair}, {"next", c.next},
+  f.stream() << json_text(json{{"fingerprint", fingerprint(o)}, {"pair", c.pair}, {"next", c.next},
                      {"pair_started", c.pair_started}, {"findings_in_pair", c.findings_in_pair},
                      {"findings_bytes", c.findings_bytes}, {"findings_hash", c.findings_hash.value},
-                     {"report", c.report.to_json()}}
-                    .dump()
+                     {"report", c.report.to_json()}})
              << "\n";
   f.commit();
 }
@@ -415,7 +414,7 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
     if (now["ray"] != before["ray"]) c.found["shrunk_from"] = before["ray"];
     if (now["shape"] != before["shape"]) c.found["shrunk_from_shape"] = before["shape"];
   }
-  return case_to_json(c).dump() + "\n";
+  return json_text(case_to_json(c)) + "\n";
 }
 
 // Step 3: shrink and format the findings in parallel, returned in index order.

@@ -59,7 +59,7 @@ std::string one_hit_rule_line(const TracerCampaignReport& r, const std::string& 
 
 void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std::ostream& out) {
   if (format == TableFormat::json) {
-    out << r.to_json().dump(2) << "\n";
+    out << json_text(r.to_json(), 2) << "\n";
     return;
   }
   const char* columns[] = {"cases", "right", "hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit",
@@ -256,10 +256,9 @@ struct Checkpoint {
 
 void save(const std::string& path, const TracerCampaignOptions& o, const Checkpoint& c) {
   AtomicFile f(path);
-  f.stream() << json{{"fingerprint", fingerprint(o)}, {"family", c.family}, {"next_mesh", c.next_mesh},
+  f.stream() << json_text(json{{"fingerprint", fingerprint(o)}, {"family", c.family}, {"next_mesh", c.next_mesh},
                      {"family_started", c.family_started}, {"findings_in", c.findings_in},
-                     {"findings_bytes", c.findings_bytes}, {"findings_hash", c.hash.value}, {"report", c.report.to_json()}}
-                    .dump()
+                     {"findings_bytes", c.findings_bytes}, {"findings_hash", c.hash.value}, {"report", c.report.to_json()}})
              << "\n";
   f.commit();
 }
@@ -483,7 +482,7 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
              {"triangles_found_in", f.mesh_triangles}};
   if (!now.reason.empty()) c.found["reason"] = now.reason;
   if (!f.outcome.reason.empty() && now.reason.empty()) c.found["reason"] = f.outcome.reason;
-  return mesh_case_to_json(c).dump() + "\n";
+  return json_text(mesh_case_to_json(c)) + "\n";
 }
 
 }  // namespace

@@ -217,6 +217,56 @@ std::string printable(std::string_view text) {
   return out;
 }
 
+std::string printable_prefix(std::string_view text, std::size_t max_bytes) {
+  if (text.size() <= max_bytes) return printable(text);
+  std::size_t cut = max_bytes;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xc0) == 0x80) --cut;  // not inside a character
+  return printable(text.substr(0, cut)) + "… (" + std::to_string(text.size()) + " bytes)";
+}
+
+namespace {
+// text with each byte that is not part of well-formed UTF-8 as \xNN (control characters stay:
+// the JSON writer escapes them).
+std::string valid_utf8(std::string_view text) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size();) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    const std::size_t n = c < 0x80 ? 1 : utf8_sequence(text, i);
+    if (n > 0) {
+      out.append(text.substr(i, n)), i += n;
+      continue;
+    }
+    char buf[8];
+    std::snprintf(buf, sizeof buf, "\\x%02x", c);
+    out += buf, ++i;
+  }
+  return out;
+}
+
+json with_valid_utf8(const json& j) {
+  if (j.is_string()) return valid_utf8(j.get_ref<const std::string&>());
+  if (j.is_array()) {
+    json out = json::array();
+    for (const json& e : j) out.push_back(with_valid_utf8(e));
+    return out;
+  }
+  if (j.is_object()) {
+    json out = json::object();
+    for (const auto& [key, value] : j.items()) out[valid_utf8(key)] = with_valid_utf8(value);
+    return out;
+  }
+  return j;
+}
+}  // namespace
+
+std::string json_text(const json& j, int indent) {
+  try {
+    return j.dump(indent);
+  } catch (const json::type_error&) {  // 316: invalid UTF-8 somewhere; the rare path walks and escapes
+    return with_valid_utf8(j).dump(indent);
+  }
+}
+
 double read_number(const json& j, const std::string& field) {
   double x;
   if (j.is_binary())  // DomBuilder's mark for a number beyond the double range

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <numbers>
 #include <sstream>
@@ -207,13 +208,19 @@ Scene parse_scene(const std::string& text, const std::string& file_name) {
 }
 
 Scene load_scene(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open file");
+  // "-" is standard input, as for every input (README); its meshes are relative to the
+  // working directory.
+  const std::string name = path == "-" ? "(standard input)" : printable(path);
+  std::ifstream file;
+  if (path != "-") {
+    file.open(path, std::ios::binary);
+    if (!file) throw std::runtime_error(name + ": cannot open file");
+  }
   std::stringstream buf;
-  buf << in.rdbuf();
+  buf << (path == "-" ? std::cin.rdbuf() : file.rdbuf());
   if (buf.str().find_first_not_of(" \t\r\n") == std::string::npos)
-    throw std::runtime_error(path + ": empty file");
-  return parse_scene(buf.str(), path);
+    throw std::runtime_error(name + ": empty file");
+  return parse_scene(buf.str(), path == "-" ? name : path);
 }
 
 Scene translated(const Scene& scene, const Vec3& by) {

@@ -8,6 +8,7 @@
 #include <mutex>
 #include <stdexcept>
 #include <unordered_map>
+#include <utility>
 
 #include "rayproof/core/json_fields.h"
 #include "rayproof/peers/external.h"
@@ -22,9 +23,11 @@ class AnswersFile final : public ExternalIntersector {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw std::runtime_error("--answers " + path + ": cannot open");
     std::string text;
+    bool first = true;  // the first line that is not blank may say the precision (plugin.md)
     for (long line = 1; std::getline(in, text); ++line) {
       if (text.find_first_not_of(" \t\r") == std::string::npos) continue;
-      if (line == 1 && text.find("\"precision\"") != std::string::npos) {
+      const bool may_say_precision = std::exchange(first, false);
+      if (may_say_precision && text.find("\"precision\"") != std::string::npos) {
         read_precision(text);
         continue;
       }

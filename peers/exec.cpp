@@ -210,7 +210,7 @@ class ExecVariant final : public ExternalIntersector {
         out[i] = a.hit;
       } catch (const std::exception& e) {
         const auto* f = dynamic_cast<const FieldError*>(&e);
-        why = "unreadable answer line '" + printable(lines[i].substr(0, 200)) + "'" +
+        why = "unreadable answer line '" + printable_prefix(lines[i], 200) + "'" +
               (f && !f->field.empty() ? ": " + f->field : std::string()) + ": " + printable(e.what());
         break;
       }

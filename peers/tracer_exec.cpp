@@ -146,7 +146,7 @@ class ExecTracerScene final : public TracerScene {
         answers.push_back(std::move(a));
       } catch (const std::exception& e) {
         const auto* f = dynamic_cast<const FieldError*>(&e);
-        why = "unreadable answer line '" + printable(lines[i].substr(0, 200)) + "'" +
+        why = "unreadable answer line '" + printable_prefix(lines[i], 200) + "'" +
               (f && !f->field.empty() ? ": " + f->field : std::string()) + ": " + printable(e.what());
         kind = HitFailure::protocol;
       }

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "rayproof/core/atomic_file.h"
@@ -22,8 +23,26 @@ std::string file_stem(std::string_view name) {
   std::string s(name);
   for (char& c : s)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) c = '_';
-  if (s.empty() || s == "exact" || s == "report" || s == "audit" || s[0] == '.') s = "variant-" + s;
+  if (s.empty() || s[0] == '.') s = "variant-" + s;
   return s;
+}
+
+// Each variant's file stem: STEM.png and STEM-diff.png (audit.md). Names chosen by users can
+// collide (an exec variant "stable-diff" against built-in stable's diff image, a plugin named
+// "exact" or "report"), so a stem whose files are taken gets "-2", "-3", … and audit.json names
+// the files actually written: no file is ever overwritten by another variant's.
+std::vector<std::string> image_stems(const SceneAudit& a) {
+  std::set<std::string> taken = {"exact.png", "report.html", "audit.json", "headroom.svg"};
+  std::vector<std::string> stems;
+  for (const VariantAudit& va : a.variants) {
+    const std::string base = file_stem(va.label);
+    std::string stem = base;
+    for (int k = 2; taken.count(stem + ".png") || taken.count(stem + "-diff.png"); ++k) stem = base + "-" + std::to_string(k);
+    taken.insert(stem + ".png");
+    taken.insert(stem + "-diff.png");
+    stems.push_back(stem);
+  }
+  return stems;
 }
 
 std::string base64(const std::string& bytes) {
@@ -61,7 +80,9 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
                 {"fraction_beyond_intervals",
                  a.primary_rays > 0 ? double(a.rays_beyond_intervals) / double(a.primary_rays) : 0.0}};
   j["variants"] = json::array();
-  for (const VariantAudit& va : a.variants) {
+  const std::vector<std::string> stems = image_stems(a);
+  for (std::size_t i = 0; i < a.variants.size(); ++i) {
+    const VariantAudit& va = a.variants[i];
     json e = {{"name", va.name},
               {"shape", std::string(to_string(va.shape))},
               {"precision", va.precision},
@@ -73,8 +94,8 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
               {"acne", va.counts.acne},
               {"exact_for_scene", va.exact_for_scene()},
               {"origin", va.origin},
-              {"render", file_stem(va.label) + ".png"},
-              {"diff", file_stem(va.label) + "-diff.png"}};
+              {"render", stems[i] + ".png"},
+              {"diff", stems[i] + "-diff.png"}};
     if (!va.stopped.empty()) e["stopped"] = va.stopped;
     if (va.tracer) e["tracer"] = true;  // a whole tracer (tracer.md), drawing every triangle
     j["variants"].push_back(std::move(e));
@@ -266,9 +287,10 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
 void write_scene_audit(const SceneAudit& a, const std::string& scene_path, const std::string& dir) {
   std::filesystem::create_directories(dir);
   write_image(a.exact, dir + "/exact.png");
-  for (const VariantAudit& va : a.variants) {
-    write_image(va.render, dir + "/" + file_stem(va.label) + ".png");
-    write_image(va.diff, dir + "/" + file_stem(va.label) + "-diff.png");
+  const std::vector<std::string> stems = image_stems(a);
+  for (std::size_t i = 0; i < a.variants.size(); ++i) {
+    write_image(a.variants[i].render, dir + "/" + stems[i] + ".png");
+    write_image(a.variants[i].diff, dir + "/" + stems[i] + "-diff.png");
   }
   if (a.headroom) {  // the chart alone too, for pages that embed it
     AtomicFile chart(dir + "/headroom.svg");
@@ -281,7 +303,7 @@ void write_scene_audit(const SceneAudit& a, const std::string& scene_path, const
     html.commit();
   }
   AtomicFile out(dir + "/audit.json");
-  out.stream() << audit_json(a, scene_path).dump(2) << "\n";
+  out.stream() << json_text(audit_json(a, scene_path), 2) << "\n";
   out.commit();
 }
 

@@ -181,7 +181,7 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
                    {"disagreement_rate", r.tally.disagreement_rate()}, {"ulp_p99", r.t_error().quantile(0.99)},
                    {"ulp_max", r.t_error().max()}, {"bits", bits_json(r.t_error())}, {"pareto", r.pareto},
                    {"precision", r.precision}});
-    out << j.dump(2) << "\n";
+    out << json_text(j, 2) << "\n";
     return;
   }
   const bool md = format == TableFormat::markdown;

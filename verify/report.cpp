@@ -120,7 +120,7 @@ void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostr
       row["shape"] = std::string(to_string(r.shape));
       j.push_back(row);
     }
-    out << j.dump(2) << "\n";
+    out << json_text(j, 2) << "\n";
     return;
   }
   const bool with_family = !rows.empty() && !rows[0].family.empty();

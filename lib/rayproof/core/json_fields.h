@@ -38,6 +38,14 @@ json parse_json_text(const std::string& text);
 
 // Text safe to print on a terminal: control characters (ESC sequences among them) as \xNN.
 std::string printable(std::string_view text);
+// printable() of at most max_bytes of text, cut at a character boundary, with "… (N bytes)"
+// when cut: for strings from outside (answer lines, plugin names) that end up in messages.
+std::string printable_prefix(std::string_view text, std::size_t max_bytes);
+
+// Every JSON that rayproof writes goes through here: j.dump(indent), except that a string (or
+// key) that is not valid UTF-8 (a file name, a plugin's message) has its bad bytes written as
+// \xNN instead of making the dump throw and the file go unwritten.
+std::string json_text(const json& j, int indent = -1);
 
 
 // A finite double from a JSON number or a hex-float string.
