@@ -1,14 +1,16 @@
-// Plugins (docs/spec/plugin.md) in worker processes. rayproof dlopens the plugin only to read
-// its variant table; every call runs in a worker: this same executable re-executed (so nothing
-// needs installing beside it), which sees RAYPROOF_PLUGIN_WORKER in its environment, loads the
-// plugin and answers batches through shared memory until its request pipe closes. A batch costs
+// Plugins (docs/spec/plugin.md) in worker processes. rayproof never loads a plugin itself: a
+// short-lived worker reads its variant table (so load-time code that exits, prints, crashes or
+// forks is the plugin's, reported), and every call runs in a worker: this same executable
+// re-executed (so nothing needs installing beside it), which sees RAYPROOF_PLUGIN_WORKER in its
+// environment, loads the plugin and answers batches through shared memory until its request
+// pipe closes. A worker that finds itself forked by the plugin (another pid) leaves without
+// answering and marks the batch, which rayproof then reports instead of judging it. A batch costs
 // two pipe wake-ups; the worker writes the index of the case it is on before each call, so when
 // it dies or stops making progress the case to blame is known and every earlier answer is kept.
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/mman.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -26,11 +28,12 @@
 #include <string>
 #include <type_traits>
 
+#include "rayproof/core/json_fields.h"
+#include "rayproof/peers/child_process.h"
 #include "rayproof/peers/external.h"
+#include "rayproof/peers/library_table.h"
 #include "rayproof/peers/process_pool.h"
 #include "rayproof/plugin.h"
-
-extern char** environ;
 
 namespace rayproof::peers {
 
@@ -39,7 +42,8 @@ namespace {
 // ---------------------------------------------------------------- the shared-memory protocol
 constexpr std::size_t kBatchCapacity = 4096;
 constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;  // the worker's fixed descriptors
-constexpr const char* kWorkerEnv = "RAYPROOF_PLUGIN_WORKER";
+constexpr const char* kWorkerEnv = "RAYPROOF_PLUGIN_WORKER";  // "table:PATH" or "serve:PATH"
+constexpr std::size_t kMaxReportedString = 4096;  // of a plugin's strings, the bytes the table worker copies
 
 struct WireQuery {
   double numbers[6 + kMaxShapeNumbers];  // ray, then the shape's numbers (cases.md order)
@@ -51,6 +55,7 @@ struct WireAnswer {
 };
 struct SharedBatch {
   std::atomic<std::uint32_t> progress;  // the index of the case the worker is calling on
+  std::atomic<std::uint32_t> forked;    // set by a copy of the worker the plugin forked
   std::uint32_t variant, count;
   std::uint32_t repeats;  // `trade`: run the batch this many times on inputs already in cache, for timing
   double inner_seconds;  // the worker's own time for the calls of this batch
@@ -84,17 +89,54 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
   return out;
 }
 
-// The worker: loads the plugin and answers until the request pipe closes. Runs before main()
-// when the environment says this process is one.
-[[noreturn]] void run_worker(const char* plugin_path) {
+// The worker's view of the table: the plugin's strings bounded (a 10 MB name is reported by its
+// length, never copied whole) and escaped on the rayproof side.
+json describe_string(const char* text) {
+  if (!text) return nullptr;
+  const std::size_t bytes = ::strnlen(text, kMaxReportedString + 1);
+  return json{{"text", std::string(text, std::min(bytes, kMaxReportedString))}, {"bytes", bytes}};
+}
+
+// The worker: loads the plugin, then either writes its table as one JSON line and ends
+// (mode "table") or answers batches until the request pipe closes (mode "serve").
+[[noreturn]] void run_worker(const std::string& setting) {
+  const pid_t worker = ::getpid();  // before any plugin code runs
+  const bool table_only = setting.rfind("table:", 0) == 0;
+  const std::string plugin_path = setting.substr(setting.find(':') + 1);
+  const int report_fd = table_only ? ::dup(1) : -1;
   ::dup2(2, 1);  // a plugin's printf must not land in rayproof's results
   // A crash is the plugin's: let its signal end this process as it is (a sanitizer's handlers
   // would turn it into an exit status), so rayproof can name the signal.
   for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGTRAP}) ::signal(sig, SIG_DFL);
-  void* lib = ::dlopen(plugin_path, RTLD_NOW | RTLD_LOCAL);
+  void* lib = ::dlopen(plugin_path.c_str(), RTLD_NOW | RTLD_LOCAL);
   auto entry = lib ? reinterpret_cast<decltype(&rayproof_plugin)>(::dlsym(lib, "rayproof_plugin")) : nullptr;
   int count = 0;
   const rayproof_variant* table = entry ? entry(RAYPROOF_PLUGIN_ABI, &count) : nullptr;
+  if (::getpid() != worker) ::_exit(0);  // a copy forked at load time says nothing
+  if (table_only) {
+    json report;
+    if (!lib) report["error"] = std::string(::dlerror());
+    else if (!entry) report["error"] = "no symbol rayproof_plugin (export it with C linkage: see rayproof/plugin.h)";
+    else if (!table) report["error"] = "rayproof_plugin returned NULL for ABI " + std::to_string(RAYPROOF_PLUGIN_ABI) + " (built for another ABI?)";
+    else if (count <= 0 || count > 64) report["error"] = "rayproof_plugin gave " + std::to_string(count) + " variants (1 to 64 expected)";
+    else {
+      report["variants"] = json::array();
+      for (int i = 0; i < count; ++i)
+        report["variants"].push_back({{"name", describe_string(table[i].name)},
+                                      {"shape", describe_string(table[i].shape)},
+                                      {"rule", describe_string(table[i].rule)},
+                                      {"source", describe_string(table[i].source)},
+                                      {"f64", table[i].f64 != nullptr},
+                                      {"f32", table[i].f32 != nullptr}});
+    }
+    const std::string text = json_text(report) + "\n";
+    for (std::size_t at = 0; at < text.size();) {
+      const ssize_t n = ::write(report_fd, text.data() + at, text.size() - at);
+      if (n <= 0) ::_exit(5);
+      at += static_cast<std::size_t>(n);
+    }
+    ::_exit(0);
+  }
   auto* shared = static_cast<SharedBatch*>(
       ::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0));
   if (!table || shared == MAP_FAILED) ::_exit(3);
@@ -111,8 +153,10 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
     for (std::uint32_t pass = 0; pass < repeats; ++pass) {
       for (std::uint32_t i = 0; i < shared->count; ++i) {
         shared->progress.store(i, std::memory_order_relaxed);
-        shared->answers[i] = v.f64 ? call_checked<double>(v.f64, shared->queries[i].numbers, n, unwritten64)
+        const WireAnswer a = v.f64 ? call_checked<double>(v.f64, shared->queries[i].numbers, n, unwritten64)
                                    : call_checked<float>(v.f32, shared->queries[i].numbers, n, unwritten32);
+        if (::getpid() != worker) shared->forked.store(1), ::_exit(0);  // a copy the plugin forked: never answers
+        shared->answers[i] = a;
       }
     }
     shared->inner_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / repeats;
@@ -122,7 +166,7 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
 }
 
 [[maybe_unused]] const bool kIsWorker = [] {
-  if (const char* path = std::getenv(kWorkerEnv)) run_worker(path);
+  if (const char* setting = std::getenv(kWorkerEnv)) run_worker(setting);
   return false;
 }();
 
@@ -139,34 +183,25 @@ class WorkerProcess {
       throw std::runtime_error("cannot create shared memory for a plugin worker");
     shared_ = static_cast<SharedBatch*>(::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, shared_fd, 0));
     if (shared_ == MAP_FAILED) throw std::runtime_error("cannot map shared memory for a plugin worker");
-    ::signal(SIGPIPE, SIG_IGN);  // a worker that died must not take rayproof with it on the next write
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_adddup2(&actions, request[0], kRequestFd);
-    posix_spawn_file_actions_adddup2(&actions, response[1], kResponseFd);
-    posix_spawn_file_actions_adddup2(&actions, shared_fd, kSharedFd);
-    std::vector<std::string> env_text = {std::string(kWorkerEnv) + "=" + plugin_path};
-    for (char** e = environ; *e; ++e)
-      if (std::strncmp(*e, kWorkerEnv, std::strlen(kWorkerEnv)) != 0) env_text.push_back(*e);
-    std::vector<char*> envp;
-    for (std::string& e : env_text) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    char arg0[] = "rayproof-plugin-worker";
-    char* argv[] = {arg0, nullptr};
-    const int rc = ::posix_spawn(&pid_, "/proc/self/exe", &actions, nullptr, argv, envp.data());
-    posix_spawn_file_actions_destroy(&actions);
+    try {
+      pid_ = spawn_worker(kWorkerEnv, "serve:" + plugin_path, "rayproof-plugin-worker",
+                          {{request[0], kRequestFd}, {response[1], kResponseFd}, {shared_fd, kSharedFd}}, "a plugin worker");
+    } catch (...) {
+      for (int fd : {request[0], request[1], response[0], response[1], shared_fd}) ::close(fd);
+      throw;
+    }
     ::close(request[0]), ::close(response[1]), ::close(shared_fd);
     request_ = request[1], response_ = response[0];
-    if (rc != 0) throw std::runtime_error("cannot start a plugin worker: " + std::string(std::strerror(rc)));
   }
   ~WorkerProcess() {
     ::close(request_), ::close(response_);  // the worker reads EOF and exits
-    if (pid_ > 0 && !reaped_) ::waitpid(pid_, nullptr, 0);
+    if (pid_ > 0 && !reaped_) end_child(pid_, 1.0);  // bounded; whatever the plugin left running goes too
     ::munmap(shared_, sizeof(SharedBatch));
   }
   WorkerProcess(const WorkerProcess&) = delete;
 
   SharedBatch& batch() { return *shared_; }
+  bool forked() const { return forked_; }  // the last run() stopped because the plugin forked
 
   // Runs the batch in shared memory. Returns "" when answered, else why it stopped, with
   // `stopped_at` the case and `timed_out` whether it hung (the worker is then dead).
@@ -183,14 +218,22 @@ class WorkerProcess {
       const int ready = ::poll(&p, 1, slice_ms);
       if (ready > 0) {
         char got;
-        if (::read(response_, &got, 1) == 1) return "";
-        return finish(stopped_at);
+        if (::read(response_, &got, 1) != 1) return finish(stopped_at);
+        if (shared_->forked.load() != 0) {
+          stopped_at = 0;
+          ::kill(-pid_, SIGKILL);
+          finish(stopped_at);
+          stopped_at = 0;  // no answer of this batch is judged: another process wrote beside the worker
+          forked_ = true;
+          return "the plugin forked: a copy of the worker returned from a plugin call (plugins must not fork)";
+        }
+        return "";
       }
       const std::uint32_t now_at = shared_->progress.load(std::memory_order_relaxed);
       const auto now = std::chrono::steady_clock::now();
       if (now_at != last) last = now_at, last_change = now;
       else if (std::chrono::duration<double>(now - last_change).count() > case_timeout) {
-        ::kill(pid_, SIGKILL);
+        ::kill(-pid_, SIGKILL);
         finish(stopped_at);
         timed_out = true;
         return "no answer within " + std::to_string(case_timeout) + " s (--case-timeout)";
@@ -199,16 +242,17 @@ class WorkerProcess {
   }
 
  private:
+  // The worker's end, bounded: one that closed its pipe but runs on is killed (its group too).
   std::string finish(std::uint32_t& stopped_at) {
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
+    bool killed = false;
+    const int status = end_child(pid_, 1.0, &killed);
     reaped_ = true;
     stopped_at = shared_->progress.load(std::memory_order_relaxed);
-    return signal_reason(status);
+    return killed ? "closed its response pipe and kept running (killed)" : signal_reason(status);
   }
   pid_t pid_ = -1;
   int request_ = -1, response_ = -1;
-  bool reaped_ = false;
+  bool reaped_ = false, forked_ = false;
   SharedBatch* shared_ = nullptr;
 };
 
@@ -267,7 +311,8 @@ class PluginVariant final : public ExternalIntersector {
         std::lock_guard lock(reason_mutex_);
         reason_ = why;
       }
-      out[start + answered] = Hit::failure_of(timed_out ? HitFailure::timeout : HitFailure::crash);
+      out[start + answered] =
+          Hit::failure_of(worker->forked() ? HitFailure::protocol : timed_out ? HitFailure::timeout : HitFailure::crash);
       std::fill(out.begin() + start + answered + 1, out.end(), Hit::failure_of(HitFailure::stopped));
       inside = -1;
       break;
@@ -300,6 +345,10 @@ std::deque<Plugin>& loaded_plugins() {
   static std::deque<Plugin> all;
   return all;
 }
+std::deque<std::string>& plugin_strings() {  // names and sources the registry points into
+  static std::deque<std::string> all;
+  return all;
+}
 std::deque<std::unique_ptr<ExternalIntersector>>& external_intersectors() {
   static std::deque<std::unique_ptr<ExternalIntersector>> all;
   return all;
@@ -321,33 +370,28 @@ std::pair<std::string, std::string> split_assignment(const std::string& flag, co
 }
 
 std::vector<const Variant*> load_plugin(const std::string& path, const ExternalOptions& options) {
-  auto fail = [&](const std::string& why) { return std::runtime_error("--plugin " + path + ": " + why); };
+  auto fail = [&](const std::string& why) { return std::runtime_error("--plugin " + printable(path) + ": " + why); };
   // A path without a slash would make dlopen search the library path; the user means a file.
   const std::string file = path.find('/') == std::string::npos ? "./" + path : path;
-  void* lib = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (!lib) throw fail(::dlerror());
-  auto entry = reinterpret_cast<decltype(&rayproof_plugin)>(::dlsym(lib, "rayproof_plugin"));
-  if (!entry) throw fail("no symbol rayproof_plugin (export it with C linkage: see rayproof/plugin.h)");
-  int count = 0;
-  const rayproof_variant* table = entry(RAYPROOF_PLUGIN_ABI, &count);
-  if (!table) throw fail("rayproof_plugin returned NULL for ABI " + std::to_string(RAYPROOF_PLUGIN_ABI) + " (built for another ABI?)");
-  if (count <= 0 || count > 64) throw fail("rayproof_plugin gave " + std::to_string(count) + " variants (1 to 64 expected)");
+  const json table = read_table_in_worker(kWorkerEnv, file, "rayproof-plugin-table", options.case_timeout_seconds, fail);
   loaded_plugins().emplace_back(file);
   Plugin& plugin = loaded_plugins().back();
   std::vector<const Variant*> out;
-  for (int i = 0; i < count; ++i) {
-    const rayproof_variant& v = table[i];
-    const std::string where = "variant " + std::to_string(i) + (v.name ? " '" + std::string(v.name) + "'" : "");
-    if (!v.name || !valid_variant_name(v.name)) throw fail(where + ": name must match [a-z0-9-]+");
-    const auto shape = v.shape ? shape_kind_from_string(v.shape) : std::nullopt;
+  for (std::size_t i = 0; i < table.at("variants").size(); ++i) {
+    const json& v = table.at("variants")[i];
+    const std::string name = table_string(v, "name");
+    const std::string where = "variant " + std::to_string(i) + (name.empty() ? "" : " '" + printable_prefix(name, 80) + "'");
+    if (!bounded_name(v, "name")) throw fail(where + ": name must match [a-z0-9-]+ (at most " + std::to_string(kMaxNameBytes) + " bytes)");
+    const auto shape = shape_kind_from_string(table_string(v, "shape"));
     if (!shape) throw fail(where + ": shape must be sphere, plane, triangle or box");
-    const auto rule = v.rule ? hit_rule_from_string(v.rule) : std::nullopt;
+    const auto rule = hit_rule_from_string(table_string(v, "rule"));
     if (!rule) throw fail(where + ": rule must be nearest or enter-only");
-    if ((v.f64 == nullptr) == (v.f32 == nullptr)) throw fail(where + ": exactly one of f64 and f32 must be set");
-    if (find_variant(v.name)) throw fail(where + ": a variant of that name exists already");
-    external_intersectors().push_back(std::make_unique<PluginVariant>(plugin, i, *shape, options));
-    Variant registered{v.name, *shape, v.source ? v.source : "", nullptr};
-    registered.precision = v.f32 ? Precision::f32 : Precision::f64;
+    if (v.value("f64", false) == v.value("f32", false)) throw fail(where + ": exactly one of f64 and f32 must be set");
+    if (find_variant(name)) throw fail(where + ": a variant of that name exists already");
+    external_intersectors().push_back(std::make_unique<PluginVariant>(plugin, static_cast<std::uint32_t>(i), *shape, options));
+    const std::string& stored_name = plugin_strings().emplace_back(name);
+    Variant registered{stored_name, *shape, plugin_strings().emplace_back(table_source(v)), nullptr};
+    registered.precision = v.value("f32", false) ? Precision::f32 : Precision::f64;
     registered.fixed_rule = *rule;
     registered.external = external_intersectors().back().get();
     registered.origin = plugin.path();

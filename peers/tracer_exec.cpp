@@ -112,7 +112,9 @@ class ExecTracerScene final : public TracerScene {
     }
     std::vector<std::string> lines;
     HitFailure kind = HitFailure::none;
-    const std::string ended = process_->exchange(payload, rays.size(), state_.options.case_timeout_seconds, lines, kind);
+    // An all-hits answer lists at most every triangle, each shorter than in the mesh line.
+    const std::size_t max_line = ExecProcess::kMaxLineBytes + mesh_line_.size();
+    const std::string ended = process_->exchange(payload, rays.size(), state_.options.case_timeout_seconds, lines, kind, max_line);
     std::string why;
     for (std::size_t i = 0; i < lines.size() && why.empty(); ++i) {
       try {

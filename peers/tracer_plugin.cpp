@@ -1,14 +1,15 @@
-// Tracer plugins (docs/spec/tracer.md) in worker processes: rayproof dlopens the library only to
-// read its table; every build, nearest, all_hits and release runs in a worker — this executable
+// Tracer plugins (docs/spec/tracer.md) in worker processes: rayproof never loads the library
+// itself (a short-lived worker reads its table, so load-time code is the library's to answer
+// for); every build, nearest, all_hits and release runs in a worker — this executable
 // re-executed with RAYPROOF_TRACER_WORKER set — which holds one scene at a time. Mesh, rays and
 // answers travel through one shared memory file (grown as needed); each request costs two pipe
 // wake-ups. The worker writes the index of the ray it is on before each call, so when it dies or
-// hangs the ray to blame is known and every earlier answer is kept.
+// hangs the ray to blame is known and every earlier answer is kept. A copy of the worker that the
+// library forked leaves without answering and marks the request, which is then reported.
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/mman.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -23,18 +24,20 @@
 #include <mutex>
 #include <stdexcept>
 
+#include "rayproof/core/json_fields.h"
+#include "rayproof/peers/child_process.h"
+#include "rayproof/peers/library_table.h"
 #include "rayproof/peers/process_pool.h"
 #include "rayproof/peers/tracers.h"
 #include "rayproof/tracer.h"
-
-extern char** environ;
 
 namespace rayproof::peers {
 
 namespace {
 
 constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;
-constexpr const char* kWorkerEnv = "RAYPROOF_TRACER_WORKER";
+constexpr const char* kWorkerEnv = "RAYPROOF_TRACER_WORKER";  // "table:PATH" or "serve:PATH"
+constexpr std::size_t kMaxReportedString = 4096;  // of a library's strings, the bytes the table worker copies
 
 enum class Op : std::uint32_t { build = 1, nearest = 2, all_hits = 3, release = 4 };
 
@@ -44,6 +47,7 @@ enum class Op : std::uint32_t { build = 1, nearest = 2, all_hits = 3, release = 
 // not fit and rayproof asks again from there).
 struct Header {
   std::atomic<std::uint64_t> progress;
+  std::atomic<std::uint32_t> forked;  // set by a copy of the worker the library forked
   std::uint64_t bytes;  // the file's size, for the worker's mapping
   Op op;
   std::uint32_t tracer;
@@ -59,16 +63,58 @@ std::size_t nearest_bytes(std::uint64_t n) { return kData + n * (sizeof(rayproof
 std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + n * (sizeof(rayproof_ray) + 8) + 4 * cap; }
 
 // ----------------------------------------------------------------- the worker
-[[noreturn]] void run_worker(const char* path) {
+json describe_string(const char* text) {
+  if (!text) return nullptr;
+  const std::size_t bytes = ::strnlen(text, kMaxReportedString + 1);
+  return json{{"text", std::string(text, std::min(bytes, kMaxReportedString))}, {"bytes", bytes}};
+}
+
+// Loads the library, then either writes its table as one JSON line and ends (mode "table") or
+// serves requests until the request pipe closes (mode "serve").
+[[noreturn]] void run_worker(const std::string& setting) {
+  const pid_t worker = ::getpid();  // before any library code runs
+  const bool table_only = setting.rfind("table:", 0) == 0;
+  const std::string path = setting.substr(setting.find(':') + 1);
+  const int report_fd = table_only ? ::dup(1) : -1;
   ::dup2(2, 1);  // a tracer's printf must not land in rayproof's results
   for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGTRAP}) ::signal(sig, SIG_DFL);
-  void* lib = ::dlopen(path, RTLD_NOW | RTLD_LOCAL);
+  void* lib = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
   auto entry = lib ? reinterpret_cast<decltype(&rayproof_tracers)>(::dlsym(lib, "rayproof_tracers")) : nullptr;
   int count = 0;
   const rayproof_tracer* table = entry ? entry(RAYPROOF_TRACER_ABI, &count) : nullptr;
+  if (::getpid() != worker) ::_exit(0);  // a copy forked at load time says nothing
+  if (table_only) {
+    json report;
+    if (!lib) report["error"] = std::string(::dlerror());
+    else if (!entry) report["error"] = "no symbol rayproof_tracers (export it with C linkage: see rayproof/tracer.h)";
+    else if (!table) report["error"] = "rayproof_tracers returned NULL for ABI " + std::to_string(RAYPROOF_TRACER_ABI) + " (built for another ABI?)";
+    else if (count <= 0 || count > 64) report["error"] = "rayproof_tracers gave " + std::to_string(count) + " tracers (1 to 64 expected)";
+    else {
+      report["tracers"] = json::array();
+      for (int i = 0; i < count; ++i)
+        report["tracers"].push_back({{"name", describe_string(table[i].name)},
+                                     {"precision", describe_string(table[i].precision)},
+                                     {"source", describe_string(table[i].source)},
+                                     {"build", table[i].build != nullptr},
+                                     {"nearest", table[i].nearest != nullptr},
+                                     {"all_hits", table[i].all_hits != nullptr}});
+    }
+    const std::string text = json_text(report) + "\n";
+    for (std::size_t at = 0; at < text.size();) {
+      const ssize_t n = ::write(report_fd, text.data() + at, text.size() - at);
+      if (n <= 0) ::_exit(5);
+      at += static_cast<std::size_t>(n);
+    }
+    ::_exit(0);
+  }
   if (!table) ::_exit(3);
   void* scene = nullptr;
   const rayproof_tracer* scene_of = nullptr;
+  Header* current = nullptr;
+  // After every library call: a copy of this worker (the library forked) never answers.
+  auto leave_if_copy = [&] {
+    if (::getpid() != worker) current->forked.store(1), ::_exit(0);
+  };
   std::vector<std::uint32_t> buffer(64);
   char byte;
   while (::read(kRequestFd, &byte, 1) == 1) {
@@ -77,16 +123,18 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + 
     void* map = ::mmap(nullptr, probe.bytes, PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0);
     if (map == MAP_FAILED) ::_exit(4);
     auto* h = static_cast<Header*>(map);
+    current = h;
     char* data = static_cast<char*>(map) + kData;
     const rayproof_tracer& t = table[h->tracer];
     const auto t0 = std::chrono::steady_clock::now();
     switch (h->op) {
       case Op::build: {
-        if (scene && scene_of && scene_of->release) scene_of->release(scene);
+        if (scene && scene_of && scene_of->release) scene_of->release(scene), leave_if_copy();
         const rayproof_mesh mesh{reinterpret_cast<const double*>(data), static_cast<std::uint32_t>(h->vertex_count),
                                  reinterpret_cast<const std::uint32_t*>(data + 24 * h->vertex_count),
                                  static_cast<std::uint32_t>(h->triangle_count)};
         scene = t.build(&mesh);
+        leave_if_copy();
         scene_of = &t;
         h->built = scene != nullptr;
         break;
@@ -98,6 +146,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + 
           h->progress.store(i, std::memory_order_relaxed);
           out[i] = {RAYPROOF_NO_TRIANGLE, NAN};
           t.nearest(scene, rays + i, 1, out + i);
+          leave_if_copy();
         }
         h->answered = h->ray_count;
         break;
@@ -110,9 +159,11 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + 
         for (; i < h->ray_count; ++i) {
           h->progress.store(i, std::memory_order_relaxed);
           std::size_t n = t.all_hits(scene, rays + i, buffer.data(), buffer.size());
+          leave_if_copy();
           if (n > buffer.size()) {  // the spec: called again with room for all
             buffer.resize(n);
             n = std::min(buffer.size(), t.all_hits(scene, rays + i, buffer.data(), buffer.size()));
+            leave_if_copy();
           }
           if (used + n > h->hits_capacity) break;
           std::copy(buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(n), flat + used);
@@ -122,7 +173,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + 
         break;
       }
       case Op::release:
-        if (scene && scene_of && scene_of->release) scene_of->release(scene);
+        if (scene && scene_of && scene_of->release) scene_of->release(scene), leave_if_copy();
         scene = nullptr, scene_of = nullptr;
         break;
     }
@@ -134,7 +185,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + 
 }
 
 [[maybe_unused]] const bool kIsWorker = [] {
-  if (const char* path = std::getenv(kWorkerEnv)) run_worker(path);
+  if (const char* setting = std::getenv(kWorkerEnv)) run_worker(setting);
   return false;
 }();
 
@@ -148,29 +199,19 @@ class TracerWorker {
     fd_ = ::memfd_create("rayproof-tracer", MFD_CLOEXEC);
     if (fd_ < 0) throw std::runtime_error("cannot create shared memory for a tracer worker");
     ensure(kData + 4096);
-    ::signal(SIGPIPE, SIG_IGN);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_adddup2(&actions, request[0], kRequestFd);
-    posix_spawn_file_actions_adddup2(&actions, response[1], kResponseFd);
-    posix_spawn_file_actions_adddup2(&actions, fd_, kSharedFd);
-    std::vector<std::string> env_text = {std::string(kWorkerEnv) + "=" + path};
-    for (char** e = environ; *e; ++e)
-      if (std::strncmp(*e, kWorkerEnv, std::strlen(kWorkerEnv)) != 0) env_text.push_back(*e);
-    std::vector<char*> envp;
-    for (std::string& e : env_text) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    char arg0[] = "rayproof-tracer-worker";
-    char* argv[] = {arg0, nullptr};
-    const int rc = ::posix_spawn(&pid_, "/proc/self/exe", &actions, nullptr, argv, envp.data());
-    posix_spawn_file_actions_destroy(&actions);
+    try {
+      pid_ = spawn_worker(kWorkerEnv, "serve:" + path, "rayproof-tracer-worker",
+                          {{request[0], kRequestFd}, {response[1], kResponseFd}, {fd_, kSharedFd}}, "a tracer worker");
+    } catch (...) {
+      for (int fd : {request[0], request[1], response[0], response[1]}) ::close(fd);
+      throw;
+    }
     ::close(request[0]), ::close(response[1]);
     request_ = request[1], response_ = response[0];
-    if (rc != 0) throw std::runtime_error("cannot start a tracer worker: " + std::string(std::strerror(rc)));
   }
   ~TracerWorker() {
     ::close(request_), ::close(response_);
-    if (pid_ > 0 && !reaped_) ::waitpid(pid_, nullptr, 0);
+    if (pid_ > 0 && !reaped_) end_child(pid_, 1.0);  // bounded; whatever the library left running goes too
     if (map_) ::munmap(map_, bytes_);
     ::close(fd_);
   }
@@ -188,6 +229,7 @@ class TracerWorker {
     header().bytes = bytes_;
   }
   Header& header() { return *reinterpret_cast<Header*>(map_); }
+  bool forked() const { return forked_; }  // the last run() stopped because the library forked
   char* data() { return map_ + kData; }
 
   // Runs the request in shared memory: "" when answered, else why it stopped (the worker is then
@@ -205,13 +247,21 @@ class TracerWorker {
       pollfd p{response_, POLLIN, 0};
       if (::poll(&p, 1, slice_ms) > 0) {
         char got;
-        return ::read(response_, &got, 1) == 1 ? "" : finish();
+        if (::read(response_, &got, 1) != 1) return finish();
+        if (header().forked.load() != 0) {
+          forked_ = true;  // no answer of this request is judged: another process wrote beside the worker
+          header().progress.store(0);
+          ::kill(-pid_, SIGKILL);
+          finish();
+          return "the tracer forked: a copy of the worker returned from a library call (libraries must not fork)";
+        }
+        return "";
       }
       const std::uint64_t now_at = header().progress.load(std::memory_order_relaxed);
       const auto now = std::chrono::steady_clock::now();
       if (now_at != last) last = now_at, last_change = now;
       else if (std::chrono::duration<double>(now - last_change).count() > timeout) {
-        ::kill(pid_, SIGKILL);
+        ::kill(-pid_, SIGKILL);
         finish();
         timed_out = true;
         return "no answer within " + std::to_string(timeout) + " s (--case-timeout)";
@@ -220,15 +270,16 @@ class TracerWorker {
   }
 
  private:
+  // The worker's end, bounded: one that closed its pipe but runs on is killed (its group too).
   std::string finish() {
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
+    bool killed = false;
+    const int status = end_child(pid_, 1.0, &killed);
     reaped_ = true;
-    return signal_reason(status);
+    return killed ? "closed its response pipe and kept running (killed)" : signal_reason(status);
   }
   pid_t pid_ = -1;
   int request_ = -1, response_ = -1, fd_ = -1;
-  bool reaped_ = false;
+  bool reaped_ = false, forked_ = false;
   char* map_ = nullptr;
   std::size_t bytes_ = 0;
 };
@@ -246,7 +297,9 @@ struct PluginTracerState : StopReason {
   ExternalOptions options;
 };
 
-HitFailure failure_of(bool timed_out) { return timed_out ? HitFailure::timeout : HitFailure::crash; }
+HitFailure failure_of(bool timed_out, bool forked = false) {
+  return forked ? HitFailure::protocol : timed_out ? HitFailure::timeout : HitFailure::crash;
+}
 
 class PluginTracerScene final : public TracerScene {
  public:
@@ -276,7 +329,7 @@ class PluginTracerScene final : public TracerScene {
       if (out[i].triangle == kNoTriangle) out[i].t = NAN;
     }
     if (why.empty()) return;
-    fail(why, timed_out, out.subspan(answered));
+    fail(why, failure_of(timed_out, worker_->forked()), out.subspan(answered));
   }
 
   void all_hits(std::span<const TracerRay> rays, std::span<AllHitsAnswer> out) override {
@@ -303,8 +356,9 @@ class PluginTracerScene final : public TracerScene {
       done += answered;
       if (!why.empty()) {
         std::vector<TraceAnswer> unused(rays.size() - done);
-        fail(why, timed_out, unused);
-        out[done] = {{}, failure_of(timed_out)};
+        const HitFailure kind = failure_of(timed_out, worker_->forked());
+        fail(why, kind, unused);
+        out[done] = {{}, kind};
         for (std::size_t i = done + 1; i < rays.size(); ++i) out[i] = {{}, HitFailure::stopped};
         return;
       }
@@ -319,11 +373,11 @@ class PluginTracerScene final : public TracerScene {
     w.tmin = r.tmin, w.tmax = r.tmax;
     return w;
   }
-  void fail(const std::string& why, bool timed_out, std::span<TraceAnswer> rest) {
+  void fail(const std::string& why, HitFailure kind, std::span<TraceAnswer> rest) {
     state_.stop(why);
     worker_.reset();  // dead: never handed back
     if (rest.empty()) return;
-    rest[0] = {kNoTriangle, NAN, failure_of(timed_out)};
+    rest[0] = {kNoTriangle, NAN, kind};
     for (std::size_t i = 1; i < rest.size(); ++i) rest[i] = {kNoTriangle, NAN, HitFailure::stopped};
   }
   PluginTracerState& state_;
@@ -343,7 +397,7 @@ BuiltScene build_plugin_scene(PluginTracerState& state, const TriangleMesh& mesh
   const std::string why = worker->run(state.options.case_timeout_seconds, timed_out);
   if (!why.empty()) {
     state.stop("build: " + why);
-    return {nullptr, failure_of(timed_out), "build: " + why};
+    return {nullptr, failure_of(timed_out, worker->forked()), "build: " + why};
   }
   if (!h.built) {
     state.library->workers.give_back(std::move(worker));
@@ -364,34 +418,28 @@ std::deque<PluginTracerState>& states() {
 }  // namespace
 
 std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const ExternalOptions& options) {
-  auto fail = [&](const std::string& why) { return std::runtime_error("--tracer " + path + ": " + why); };
+  auto fail = [&](const std::string& why) { return std::runtime_error("--tracer " + printable(path) + ": " + why); };
   const std::string file = path.find('/') == std::string::npos ? "./" + path : path;
-  void* lib = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (!lib) throw fail(::dlerror());
-  auto entry = reinterpret_cast<decltype(&rayproof_tracers)>(::dlsym(lib, "rayproof_tracers"));
-  if (!entry) throw fail("no symbol rayproof_tracers (export it with C linkage: see rayproof/tracer.h)");
-  int count = 0;
-  const rayproof_tracer* table = entry(RAYPROOF_TRACER_ABI, &count);
-  if (!table) throw fail("rayproof_tracers returned NULL for ABI " + std::to_string(RAYPROOF_TRACER_ABI) + " (built for another ABI?)");
-  if (count <= 0 || count > 64) throw fail("rayproof_tracers gave " + std::to_string(count) + " tracers (1 to 64 expected)");
+  const json table = read_table_in_worker(kWorkerEnv, file, "rayproof-tracer-table", options.case_timeout_seconds, fail);
   TracerLibrary& library = libraries().emplace_back();
   library.path = file;
   std::vector<const Tracer*> out;
-  for (int i = 0; i < count; ++i) {
-    const rayproof_tracer& t = table[i];
-    const std::string where = "tracer " + std::to_string(i) + (t.name ? " '" + std::string(t.name) + "'" : "");
-    if (!t.name || !valid_variant_name(t.name)) throw fail(where + ": name must match [a-z0-9-]+");
-    const std::string precision = t.precision ? t.precision : "";
+  for (std::size_t i = 0; i < table.at("tracers").size(); ++i) {
+    const json& t = table.at("tracers")[i];
+    const std::string name = table_string(t, "name");
+    const std::string where = "tracer " + std::to_string(i) + (name.empty() ? "" : " '" + printable_prefix(name, 80) + "'");
+    if (!bounded_name(t, "name")) throw fail(where + ": name must match [a-z0-9-]+ (at most " + std::to_string(kMaxNameBytes) + " bytes)");
+    const std::string precision = table_string(t, "precision");
     if (precision != "double" && precision != "float") throw fail(where + ": precision must be \"double\" or \"float\"");
-    if (!t.build || !t.nearest) throw fail(where + ": build and nearest must be set");
+    if (!t.value("build", false) || !t.value("nearest", false)) throw fail(where + ": build and nearest must be set");
     PluginTracerState& state = states().emplace_back();
     state.library = &library, state.index = static_cast<std::uint32_t>(i), state.options = options;
     Tracer r;
-    r.name = t.name;
+    r.name = name;
     r.precision = precision == "float" ? Precision::f32 : Precision::f64;
-    r.source = t.source ? t.source : "";
+    r.source = table_source(t);
     r.origin = file;
-    r.has_all_hits = t.all_hits != nullptr;
+    r.has_all_hits = t.value("all_hits", false);
     r.build = [&state](const TriangleMesh& mesh) { return build_plugin_scene(state, mesh); };
     r.stop_reason = [&state] { return state.reason(); };
     try {

@@ -1,0 +1,133 @@
+// The one home for rayproof's child processes: exec commands (exec_process.h) and the plugin and
+// tracer workers (plugin.cpp, tracer_plugin.cpp). Each child starts in its own process group, so
+// ending it ends whatever it started (`sleep 60 & exit 0`, a plugin that forked); every wait is
+// bounded, so a child that closed its pipes but runs on cannot hold rayproof in waitpid.
+#pragma once
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <initializer_list>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+extern char** environ;
+
+namespace rayproof::peers {
+
+// Starts `path` with `argv` and `envp` in a new process group (its pid is the group's id), with
+// each {from, to} of `dups` duplicated onto descriptor `to`. Throws naming `what`.
+inline pid_t spawn_in_own_group(const char* path, char* const argv[], char* const envp[],
+                                std::initializer_list<std::pair<int, int>> dups, const std::string& what) {
+  ::signal(SIGPIPE, SIG_IGN);  // a child that exits early is reported, not fatal on the next write
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  for (const auto& [from, to] : dups) posix_spawn_file_actions_adddup2(&actions, from, to);
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
+  pid_t pid = -1;
+  const int rc = ::posix_spawn(&pid, path, &actions, &attributes, argv, envp);
+  posix_spawn_file_actions_destroy(&actions);
+  posix_spawnattr_destroy(&attributes);
+  if (rc != 0) throw std::runtime_error("cannot start " + what + ": " + std::string(std::strerror(rc)));
+  return pid;
+}
+
+// This executable again, as a worker: `env_name=value` in its environment (every other variable
+// kept, an inherited env_name replaced) and argv {arg0}.
+inline pid_t spawn_worker(const char* env_name, const std::string& value, const char* arg0,
+                          std::initializer_list<std::pair<int, int>> dups, const std::string& what) {
+  std::vector<std::string> env_text = {std::string(env_name) + "=" + value};
+  const std::string prefix = std::string(env_name) + "=";
+  for (char** e = environ; *e; ++e)
+    if (std::strncmp(*e, prefix.c_str(), prefix.size()) != 0) env_text.push_back(*e);
+  std::vector<char*> envp;
+  for (std::string& e : env_text) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  std::string name = arg0;
+  char* argv[] = {name.data(), nullptr};
+  return spawn_in_own_group("/proc/self/exe", argv, envp.data(), dups, what);
+}
+
+// Whether the child ended within `seconds`. It is left unreaped: while it is a zombie its pid,
+// and so its process group's id, cannot be reused by an unrelated process.
+inline bool ended_within(pid_t pid, double seconds) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (int nap_us = 200;; nap_us = std::min(nap_us * 2, 20000)) {
+    siginfo_t info{};
+    if (::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) != 0 && errno != EINTR) return true;
+    if (info.si_pid == pid) return true;
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    ::usleep(static_cast<useconds_t>(nap_us));
+  }
+}
+
+// Ends the child: up to `grace` seconds to exit by itself, then SIGKILL. Either way its whole
+// process group is killed (what it started and left running) before it is reaped. Returns the
+// wait status; `killed` says whether it had to be killed.
+inline int end_child(pid_t pid, double grace, bool* killed = nullptr) {
+  const bool ended = ended_within(pid, grace);
+  if (killed) *killed = !ended;
+  ::kill(-pid, SIGKILL);
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return status;
+}
+
+// What a short-lived worker wrote to its standard output before it ended: how plugin and tracer
+// tables are read, so that a library's load-time code (constructors, the table function) runs in
+// a worker and never in rayproof (an exit(0), a printf, a crash or a fork there are the
+// library's, reported). At most `max_bytes` are kept and `seconds` waited; then it is killed.
+struct WorkerReport {
+  std::string text;
+  int status = 0;       // the wait status
+  bool killed = false;  // it had to be killed (too slow or too much output)
+};
+
+inline WorkerReport run_reporting_worker(const char* env_name, const std::string& value, const char* arg0, double seconds,
+                                         std::size_t max_bytes = 1 << 20) {
+  int out[2];
+  if (::pipe2(out, O_CLOEXEC) != 0) throw std::runtime_error("cannot create a pipe for " + std::string(arg0));
+  pid_t pid;
+  try {
+    pid = spawn_worker(env_name, value, arg0, {{out[1], 1}}, arg0);
+  } catch (...) {
+    ::close(out[0]), ::close(out[1]);
+    throw;
+  }
+  ::close(out[1]);
+  WorkerReport report;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+    pollfd p{out[0], POLLIN, 0};
+    if (left <= 0 || ::poll(&p, 1, static_cast<int>(std::min<long long>(left, 100))) < 0) {
+      if (errno == EINTR && left > 0) continue;
+      break;
+    }
+    if (!(p.revents & (POLLIN | POLLHUP | POLLERR))) continue;
+    char buffer[65536];
+    const ssize_t n = ::read(out[0], buffer, sizeof buffer);
+    if (n <= 0) break;
+    report.text.append(buffer, static_cast<std::size_t>(std::min<std::size_t>(static_cast<std::size_t>(n), max_bytes - std::min(max_bytes, report.text.size()))));
+    if (report.text.size() >= max_bytes) break;
+  }
+  ::close(out[0]);
+  report.status = end_child(pid, 0.5, &report.killed);
+  return report;
+}
+
+}  // namespace rayproof::peers
