@@ -1,5 +1,7 @@
 // rayproof merge: the shards of one campaign combined into what the unsharded campaign tallies.
 #include <algorithm>
+#include <charconv>
+#include <optional>
 #include <fstream>
 #include <iostream>
 #include <set>
@@ -21,31 +23,45 @@ struct MergeOptions {
   std::string output, summary, format = "table";
 };
 
-// A finding's place in its campaign: family and shape as the id names them, then the index.
+// A finding's place in its campaign: family and shape as the id names them, the seed, the index.
 struct FindingKey {
   std::string family, shape;
-  std::uint64_t index = 0;
+  std::uint64_t seed = 0, index = 0;
   std::string tracer;  // mesh findings (tracer.md): "family[-any]/seed/index/tracer"
   auto operator<=>(const FindingKey&) const = default;
 };
 
-FindingKey key_of(const Case& c, const std::string& path, long line) {
-  // ids are "family/shape/seed/index" (fuzz/campaign.cpp)
-  std::vector<std::string> parts;
-  std::stringstream ss(c.id);
-  for (std::string p; std::getline(ss, p, '/');) parts.push_back(p);
-  if (parts.size() != 4 || parts[3].empty() || parts[3].find_first_not_of("0123456789") != std::string::npos)
-    throw std::runtime_error(path + ":" + std::to_string(line) + ": id '" + printable(c.id) + "' is not a campaign finding's");
-  return {parts[0], parts[1], std::stoull(parts[3])};
+std::uint64_t id_number(const std::string& text, const std::string& id, const std::string& path, long line) {
+  std::uint64_t n = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size())
+    throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": id '" + printable_prefix(id, 80) + "': '" +
+                             printable_prefix(text, 40) + "' is not a whole number below 2^64");
+  return n;
 }
 
-FindingKey mesh_key_of(const std::string& id, const std::string& path, long line) {
+std::vector<std::string> id_parts(const std::string& id) {
   std::vector<std::string> parts;
   std::stringstream ss(id);
   for (std::string p; std::getline(ss, p, '/');) parts.push_back(p);
-  if (parts.size() != 4 || parts[2].empty() || parts[2].find_first_not_of("0123456789") != std::string::npos)
-    throw std::runtime_error(path + ":" + std::to_string(line) + ": id '" + printable(id) + "' is not a tracer campaign finding's");
-  return {parts[0], "", std::stoull(parts[2]), parts[3]};
+  return parts;
+}
+
+FindingKey key_of(const Case& c, const std::string& path, long line) {
+  // ids are "family/shape/seed/index" (fuzz/campaign.cpp)
+  const std::vector<std::string> parts = id_parts(c.id);
+  if (parts.size() != 4)
+    throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": id '" + printable_prefix(c.id, 80) +
+                             "' is not a campaign finding's");
+  return {parts[0], parts[1], id_number(parts[2], c.id, path, line), id_number(parts[3], c.id, path, line)};
+}
+
+FindingKey mesh_key_of(const std::string& id, const std::string& path, long line) {
+  const std::vector<std::string> parts = id_parts(id);
+  if (parts.size() != 4)
+    throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": id '" + printable_prefix(id, 80) +
+                             "' is not a tracer campaign finding's");
+  return {parts[0], "", id_number(parts[1], id, path, line), id_number(parts[2], id, path, line), parts[3]};
 }
 
 json read_summary_json(const std::string& path) {
@@ -56,19 +72,19 @@ json read_summary_json(const std::string& path) {
   try {
     return parse_json_text(text.str());
   } catch (const std::exception& e) {
-    throw std::runtime_error(path + ": not a campaign summary: " + std::string(e.what()));
+    throw std::runtime_error(printable(path) + ": not a campaign summary: " + printable(e.what()));
   }
 }
 
-fuzz::CampaignReport read_summary(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open");
-  std::stringstream text;
-  text << in.rdbuf();
+// A summary's report, or an error naming the file and the field that is impossible.
+template <class Report>
+Report report_of(const json& j, const std::string& path, const char* what) {
   try {
-    return fuzz::CampaignReport::from_json(parse_json_text(text.str()));
+    return Report::from_json(j);
+  } catch (const FieldError& e) {
+    throw std::runtime_error(printable(path) + ": not a " + what + " summary: field '" + e.field + "': " + printable(e.what()));
   } catch (const std::exception& e) {
-    throw std::runtime_error(path + ": not a campaign summary: " + std::string(e.what()));
+    throw std::runtime_error(printable(path) + ": not a " + what + " summary: " + printable(e.what()));
   }
 }
 
@@ -86,22 +102,37 @@ int run_merge(const MergeOptions& o) {
   fuzz::CampaignReport merged;
   fuzz::TracerCampaignReport merged_tracers;
   bool tracers = false;  // the shards are of a tracer campaign (their summaries say "kind": "tracers")
+  std::vector<std::pair<std::string, fuzz::ShardOf>> shards;
+  bool variants = false;
   for (const std::string& path : o.summaries) {
     const json j = read_summary_json(path);
     if (j.is_object() && j.value("kind", "") == "tracers") {
       tracers = true;
-      try {
-        merged_tracers.merge(fuzz::TracerCampaignReport::from_json(j));
-      } catch (const std::exception& e) {
-        throw std::runtime_error(path + ": not a tracer campaign summary: " + std::string(e.what()));
-      }
+      const auto shard = report_of<fuzz::TracerCampaignReport>(j, path, "tracer campaign");
+      shards.emplace_back(path, shard.shard_of);
+      merged_tracers.merge(shard);
       continue;
     }
-    const fuzz::CampaignReport shard = read_summary(path);
+    variants = true;
+    const auto shard = report_of<fuzz::CampaignReport>(j, path, "campaign");
+    shards.emplace_back(path, shard.shard_of);
     for (const auto& [k, t] : shard.tallies) merged.tallies[k].merge(t);
     for (const auto& [k, s] : shard.seconds) merged.seconds[k] += s;
     for (const auto& [k, n] : shard.cases) merged.cases[k] += n;
+    merged.shard_of = {shard.shard_of.campaign, 0, 1};  // merged: the whole of that campaign
   }
+  if (tracers && variants) throw std::runtime_error("merge: tracer and variant campaign summaries cannot be merged together");
+  fuzz::check_one_campaign(shards);  // one campaign, each shard once, none missing
+  // With summaries, every finding must come from their campaign's seed.
+  std::optional<std::uint64_t> seed;
+  if (!shards.empty() && shards.front().second.campaign.contains("seed"))
+    seed = read_count(shards.front().second.campaign.at("seed"), "campaign.seed");
+  auto of_campaign = [&](const FindingKey& k, const std::string& path, long line) {
+    if (seed && k.seed != *seed)
+      throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": a finding of seed " + std::to_string(k.seed) +
+                               ", but the summaries are of seed " + std::to_string(*seed));
+    return k;
+  };
   std::map<FindingKey, std::string> findings;  // deduplicated, in campaign order
   long bad = 0;
   for (const std::string& path : o.findings) {
@@ -116,12 +147,12 @@ int run_merge(const MergeOptions& o) {
           const json j = parse_json_text(text);
           if (is_mesh_case(j)) {
             const MeshCase c = read_mesh_case(j);
-            findings.emplace(mesh_key_of(c.id, path, line), text);
+            findings.emplace(of_campaign(mesh_key_of(c.id, path, line), path, line), text);
             continue;
           }
         }
         const Case c = parse_case(text);
-        findings.emplace(key_of(c, path, line), text);
+        findings.emplace(of_campaign(key_of(c, path, line), path, line), text);
       } catch (const json::parse_error& e) {
         ++bad;
         std::cerr << "rayproof: " << CaseError{path, line, "", std::string("malformed JSON: ") + e.what()}.to_string() << "\n";

@@ -38,10 +38,23 @@ json keyed_to_json(const std::map<ReportKey, Value>& m, ToJson to_json) {
   for (const auto& [k, v] : m) j[k.to_string()] = to_json(v);
   return j;
 }
+// Errors name the entry: "tallies.tangent\tstable.agree".
 template <class Value, class FromJson>
-std::map<ReportKey, Value> keyed_from_json(const json& j, FromJson from_json) {
+std::map<ReportKey, Value> keyed_from_json(const json& j, const std::string& field, FromJson from_json) {
+  if (!j.is_object()) throw FieldError(field, "expected an object");
   std::map<ReportKey, Value> m;
-  for (auto it = j.begin(); it != j.end(); ++it) m[ReportKey::parse(it.key())] = from_json(it.value());
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const std::string where = field + "." + printable_prefix(it.key(), 60);
+    try {
+      m[ReportKey::parse(it.key())] = from_json(it.value(), where);
+    } catch (const FieldError& e) {
+      throw FieldError(where + (e.field.empty() ? "" : "." + e.field), e.what());
+    } catch (const json::exception& e) {
+      throw FieldError(where, e.what());
+    } catch (const std::runtime_error& e) {
+      throw FieldError(where, e.what());
+    }
+  }
   return m;
 }
 }  // namespace
@@ -77,7 +90,7 @@ json CampaignReport::coverage() const {
 
 json CampaignReport::to_json() const {
   auto plain = [](const auto& v) { return json(v); };
-  return {{"tallies", keyed_to_json(tallies, [](const Tally& t) {
+  json j = {{"tallies", keyed_to_json(tallies, [](const Tally& t) {
              json j = t.to_json();
              j["bits"] = bits_json(t);  // t error in bits beside the ULP histogram
              return j;
@@ -86,15 +99,33 @@ json CampaignReport::to_json() const {
           {"cases", keyed_to_json(cases, plain)},
           {"findings_written", findings_written},
           {"coverage", coverage()}};
+  shard_of.write_to(j);
+  return j;
 }
 
 CampaignReport CampaignReport::from_json(const json& j) {
   CampaignReport r;
-  r.tallies = keyed_from_json<Tally>(j.at("tallies"), [](const json& v) { return Tally::from_json(v); });
-  r.seconds = keyed_from_json<double>(j.at("seconds"), [](const json& v) { return v.get<double>(); });
-  r.cases = keyed_from_json<std::uint64_t>(j.at("cases"), [](const json& v) { return v.get<std::uint64_t>(); });
-  r.findings_written = j.at("findings_written");
+  r.tallies = keyed_from_json<Tally>(j.at("tallies"), "tallies", [](const json& v, const std::string&) { return Tally::from_json(v); });
+  r.seconds = keyed_from_json<double>(j.at("seconds"), "seconds", [](const json& v, const std::string& field) {
+    if (!v.is_number() || !(v.get<double>() >= 0)) throw FieldError(field, "expected seconds >= 0");
+    return v.get<double>();
+  });
+  r.cases = keyed_from_json<std::uint64_t>(j.at("cases"), "cases", [](const json& v, const std::string& field) {
+    return read_count(v, field);
+  });
+  r.findings_written = read_count(j.at("findings_written"), "findings_written");
+  r.shard_of = ShardOf::read_from(j);
   return r;
+}
+
+json campaign_identity(const CampaignOptions& o) {
+  json f = json::array(), c = json::array(), s = json::array(), v = json::array();
+  for (Family x : o.families) f.push_back(std::string(to_string(x)));
+  for (Construction x : o.constructions) c.push_back(std::string(to_string(x)));
+  for (ShapeKind x : o.shapes) s.push_back(std::string(to_string(x)));
+  for (const Variant* x : o.variants) v.push_back(std::string(x->name));
+  return {{"kind", "variants"}, {"families", f}, {"constructions", c}, {"shapes", s}, {"variants", v}, {"count", o.count},
+          {"seed", o.seed}, {"rule", std::string(to_string(o.rule))}, {"version", RAYPROOF_VERSION}};
 }
 
 namespace {
@@ -491,6 +522,7 @@ CampaignReport run_campaign(const CampaignOptions& o) {
   }
   if (o.keep_checkpoint) save(checkpoint_path, o, cp);
   else std::filesystem::remove(checkpoint_path);  // complete: nothing to resume
+  cp.report.shard_of = {campaign_identity(o), o.shard, o.shards};
   return cp.report;
 }
 

@@ -26,21 +26,36 @@ json TracerCampaignReport::to_json() const {
   std::set<std::string> names;
   for (const auto& [k, v] : tallies) names.insert(k.name);
   for (const std::string& n : names) rule[n] = one_hit_rule_line(*this, n);
-  return {{"kind", "tracers"}, {"tallies", t}, {"seconds", s}, {"rays", r}, {"findings_written", findings_written},
-          {"one_hit_rule", rule}};
+  json j = {{"kind", "tracers"}, {"tallies", t}, {"seconds", s}, {"rays", r}, {"findings_written", findings_written},
+            {"one_hit_rule", rule}};
+  shard_of.write_to(j);
+  return j;
 }
 
 TracerCampaignReport TracerCampaignReport::from_json(const json& j) {
   TracerCampaignReport r;
-  for (auto it = j.at("tallies").begin(); it != j.at("tallies").end(); ++it)
-    r.tallies[ReportKey::parse(it.key())] = TracerTally::from_json(it.value());
-  for (auto it = j.at("seconds").begin(); it != j.at("seconds").end(); ++it) r.seconds[it.key()] = it.value().get<double>();
-  for (auto it = j.at("rays").begin(); it != j.at("rays").end(); ++it) r.rays[it.key()] = it.value().get<std::uint64_t>();
-  r.findings_written = j.at("findings_written");
+  for (auto it = j.at("tallies").begin(); it != j.at("tallies").end(); ++it) {
+    const std::string where = "tallies." + printable_prefix(it.key(), 60);
+    try {
+      r.tallies[ReportKey::parse(it.key())] = TracerTally::from_json(it.value());
+    } catch (const FieldError& e) {
+      throw FieldError(where + "." + e.field, e.what());
+    } catch (const std::exception& e) {
+      throw FieldError(where, e.what());
+    }
+  }
+  for (auto it = j.at("seconds").begin(); it != j.at("seconds").end(); ++it) {
+    if (!it.value().is_number() || !(it.value().get<double>() >= 0)) throw FieldError("seconds." + it.key(), "expected seconds >= 0");
+    r.seconds[it.key()] = it.value().get<double>();
+  }
+  for (auto it = j.at("rays").begin(); it != j.at("rays").end(); ++it) r.rays[it.key()] = read_count(it.value(), "rays." + it.key());
+  r.findings_written = read_count(j.at("findings_written"), "findings_written");
+  r.shard_of = ShardOf::read_from(j);
   return r;
 }
 
 void TracerCampaignReport::merge(const TracerCampaignReport& o) {
+  shard_of = {o.shard_of.campaign, 0, 1};  // merged: the whole of that campaign (merge checks the shards first)
   for (const auto& [k, v] : o.tallies) tallies[k].merge(v);
   for (const auto& [k, v] : o.seconds) seconds[k] += v;
   for (const auto& [k, v] : o.rays) rays[k] += v;
@@ -547,6 +562,12 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
   }
   if (o.keep_checkpoint) save(checkpoint_path, o, cp);
   else std::filesystem::remove(checkpoint_path);
+  json families = json::array(), tracers = json::array();
+  for (TracerFamily x : o.families) families.push_back(std::string(to_string(x)));
+  for (const Tracer* x : o.tracers) tracers.push_back(x->name);
+  cp.report.shard_of = {{{"kind", "tracers"}, {"families", families}, {"tracers", tracers}, {"count", o.count}, {"seed", o.seed},
+                         {"version", RAYPROOF_VERSION}},
+                        o.shard, o.shards};
   return cp.report;
 }
 

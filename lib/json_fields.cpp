@@ -267,6 +267,13 @@ std::string json_text(const json& j, int indent) {
   }
 }
 
+std::uint64_t read_count(const json& j, const std::string& field) {
+  if (j.is_number_unsigned()) return j.get<std::uint64_t>();
+  if (j.is_number_integer()) throw FieldError(field, "a count cannot be negative (" + j.dump() + ")");
+  if (j.is_null()) throw FieldError(field, "missing");
+  throw FieldError(field, "expected a whole number >= 0, got " + printable_prefix(j.dump(), 40));
+}
+
 double read_number(const json& j, const std::string& field) {
   double x;
   if (j.is_binary())  // DomBuilder's mark for a number beyond the double range

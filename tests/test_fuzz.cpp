@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <tuple>
 #include <set>
@@ -480,6 +481,78 @@ std::vector<std::string> sorted_lines(const std::string& path) {
   for (std::string l; std::getline(ss, l);) lines.push_back(l);
   std::sort(lines.begin(), lines.end());
   return lines;
+}
+
+// Issue 26, item 8: merge sums only the shards of one campaign, each once, and refuses
+// summaries whose tallies cannot be (negative, 1e308, a ULP bucket past 64 bits, agree > cases),
+// naming the file and the field; a finding index of 10^23 is named, not "stoull".
+TEST(Cluster, MergeRefusesWhatDoesNotBelongTogether) {
+  const std::string dir = rayproof::testing_support::test_dir();
+  const std::string campaign = " fuzz --families tangent --shapes sphere --count 300 --threads 1 --no-shrink --variants stable";
+  auto shard = [&](int seed, int i, int n) {
+    const std::string out = dir + "/s" + std::to_string(seed) + "-" + std::to_string(i) + "of" + std::to_string(n);
+    EXPECT_EQ(run(campaign + " --seed " + std::to_string(seed) + " --shard " + std::to_string(i) + "/" + std::to_string(n) +
+                  " -o " + out + ".jsonl --summary " + out + ".json"),
+              0);
+    return out;
+  };
+  const std::string a0 = shard(1, 0, 2), a1 = shard(1, 1, 2), b1 = shard(2, 1, 2);
+  auto merge = [&](const std::string& summaries, const std::string& findings = "") {
+    const std::string cmd = std::string(RAYPROOF_CLI) + " merge --summaries " + summaries +
+                            (findings.empty() ? "" : " --findings " + findings) + " --summary " + dir + "/m.json 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    std::string out;
+    char buf[4096];
+    while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+    const int status = pclose(p);
+    return std::pair{WEXITSTATUS(status), out};
+  };
+  // The good merge, for contrast: two shards of seed 1.
+  auto [status, out] = merge(a0 + ".json " + a1 + ".json", a0 + ".jsonl " + a1 + ".jsonl");
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_EQ(json::parse(read(dir + "/m.json"))["cases"]["tangent\tsphere"], 300);
+  std::tie(status, out) = merge(a0 + ".json " + b1 + ".json");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("another campaign than"), std::string::npos) << out;
+  EXPECT_NE(out.find("seed 2 vs 1"), std::string::npos) << out;
+  std::tie(status, out) = merge(a0 + ".json " + a0 + ".json");
+  EXPECT_NE(out.find("shard 0 of 2 again"), std::string::npos) << out;
+  std::tie(status, out) = merge(a0 + ".json");
+  EXPECT_NE(out.find("shards 1 of 2 are missing"), std::string::npos) << out;
+  std::tie(status, out) = merge(a0 + ".json " + a1 + ".json", a0 + ".jsonl " + b1 + ".jsonl");
+  EXPECT_NE(out.find("a finding of seed 2, but the summaries are of seed 1"), std::string::npos) << out;
+  // Impossible tallies, each in a copy of a good summary.
+  const json good = json::parse(read(a0 + ".json"));
+  const std::string key = "tangent\tstable";
+  struct Bad {
+    std::function<void(json&)> edit;
+    std::string message;
+  };
+  const std::vector<Bad> bad = {
+      {[&](json& j) { j["tallies"][key]["cases"] = -5; }, "cannot be negative"},
+      {[&](json& j) { j["tallies"][key]["wrong"] = 1e308; }, "expected a whole number"},
+      {[&](json& j) { j["tallies"][key]["ulp"]["buckets"]["100000"] = 1; }, "not a bucket"},
+      {[&](json& j) { j["tallies"][key]["agree"] = j["tallies"][key]["cases"].get<int>() + 1; }, "must equal cases"},
+      {[&](json& j) { j["cases"]["tangent\tsphere"] = -1; }, "cannot be negative"},
+  };
+  for (const Bad& b : bad) {
+    json j = good;
+    b.edit(j);
+    std::ofstream(dir + "/bad.json") << j.dump();
+    std::tie(status, out) = merge(dir + "/bad.json " + a1 + ".json");
+    EXPECT_EQ(status, 2) << b.message;
+    EXPECT_NE(out.find("bad.json: not a campaign summary: field"), std::string::npos) << out;
+    EXPECT_NE(out.find(b.message), std::string::npos) << out;
+  }
+  std::ofstream(dir + "/huge-index.jsonl") << read(a0 + ".jsonl").substr(0, read(a0 + ".jsonl").find('\n') + 1);
+  std::string line = read(dir + "/huge-index.jsonl");
+  const std::size_t at = line.find("\"id\":\"tangent/sphere/1/");
+  ASSERT_NE(at, std::string::npos) << line;
+  const std::size_t end = line.find('"', at + 6);
+  line.replace(at, end - at + 1, "\"id\":\"tangent/sphere/1/100000000000000000000000\"");
+  std::ofstream(dir + "/huge-index.jsonl") << line;
+  std::tie(status, out) = merge(a0 + ".json " + a1 + ".json", dir + "/huge-index.jsonl");
+  EXPECT_NE(out.find("huge-index.jsonl:1: id 'tangent/sphere/1/100000000000000000000000'"), std::string::npos) << out;
 }
 
 // Four shards run as parallel processes with the environment a Slurm job array or a Kubernetes

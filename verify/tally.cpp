@@ -1,7 +1,9 @@
 #include "rayproof/verify/tally.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
+#include <limits>
 
 #include "rayproof/verify/report.h"
 
@@ -43,11 +45,27 @@ json UlpHistogram::to_json() const {
   for (const auto& [k, n] : buckets_) b[std::to_string(k)] = n;
   return {{"count", count_}, {"max", max_}, {"buckets", b}};
 }
+// Summaries are read back by `merge` from files users hand it: every count is a whole number
+// >= 0, every bucket one that add() can fill, and the totals add up, or a FieldError names why.
 UlpHistogram UlpHistogram::from_json(const json& j) {
   UlpHistogram h;
-  h.count_ = j.at("count");
-  h.max_ = j.at("max");
-  for (auto it = j.at("buckets").begin(); it != j.at("buckets").end(); ++it) h.buckets_[std::stoi(it.key())] = it.value();
+  h.count_ = read_count(j.at("count"), "count");
+  h.max_ = read_count(j.at("max"), "max");
+  std::uint64_t total = 0;
+  const int last = bucket(std::numeric_limits<std::uint64_t>::max());
+  for (auto it = j.at("buckets").begin(); it != j.at("buckets").end(); ++it) {
+    int b = -1;
+    const std::string& key = it.key();
+    const auto [end, ec] = std::from_chars(key.data(), key.data() + key.size(), b);
+    if (ec != std::errc() || end != key.data() + key.size() || b < 0 || b > last)
+      throw FieldError("buckets." + printable_prefix(key, 40), "not a bucket (0.." + std::to_string(last) + ")");
+    const std::uint64_t n = read_count(it.value(), "buckets." + key);
+    if (n > h.count_ - std::min(h.count_, total)) throw FieldError("buckets", "hold more than count");
+    h.buckets_[b] = n, total += n;
+  }
+  if (total != h.count_) throw FieldError("count", std::to_string(h.count_) + " but the buckets hold " + std::to_string(total));
+  if (h.count_ > 0 && bucket(h.max_) != h.buckets_.rbegin()->first)
+    throw FieldError("max", std::to_string(h.max_) + " is not in the highest bucket");
   return h;
 }
 
@@ -112,16 +130,31 @@ json Tally::to_json() const {
 
 Tally Tally::from_json(const json& j) {
   Tally t;
-  t.cases = j.at("cases"), t.agree = j.at("agree"), t.wrong = j.at("wrong"), t.cannot_tell = j.at("cannot_tell");
-  t.shared_edge_holes = j.at("shared_edge_holes");
-  t.crashes = j.value("crashes", std::uint64_t(0));
-  t.timeouts = j.value("timeouts", std::uint64_t(0));
-  t.protocol_errors = j.value("protocol_errors", std::uint64_t(0));
-  t.plugin_errors = j.value("plugin_errors", std::uint64_t(0));
-  t.not_representable = j.value("not_representable", std::uint64_t(0));
-  if (j.contains("ulp_own")) t.ulps_own = UlpHistogram::from_json(j.at("ulp_own"));
-  t.confusion = j.at("disagreements").get<std::map<std::string, std::uint64_t>>();
-  t.ulps = UlpHistogram::from_json(j.at("ulp"));
+  auto count = [&](const char* key) { return read_count(j.at(key), key); };
+  auto optional = [&](const char* key) { return j.contains(key) ? read_count(j.at(key), key) : 0; };
+  t.cases = count("cases"), t.agree = count("agree"), t.wrong = count("wrong"), t.cannot_tell = count("cannot_tell");
+  t.shared_edge_holes = count("shared_edge_holes");
+  t.crashes = optional("crashes"), t.timeouts = optional("timeouts"), t.protocol_errors = optional("protocol_errors");
+  t.plugin_errors = optional("plugin_errors"), t.not_representable = optional("not_representable");
+  if (t.agree > t.cases || t.wrong > t.cases - t.agree || t.cannot_tell != t.cases - t.agree - t.wrong)
+    throw FieldError("cases", "agree + wrong + cannot_tell must equal cases (" + std::to_string(t.agree) + " + " +
+                                  std::to_string(t.wrong) + " + " + std::to_string(t.cannot_tell) + " vs " + std::to_string(t.cases) + ")");
+  std::uint64_t disagreements = 0;
+  for (auto it = j.at("disagreements").begin(); it != j.at("disagreements").end(); ++it) {
+    const std::uint64_t n = read_count(it.value(), "disagreements." + printable_prefix(it.key(), 40));
+    if (n > t.cases - std::min(t.cases, disagreements)) throw FieldError("disagreements", "count more than cases");
+    t.confusion[it.key()] = n;
+    disagreements += n;
+  }
+  if (disagreements != t.wrong + t.cannot_tell)
+    throw FieldError("disagreements", "sum to " + std::to_string(disagreements) + ", not wrong + cannot_tell");
+  try {
+    t.ulps = UlpHistogram::from_json(j.at("ulp"));
+    if (j.contains("ulp_own")) t.ulps_own = UlpHistogram::from_json(j.at("ulp_own"));
+  } catch (const FieldError& e) {
+    throw FieldError("ulp." + e.field, e.what());
+  }
+  if (t.ulps.count() > t.agree || t.ulps_own.count() > t.agree) throw FieldError("ulp.count", "more t errors than agreeing cases");
   return t;
 }
 
@@ -172,17 +205,32 @@ json TracerTally::to_json() const {
 
 TracerTally TracerTally::from_json(const json& j) {
   TracerTally t;
-  t.cases = j.at("cases");
+  t.cases = read_count(j.at("cases"), "cases");
+  std::uint64_t total = 0;
   for (auto it = j.begin(); it != j.end(); ++it) {
     const std::string& k = it.key();
     if (k == "cases" || k == "bits" || k == "ns_per_ray" || k == "ulp" || k == "seconds" || k == "timed_rays" ||
         k.rfind("edge_", 0) == 0)
       continue;
-    if (it->get<std::uint64_t>() > 0) t.kinds[k] = it->get<std::uint64_t>();
+    const std::uint64_t n = read_count(it.value(), printable_prefix(k, 40));
+    if (n > t.cases - std::min(t.cases, total)) throw FieldError(k, "the kinds count more rays than cases");
+    if (n > 0) t.kinds[k] = n;
+    total += n;
   }
-  t.edge_rays = j.at("edge_rays"), t.edge_holes = j.at("edge_holes"), t.edge_double_hits = j.at("edge_double_hits");
-  t.ulps = UlpHistogram::from_json(j.at("ulp"));
-  t.seconds = j.at("seconds"), t.timed_rays = j.at("timed_rays");
+  if (total != t.cases) throw FieldError("cases", std::to_string(t.cases) + " but the kinds count " + std::to_string(total));
+  t.edge_rays = read_count(j.at("edge_rays"), "edge_rays");
+  t.edge_holes = read_count(j.at("edge_holes"), "edge_holes");
+  t.edge_double_hits = read_count(j.at("edge_double_hits"), "edge_double_hits");
+  if (t.edge_rays > t.cases || t.edge_holes > t.edge_rays || t.edge_double_hits > t.edge_rays)
+    throw FieldError("edge_rays", "edge holes and double hits are among the edge rays, which are among the cases");
+  try {
+    t.ulps = UlpHistogram::from_json(j.at("ulp"));
+  } catch (const FieldError& e) {
+    throw FieldError("ulp." + e.field, e.what());
+  }
+  if (!j.at("seconds").is_number() || !(j.at("seconds").get<double>() >= 0)) throw FieldError("seconds", "expected a number >= 0");
+  t.seconds = j.at("seconds").get<double>();
+  t.timed_rays = read_count(j.at("timed_rays"), "timed_rays");
   return t;
 }
 

@@ -13,6 +13,7 @@
 #include "rayproof/core/json_fields.h"
 #include "rayproof/core/variants.h"
 #include "rayproof/fuzz/generators.h"
+#include "rayproof/fuzz/shard_of.h"
 #include "rayproof/verify/report.h"
 #include "rayproof/verify/tally.h"
 
@@ -54,12 +55,16 @@ struct CampaignReport {
   std::map<ReportKey, double> seconds;            // family × shape
   std::map<ReportKey, std::uint64_t> cases;       // family × shape
   std::uint64_t findings_written = 0;
+  ShardOf shard_of;  // the campaign and the share of it this report holds
   // Per variant: {"found": {"exact->reported": {family: count}}, "never_found": [kinds]}, the
   // kinds of disagreement each family finds, and those none found.
   json coverage() const;
   json to_json() const;
   static CampaignReport from_json(const json& j);
 };
+
+// What makes runs the same campaign (ShardOf::campaign): all but the shard and the run's settings.
+json campaign_identity(const CampaignOptions& options);
 
 // Runs (or, with options.resume, continues) a campaign; throws std::runtime_error on I/O errors
 // or a checkpoint that belongs to other options.

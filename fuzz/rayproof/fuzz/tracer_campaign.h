@@ -42,6 +42,7 @@ struct TracerCampaignReport {
   std::map<std::string, double> seconds;      // per family: generating, judging and tracing
   std::map<std::string, std::uint64_t> rays;  // per family
   std::uint64_t findings_written = 0;
+  ShardOf shard_of;  // the campaign and the share of it this report holds
   json to_json() const;
   static TracerCampaignReport from_json(const json& j);
   void merge(const TracerCampaignReport& o);

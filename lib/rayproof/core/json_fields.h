@@ -2,6 +2,7 @@
 // (docs/spec/cases.md, "Every number is ..."). Errors name the field by its JSON path.
 #pragma once
 
+#include <cstdint>
 #include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -47,6 +48,10 @@ std::string printable_prefix(std::string_view text, std::size_t max_bytes);
 // \xNN instead of making the dump throw and the file go unwritten.
 std::string json_text(const json& j, int indent = -1);
 
+
+// A count from a summary or checkpoint: a JSON integer >= 0, never a float (1e308), a negative
+// number (-5 would wrap to 18446744073709551611) or text.
+std::uint64_t read_count(const json& j, const std::string& field);
 
 // A finite double from a JSON number or a hex-float string.
 double read_number(const json& j, const std::string& field);
