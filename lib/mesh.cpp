@@ -164,22 +164,8 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
-}  // namespace
-
-Mesh load_mesh(const std::string& path, double scale, const Vec3& translate) {
-  // A scene names its mesh files: a device or FIFO (/dev/zero, /dev/stdin) would be read
-  // forever, so only regular files are meshes.
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) fail(path, 0, "cannot open mesh file");
-  if (!std::filesystem::is_regular_file(path, ec)) fail(path, 0, "not a regular file");
-  const std::string ext = lower_extension(path);
-  Soup soup;
-  if (ext == "off") soup = read_off(path);
-  else if (ext == "obj") soup = read_obj(path);
-  else if (ext == "ply") soup = mesh_detail::read_ply(path);
-  else if (ext == "stl") soup = mesh_detail::read_stl(path);
-  else fail(path, 0, "unknown mesh format '" + printable(ext) + "' (OFF, OBJ, PLY or STL)");
-
+// Placement and triangulation of what a reader returned.
+Mesh mesh_of_soup(const std::string& path, const Soup& soup, double scale, const Vec3& translate) {
   Mesh mesh;
   mesh.vertex_count = soup.points.size();
   // Placement v·scale + translate, two roundings per coordinate (this file is built without
@@ -215,6 +201,29 @@ Mesh load_mesh(const std::string& path, double scale, const Vec3& translate) {
   }
   if (mesh.triangles.empty()) fail(path, 0, "the mesh has no non-degenerate triangles");
   return mesh;
+}
+
+}  // namespace
+
+Mesh load_mesh(const std::string& path, double scale, const Vec3& translate) {
+  // A scene names its mesh files: a device or FIFO (/dev/zero, /dev/stdin) would be read
+  // forever, so only regular files are meshes.
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail(path, 0, "cannot open mesh file");
+  if (!std::filesystem::is_regular_file(path, ec)) fail(path, 0, "not a regular file");
+  const std::string ext = lower_extension(path);
+  Soup soup;
+  if (ext == "off") soup = read_off(path);
+  else if (ext == "obj") soup = read_obj(path);
+  else if (ext == "ply") soup = mesh_detail::read_ply(path);
+  else if (ext == "stl") soup = mesh_detail::read_stl(path);
+  else fail(path, 0, "unknown mesh format '" + printable(ext) + "' (OFF, OBJ, PLY or STL)");
+
+  return mesh_of_soup(path, soup, scale, translate);
+}
+
+Mesh parse_ply_mesh(const std::string& bytes, const std::string& name) {
+  return mesh_of_soup(name, mesh_detail::parse_ply(name, bytes), 1, Vec3::Zero());
 }
 
 }  // namespace rayproof

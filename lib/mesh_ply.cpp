@@ -340,8 +340,12 @@ Soup read_ply(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(printable(path) + ": cannot open mesh file");
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (bytes.empty()) throw std::runtime_error(printable(path) + ": empty PLY file");
-  return PlyReader(path, std::move(bytes)).read();
+  return parse_ply(path, std::move(bytes));
+}
+
+Soup parse_ply(const std::string& name, std::string bytes) {
+  if (bytes.empty()) throw std::runtime_error(printable(name) + ": empty PLY file");
+  return PlyReader(name, std::move(bytes)).read();
 }
 
 }  // namespace rayproof::mesh_detail

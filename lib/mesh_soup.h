@@ -17,7 +17,8 @@ struct Soup {
 // STL through CGAL (mesh_cgal.cpp).
 Soup read_stl(const std::string& path);
 
-// PLY, ASCII or binary (mesh_ply.cpp).
+// PLY, ASCII or binary (mesh_ply.cpp): from a file, or from its bytes (`name` in errors).
 Soup read_ply(const std::string& path);
+Soup parse_ply(const std::string& name, std::string bytes);
 
 }  // namespace rayproof::mesh_detail

@@ -27,6 +27,8 @@ struct Mesh {
 // for text formats, the line: missing or unreadable file, unknown format, a face index out of
 // range, a NaN or infinite coordinate, a file with no triangles.
 Mesh load_mesh(const std::string& path, double scale = 1, const Vec3& translate = Vec3::Zero());
+// A PLY file's bytes as load_mesh reads them (`name` names it in errors): the parser harness's door.
+Mesh parse_ply_mesh(const std::string& bytes, const std::string& name);
 
 // Whether two triangles of a mesh share a vertex (the acne test's "adjacent").
 inline bool share_a_vertex(const std::array<std::uint32_t, 3>& a, const std::array<std::uint32_t, 3>& b) {
