@@ -524,11 +524,11 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
     for (const VariantAudit& va : audit.variants) {
       if (va.shape != kind) continue;
       r.audited = true;
-      if (!va.exact_for_scene() || !va.stopped.empty()) continue;
+      if (!va.exact_for_scene()) continue;
       if (!r.best || va.ns_per_ray < r.best->ns_per_ray) r.best = &va;
     }
     for (const VariantAudit& va : audit.variants)
-      if (r.best && &va != r.best && va.shape == kind && va.exact_for_scene() && va.stopped.empty() &&
+      if (r.best && &va != r.best && va.shape == kind && va.exact_for_scene() &&
           va.ns_per_ray <= 1.1 * r.best->ns_per_ray)
         r.close.push_back(&va);
     audit.recommendation.push_back(r);

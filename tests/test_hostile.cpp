@@ -144,6 +144,19 @@ TEST(HostileExec, AnUnreadableAnswerCostsOnlyItsCommand) {
   EXPECT_EQ(r.status, 0) << r.err;
   const json a = json::parse(read(test_dir() + "/audit/audit.json"));
   EXPECT_NE(a["scene"].get<std::string>().find("s\\xff.json"), std::string::npos) << a["scene"];
+  // An exec variant that stops mid-audit: the others' results are written, and it is never
+  // called exact for the scene (its later pixels were not judged).
+  const CliRun stopped = run("audit '" + scene + "' --variants stable,bad --exec 'bad=sh " + long_line + "' -o " + test_dir() + "/audit2");
+  const json b = json::parse(read(test_dir() + "/audit2/audit.json"));
+  ASSERT_EQ(b["variants"].size(), 2u) << stopped.err;
+  for (const json& v : b["variants"]) {
+    if (v["name"] == "bad") {
+      EXPECT_EQ(v["exact_for_scene"], false) << v.dump();
+      EXPECT_TRUE(v.contains("stopped")) << v.dump();
+    } else {
+      EXPECT_EQ(v["exact_for_scene"], true) << v.dump();
+    }
+  }
 }
 
 // Item 9: an exec variant named like built-in stable's diff image gets files of its own.

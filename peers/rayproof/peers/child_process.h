@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -24,6 +25,44 @@
 extern char** environ;
 
 namespace rayproof::peers {
+
+// Children in their own groups no longer share the terminal's Ctrl-C: rayproof keeps their
+// group ids here and, on SIGINT, SIGTERM or SIGHUP, kills every group before it dies of the
+// signal itself (async-signal-safe: atomics and kill only).
+namespace child_detail {
+inline constexpr int kSlots = 1024;
+inline std::atomic<pid_t> live_groups[kSlots];
+
+inline void end_children_and_die(int sig) {
+  for (auto& g : live_groups)
+    if (const pid_t pid = g.load(std::memory_order_relaxed); pid > 0) ::kill(-pid, SIGKILL);
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);
+}
+
+inline void remember(pid_t pid) {
+  static const bool installed = [] {
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
+      struct sigaction old {};
+      ::sigaction(sig, nullptr, &old);
+      if (old.sa_handler == SIG_DFL) ::signal(sig, end_children_and_die);  // never replace someone's handler
+    }
+    return true;
+  }();
+  (void)installed;
+  for (auto& g : live_groups) {
+    pid_t empty = 0;
+    if (g.compare_exchange_strong(empty, pid)) return;
+  }
+}
+
+inline void forget(pid_t pid) {
+  for (auto& g : live_groups) {
+    pid_t expected = pid;
+    if (g.compare_exchange_strong(expected, 0)) return;
+  }
+}
+}  // namespace child_detail
 
 // Starts `path` with `argv` and `envp` in a new process group (its pid is the group's id), with
 // each {from, to} of `dups` duplicated onto descriptor `to`. Throws naming `what`.
@@ -42,6 +81,7 @@ inline pid_t spawn_in_own_group(const char* path, char* const argv[], char* cons
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
   if (rc != 0) throw std::runtime_error("cannot start " + what + ": " + std::string(std::strerror(rc)));
+  child_detail::remember(pid);
   return pid;
 }
 
@@ -84,6 +124,7 @@ inline int end_child(pid_t pid, double grace, bool* killed = nullptr) {
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
+  child_detail::forget(pid);
   return status;
 }
 

@@ -54,7 +54,8 @@ struct VariantAudit {
   double ns_per_ray = 0;      // primary rays against the scene's primitives of its shape, one thread
   Image render, diff;         // the variant's render; wrong pixels over the dimmed exact render
   std::string stopped;        // external code that stopped: why (its later answers are misses)
-  bool exact_for_scene() const { return counts.wrong == 0 && counts.shadow_wrong == 0; }
+  // A variant that stopped (crash, hang, protocol error) left pixels unjudged: never exact.
+  bool exact_for_scene() const { return counts.wrong == 0 && counts.shadow_wrong == 0 && stopped.empty(); }
   // Headroom: wrong pixels per exponent of headroom_exponents() (−1: not rendered, because an
   // earlier exponent already had wrong pixels).
   std::vector<long> headroom_wrong;
