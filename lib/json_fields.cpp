@@ -243,29 +243,34 @@ std::string valid_utf8(std::string_view text) {
   return out;
 }
 
-json with_valid_utf8(const json& j) {
-  if (j.is_string()) return valid_utf8(j.get_ref<const std::string&>());
+template <class Json>
+Json with_valid_utf8(const Json& j) {
+  if (j.is_string()) return valid_utf8(j.template get_ref<const std::string&>());
   if (j.is_array()) {
-    json out = json::array();
-    for (const json& e : j) out.push_back(with_valid_utf8(e));
+    Json out = Json::array();
+    for (const Json& e : j) out.push_back(with_valid_utf8(e));
     return out;
   }
   if (j.is_object()) {
-    json out = json::object();
+    Json out = Json::object();
     for (const auto& [key, value] : j.items()) out[valid_utf8(key)] = with_valid_utf8(value);
     return out;
   }
   return j;
 }
-}  // namespace
 
-std::string json_text(const json& j, int indent) {
+template <class Json>
+std::string json_text_of(const Json& j, int indent) {
   try {
     return j.dump(indent);
   } catch (const json::type_error&) {  // 316: invalid UTF-8 somewhere; the rare path walks and escapes
     return with_valid_utf8(j).dump(indent);
   }
 }
+}  // namespace
+
+std::string json_text(const json& j, int indent) { return json_text_of(j, indent); }
+std::string json_text(const nlohmann::ordered_json& j, int indent) { return json_text_of(j, indent); }
 
 std::uint64_t read_count(const json& j, const std::string& field) {
   if (j.is_number_unsigned()) return j.get<std::uint64_t>();

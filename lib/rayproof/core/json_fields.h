@@ -47,6 +47,7 @@ std::string printable_prefix(std::string_view text, std::size_t max_bytes);
 // key) that is not valid UTF-8 (a file name, a plugin's message) has its bad bytes written as
 // \xNN instead of making the dump throw and the file go unwritten.
 std::string json_text(const json& j, int indent = -1);
+std::string json_text(const nlohmann::ordered_json& j, int indent = -1);  // keys kept in insertion order
 
 
 // A count from a summary or checkpoint: a JSON integer >= 0, never a float (1e308), a negative
