@@ -93,6 +93,22 @@ TEST(HostilePlugins, AForkingPluginIsAPluginErrorAndNothingIsJudged) {
   EXPECT_NE(r.err.find("the plugin forked"), std::string::npos) << r.err;
 }
 
+// Item 5, plugins: a worker whose response pipe closes while it runs on is not waited for.
+TEST(HostilePlugins, AWorkerThatClosesItsPipeAndRunsOnIsNotWaitedFor) {
+  std::string cases = R"({"id": "closes", "ray": {"origin": [-30, 0, 0], "direction": [1, 0, 0]}, )"
+                      R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": 23}})";
+  cases = write("cases.jsonl", cases + "\n" + sphere_cases(1));
+  const auto start = std::chrono::steady_clock::now();
+  const CliRun r = run("check " + cases + " --plugin " + MISBEHAVING_PLUGIN + " --variants test-crashing,stable --case-timeout 60");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LT(seconds, 30) << "rayproof waited on a worker that closed its pipe";
+  EXPECT_NE(r.err.find("closed its response pipe and kept running (killed)"), std::string::npos) << r.err;
+  const auto lines = lines_of(r.out);
+  ASSERT_EQ(lines.size(), 2u) << r.err;
+  EXPECT_EQ(lines[0]["variants"]["test-crashing"]["error"], "crash") << lines[0].dump();
+  EXPECT_TRUE(lines[1]["variants"]["stable"].contains("class"));
+}
+
 // Item 5: every wait is bounded by --case-timeout (or less), the reason says what happened, and
 // the command's process group is ended with it.
 TEST(HostileExec, EveryWaitIsBoundedAndTheCommandsGroupEnds) {
@@ -194,6 +210,17 @@ TEST(HostileFuzz, ShardsAreWholeNumbersOrAnErrorNamingTheirSource) {
   const int status = pclose(p);
   EXPECT_EQ(WEXITSTATUS(status), 2) << text;
   EXPECT_NE(text.find("SLURM_ARRAY_TASK_ID is not a whole number"), std::string::npos) << text;
+}
+
+// Item 11: an audit beyond the machine's memory is refused with the estimate, before any work.
+TEST(HostileInputs, AnAuditBeyondMemoryIsRefusedWithItsEstimate) {
+  const std::string scene = write("huge.json", R"({"camera": {"eye": [0,0,-5], "look_at": [0,0,0], "up": [0,1,0],
+      "fov_deg": 40, "width": 16384, "height": 16384}, "samples": 1024,
+      "objects": [{"type": "sphere", "center": [0,0,0], "radius": 1}]})");
+  const CliRun r = run("audit " + scene + " --variants stable -o " + test_dir() + "/huge");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("needs about"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("GB available"), std::string::npos) << r.err;
 }
 
 // Item 11: `render -` reads the scene from standard input; an answers file's precision line may
