@@ -3,8 +3,8 @@
 // forks is the plugin's, reported), and every call runs in a worker: this same executable
 // re-executed (so nothing needs installing beside it), which sees RAYPROOF_PLUGIN_WORKER in its
 // environment, loads the plugin and answers batches through shared memory until its request
-// pipe closes. A worker that finds itself forked by the plugin (another pid) leaves without
-// answering and marks the batch, which rayproof then reports instead of judging it. A batch costs
+// pipe closes. When the plugin forks, the copy leaves without answering and the worker marks
+// the batch, which rayproof then reports instead of judging it. A batch costs
 // two pipe wake-ups; the worker writes the index of the case it is on before each call, so when
 // it dies or stops making progress the case to blame is known and every earlier answer is kept.
 #include <dlfcn.h>
@@ -43,7 +43,6 @@ namespace {
 constexpr std::size_t kBatchCapacity = 4096;
 constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;  // the worker's fixed descriptors
 constexpr const char* kWorkerEnv = "RAYPROOF_PLUGIN_WORKER";  // "table:PATH" or "serve:PATH"
-constexpr std::size_t kMaxReportedString = 4096;  // of a plugin's strings, the bytes the table worker copies
 
 struct WireQuery {
   double numbers[6 + kMaxShapeNumbers];  // ray, then the shape's numbers (cases.md order)
@@ -55,7 +54,7 @@ struct WireAnswer {
 };
 struct SharedBatch {
   std::atomic<std::uint32_t> progress;  // the index of the case the worker is calling on
-  std::atomic<std::uint32_t> forked;    // set by a copy of the worker the plugin forked
+  std::atomic<std::uint32_t> forked;    // set by the worker when the plugin forked (library_table.h)
   std::uint32_t variant, count;
   std::uint32_t repeats;  // `trade`: run the batch this many times on inputs already in cache, for timing
   double inner_seconds;  // the worker's own time for the calls of this batch
@@ -89,53 +88,25 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
   return out;
 }
 
-// The worker's view of the table: the plugin's strings bounded (a 10 MB name is reported by its
-// length, never copied whole) and escaped on the rayproof side.
-json describe_string(const char* text) {
-  if (!text) return nullptr;
-  const std::size_t bytes = ::strnlen(text, kMaxReportedString + 1);
-  return json{{"text", std::string(text, std::min(bytes, kMaxReportedString))}, {"bytes", bytes}};
-}
-
 // The worker: loads the plugin, then either writes its table as one JSON line and ends
 // (mode "table") or answers batches until the request pipe closes (mode "serve").
 [[noreturn]] void run_worker(const std::string& setting) {
-  const pid_t worker = ::getpid();  // before any plugin code runs
-  const bool table_only = setting.rfind("table:", 0) == 0;
-  const std::string plugin_path = setting.substr(setting.find(':') + 1);
-  const int report_fd = table_only ? ::dup(1) : -1;
-  ::dup2(2, 1);  // a plugin's printf must not land in rayproof's results
-  // A crash is the plugin's: let its signal end this process as it is (a sanitizer's handlers
-  // would turn it into an exit status), so rayproof can name the signal.
-  for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGTRAP}) ::signal(sig, SIG_DFL);
-  void* lib = ::dlopen(plugin_path.c_str(), RTLD_NOW | RTLD_LOCAL);
-  auto entry = lib ? reinterpret_cast<decltype(&rayproof_plugin)>(::dlsym(lib, "rayproof_plugin")) : nullptr;
+  const WorkerStart start = start_worker(setting);
   int count = 0;
-  const rayproof_variant* table = entry ? entry(RAYPROOF_PLUGIN_ABI, &count) : nullptr;
-  if (::getpid() != worker) ::_exit(0);  // a copy forked at load time says nothing
-  if (table_only) {
-    json report;
-    if (!lib) report["error"] = std::string(::dlerror());
-    else if (!entry) report["error"] = "no symbol rayproof_plugin (export it with C linkage: see rayproof/plugin.h)";
-    else if (!table) report["error"] = "rayproof_plugin returned NULL for ABI " + std::to_string(RAYPROOF_PLUGIN_ABI) + " (built for another ABI?)";
-    else if (count <= 0 || count > 64) report["error"] = "rayproof_plugin gave " + std::to_string(count) + " variants (1 to 64 expected)";
-    else {
-      report["variants"] = json::array();
-      for (int i = 0; i < count; ++i)
-        report["variants"].push_back({{"name", describe_string(table[i].name)},
-                                      {"shape", describe_string(table[i].shape)},
-                                      {"rule", describe_string(table[i].rule)},
-                                      {"source", describe_string(table[i].source)},
-                                      {"f64", table[i].f64 != nullptr},
-                                      {"f32", table[i].f32 != nullptr}});
-    }
-    const std::string text = json_text(report) + "\n";
-    for (std::size_t at = 0; at < text.size();) {
-      const ssize_t n = ::write(report_fd, text.data() + at, text.size() - at);
-      if (n <= 0) ::_exit(5);
-      at += static_cast<std::size_t>(n);
-    }
-    ::_exit(0);
+  std::string error;
+  const rayproof_variant* table = load_library_table<rayproof_variant>(start.path, "rayproof_plugin", RAYPROOF_PLUGIN_ABI,
+                                                                       "rayproof/plugin.h", "variants", count, error);
+  if (is_forked_copy()) ::_exit(0);  // a copy forked at load time says nothing
+  if (start.table_only) {
+    json rows = json::array();
+    for (int i = 0; table && i < count; ++i)
+      rows.push_back({{"name", describe_string(table[i].name)},
+                      {"shape", describe_string(table[i].shape)},
+                      {"rule", describe_string(table[i].rule)},
+                      {"source", describe_string(table[i].source)},
+                      {"f64", table[i].f64 != nullptr},
+                      {"f32", table[i].f32 != nullptr}});
+    report_table_and_exit(start.report_fd, error, "variants", rows);
   }
   auto* shared = static_cast<SharedBatch*>(
       ::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0));
@@ -155,11 +126,12 @@ json describe_string(const char* text) {
         shared->progress.store(i, std::memory_order_relaxed);
         const WireAnswer a = v.f64 ? call_checked<double>(v.f64, shared->queries[i].numbers, n, unwritten64)
                                    : call_checked<float>(v.f32, shared->queries[i].numbers, n, unwritten32);
-        if (::getpid() != worker) shared->forked.store(1), ::_exit(0);  // a copy the plugin forked: never answers
+        if (is_forked_copy()) ::_exit(0);  // a copy the plugin forked: never answers
         shared->answers[i] = a;
       }
     }
     shared->inner_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / repeats;
+    if (library_forked()) shared->forked.store(1);  // told before the answer, so this batch is never judged
     if (::write(kResponseFd, &byte, 1) != 1) break;
   }
   ::_exit(0);

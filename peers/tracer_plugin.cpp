@@ -4,8 +4,8 @@
 // re-executed with RAYPROOF_TRACER_WORKER set — which holds one scene at a time. Mesh, rays and
 // answers travel through one shared memory file (grown as needed); each request costs two pipe
 // wake-ups. The worker writes the index of the ray it is on before each call, so when it dies or
-// hangs the ray to blame is known and every earlier answer is kept. A copy of the worker that the
-// library forked leaves without answering and marks the request, which is then reported.
+// hangs the ray to blame is known and every earlier answer is kept. When the library forks, the
+// copy leaves without answering and the worker marks the request, which is then reported.
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <poll.h>
@@ -37,7 +37,6 @@ namespace {
 
 constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;
 constexpr const char* kWorkerEnv = "RAYPROOF_TRACER_WORKER";  // "table:PATH" or "serve:PATH"
-constexpr std::size_t kMaxReportedString = 4096;  // of a library's strings, the bytes the table worker copies
 
 enum class Op : std::uint32_t { build = 1, nearest = 2, all_hits = 3, release = 4 };
 
@@ -47,7 +46,7 @@ enum class Op : std::uint32_t { build = 1, nearest = 2, all_hits = 3, release = 
 // not fit and rayproof asks again from there).
 struct Header {
   std::atomic<std::uint64_t> progress;
-  std::atomic<std::uint32_t> forked;  // set by a copy of the worker the library forked
+  std::atomic<std::uint32_t> forked;  // set by the worker when the library forked (library_table.h)
   std::uint64_t bytes;  // the file's size, for the worker's mapping
   Op op;
   std::uint32_t tracer;
@@ -63,57 +62,32 @@ std::size_t nearest_bytes(std::uint64_t n) { return kData + n * (sizeof(rayproof
 std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + n * (sizeof(rayproof_ray) + 8) + 4 * cap; }
 
 // ----------------------------------------------------------------- the worker
-json describe_string(const char* text) {
-  if (!text) return nullptr;
-  const std::size_t bytes = ::strnlen(text, kMaxReportedString + 1);
-  return json{{"text", std::string(text, std::min(bytes, kMaxReportedString))}, {"bytes", bytes}};
-}
-
 // Loads the library, then either writes its table as one JSON line and ends (mode "table") or
 // serves requests until the request pipe closes (mode "serve").
 [[noreturn]] void run_worker(const std::string& setting) {
-  const pid_t worker = ::getpid();  // before any library code runs
-  const bool table_only = setting.rfind("table:", 0) == 0;
-  const std::string path = setting.substr(setting.find(':') + 1);
-  const int report_fd = table_only ? ::dup(1) : -1;
-  ::dup2(2, 1);  // a tracer's printf must not land in rayproof's results
-  for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGTRAP}) ::signal(sig, SIG_DFL);
-  void* lib = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-  auto entry = lib ? reinterpret_cast<decltype(&rayproof_tracers)>(::dlsym(lib, "rayproof_tracers")) : nullptr;
+  const WorkerStart start = start_worker(setting);
   int count = 0;
-  const rayproof_tracer* table = entry ? entry(RAYPROOF_TRACER_ABI, &count) : nullptr;
-  if (::getpid() != worker) ::_exit(0);  // a copy forked at load time says nothing
-  if (table_only) {
-    json report;
-    if (!lib) report["error"] = std::string(::dlerror());
-    else if (!entry) report["error"] = "no symbol rayproof_tracers (export it with C linkage: see rayproof/tracer.h)";
-    else if (!table) report["error"] = "rayproof_tracers returned NULL for ABI " + std::to_string(RAYPROOF_TRACER_ABI) + " (built for another ABI?)";
-    else if (count <= 0 || count > 64) report["error"] = "rayproof_tracers gave " + std::to_string(count) + " tracers (1 to 64 expected)";
-    else {
-      report["tracers"] = json::array();
-      for (int i = 0; i < count; ++i)
-        report["tracers"].push_back({{"name", describe_string(table[i].name)},
-                                     {"precision", describe_string(table[i].precision)},
-                                     {"source", describe_string(table[i].source)},
-                                     {"build", table[i].build != nullptr},
-                                     {"nearest", table[i].nearest != nullptr},
-                                     {"all_hits", table[i].all_hits != nullptr}});
-    }
-    const std::string text = json_text(report) + "\n";
-    for (std::size_t at = 0; at < text.size();) {
-      const ssize_t n = ::write(report_fd, text.data() + at, text.size() - at);
-      if (n <= 0) ::_exit(5);
-      at += static_cast<std::size_t>(n);
-    }
-    ::_exit(0);
+  std::string error;
+  const rayproof_tracer* table = load_library_table<rayproof_tracer>(start.path, "rayproof_tracers", RAYPROOF_TRACER_ABI,
+                                                                     "rayproof/tracer.h", "tracers", count, error);
+  if (is_forked_copy()) ::_exit(0);  // a copy forked at load time says nothing
+  if (start.table_only) {
+    json rows = json::array();
+    for (int i = 0; table && i < count; ++i)
+      rows.push_back({{"name", describe_string(table[i].name)},
+                      {"precision", describe_string(table[i].precision)},
+                      {"source", describe_string(table[i].source)},
+                      {"build", table[i].build != nullptr},
+                      {"nearest", table[i].nearest != nullptr},
+                      {"all_hits", table[i].all_hits != nullptr}});
+    report_table_and_exit(start.report_fd, error, "tracers", rows);
   }
   if (!table) ::_exit(3);
   void* scene = nullptr;
   const rayproof_tracer* scene_of = nullptr;
-  Header* current = nullptr;
   // After every library call: a copy of this worker (the library forked) never answers.
-  auto leave_if_copy = [&] {
-    if (::getpid() != worker) current->forked.store(1), ::_exit(0);
+  auto leave_if_copy = [] {
+    if (is_forked_copy()) ::_exit(0);
   };
   std::vector<std::uint32_t> buffer(64);
   char byte;
@@ -123,7 +97,6 @@ json describe_string(const char* text) {
     void* map = ::mmap(nullptr, probe.bytes, PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0);
     if (map == MAP_FAILED) ::_exit(4);
     auto* h = static_cast<Header*>(map);
-    current = h;
     char* data = static_cast<char*>(map) + kData;
     const rayproof_tracer& t = table[h->tracer];
     const auto t0 = std::chrono::steady_clock::now();
@@ -178,6 +151,7 @@ json describe_string(const char* text) {
         break;
     }
     h->inner_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (library_forked()) h->forked.store(1);  // told before the answer, so this request is never judged
     ::munmap(map, probe.bytes);
     if (::write(kResponseFd, &byte, 1) != 1) break;
   }

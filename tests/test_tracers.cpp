@@ -314,7 +314,7 @@ TEST(TracerBadInput, MisbehavingTracersAreCountedOrReportedNeverFatal) {
   const std::string dir = test_dir();
   const auto run = run_cli(std::string("fuzz --tracer ") + MISBEHAVING_TRACER +
                            " --tracers bad-build-crash,bad-build-null,bad-nan-t,bad-out-of-range,bad-t-outside,"
-                           "bad-crash-later,bad-hang,bvh-watertight --no-shrink --families shared-edges --count 192 "
+                           "bad-crash-later,bad-hang,bad-forks,bvh-watertight --no-shrink --families shared-edges --count 192 "
                            "--threads 1 --case-timeout 0.5 -o " + dir +
                            "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
@@ -331,6 +331,9 @@ TEST(TracerBadInput, MisbehavingTracersAreCountedOrReportedNeverFatal) {
   // It aborts on its third call (nearest is called ray by ray): the two rays before are judged.
   EXPECT_EQ(n("shared-edges\tbad-crash-later", "cases") - n("shared-edges\tbad-crash-later", "crash"), 2);
   EXPECT_EQ(n("shared-edges\tbad-hang", "timeout"), 1);
+  // A tracer that forks: its first request is reported (a tracer error), nothing of it judged.
+  EXPECT_EQ(n("shared-edges\tbad-forks", "right"), 0) << t.at("shared-edges\tbad-forks").dump();
+  EXPECT_EQ(n("shared-edges\tbad-forks", "cases"), 1) << t.at("shared-edges\tbad-forks").dump();
   // The built-ins went on regardless.
   EXPECT_EQ(n("shared-edges\tbvh-watertight", "cases"), 192);
   // Crash and timeout findings keep their mesh and ray and say why.

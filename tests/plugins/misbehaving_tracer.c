@@ -39,6 +39,12 @@ static void nearest_hang(void* s, const struct rayproof_ray* rays, size_t n, str
   (void)s, (void)rays, (void)n, (void)out;
   for (;;) pause();
 }
+/* Forks on every call, then misses: the copy must never answer, the batch never be judged. */
+static void nearest_forks(void* s, const struct rayproof_ray* rays, size_t n, struct rayproof_trace* out) {
+  (void)s, (void)rays;
+  (void)fork();
+  for (size_t i = 0; i < n; ++i) out[i].triangle = RAYPROOF_NO_TRIANGLE, out[i].t = 0;
+}
 /* Any-hit lists every triangle twice. */
 static size_t all_twice(void* s, const struct rayproof_ray* ray, uint32_t* out, size_t capacity) {
   (void)s, (void)ray;
@@ -61,6 +67,7 @@ static const struct rayproof_tracer kTracers[] = {
     {"bad-t-outside", "float", "test: t below tmin", build_ok, nearest_outside, NULL, release},
     {"bad-crash-later", "double", "test: aborts on its third call", build_ok, nearest_crash_later, NULL, release},
     {"bad-hang", "double", "test: never answers", build_ok, nearest_hang, NULL, release},
+    {"bad-forks", "double", "test: forks on every call", build_ok, nearest_forks, NULL, release},
 };
 
 const struct rayproof_tracer* rayproof_tracers(int abi, int* count) {
