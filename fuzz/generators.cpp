@@ -414,10 +414,13 @@ struct Builder {
     return {Ray{p - d, d}, Plane{nn, dot(nn, p)}, "glancing-2^-" + std::to_string(j)};
   }
 
-  // Secondary rays from a variant's own computed hit point (the variants take turns by index),
-  // leaving the surface outward, and rays from points exactly on the surface.
+  // Secondary rays from a variant's own computed hit point (the built-in variants take turns by
+  // index), leaving the surface outward, and rays from points exactly on the surface. Only
+  // built-in code spawns: case i must be a pure function of (seed, family, shape, i), whatever
+  // plugins or exec commands are loaded (issue 25: an extra plugin changed this family's cases).
   GeneratedCase near_origin(ShapeKind kind, std::uint64_t index) {
-    const auto variants = variants_for(kind);
+    auto variants = variants_for(kind);
+    std::erase_if(variants, [](const Variant* v) { return v->kernel == nullptr || v->external != nullptr; });
     const Variant& v = *variants[index % variants.size()];
     for (int attempt = 0; attempt < 64; ++attempt) {
       const int k = static_cast<int>(rng.integer(-40, 40));

@@ -186,6 +186,23 @@ TEST(Plugins, RenderSaysWhenThePluginItDrawsWithStopped) {
   EXPECT_EQ(fine.status, 0) << fine.err;
 }
 
+// Issue 25, item 7: case i is a pure function of (seed, family, shape, i). The near-origin
+// family spawns from variants' hit points; a plugin loaded but not selected must not change it.
+TEST(Plugins, CasesDoNotDependOnWhichPluginsAreLoaded) {
+  const std::string args = " --families near-origin --shapes sphere --count 400 --variants stable --threads 1 --no-shrink";
+  const CliRun plain = run("fuzz" + args + " -o " + test_dir() + "/a.jsonl --summary " + test_dir() + "/a.json");
+  const CliRun loaded = run("fuzz" + args + " --plugin " + std::string(RAYPROOF_PLUGIN_DIR) + "/weekend_sphere.so -o " +
+                            test_dir() + "/b.jsonl --summary " + test_dir() + "/b.json");
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  ASSERT_EQ(loaded.status, 0) << loaded.err;
+  const json a = json::parse(std::ifstream(test_dir() + "/a.json")), b = json::parse(std::ifstream(test_dir() + "/b.json"));
+  EXPECT_EQ(a["tallies"], b["tallies"]);
+  std::stringstream fa, fb;
+  fa << std::ifstream(test_dir() + "/a.jsonl").rdbuf();
+  fb << std::ifstream(test_dir() + "/b.jsonl").rdbuf();
+  EXPECT_EQ(fa.str(), fb.str());
+}
+
 TEST(Exec, PythonIntersectorIsJudgedLikeAPlugin) {
   const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
   const std::string cases = std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl";
