@@ -75,6 +75,42 @@ std::string exec_case_line(const Query& q, const std::string& id) {
 }
 
 namespace {
+// A t written as a word (plugin.md, extended compatibly): "inf", "+inf", "-inf", "Infinity",
+// "-Infinity" are ±∞ on every path, as a plugin's t is; "nan", "NaN" is a NaN t (a plugin error).
+// Python's json module writes Infinity, -Infinity and NaN bare; both forms are read.
+std::optional<double> t_word(std::string_view w) {
+  const bool minus = !w.empty() && w[0] == '-';
+  if (!w.empty() && (w[0] == '-' || w[0] == '+')) w.remove_prefix(1);
+  if (w == "inf" || w == "Infinity" || w == "INF" || w == "Inf") return minus ? -INFINITY : INFINITY;
+  if (w == "nan" || w == "NaN" || w == "NAN") return NAN;
+  return std::nullopt;
+}
+
+// The line with Python's bare Infinity, -Infinity and NaN (outside strings) quoted, so that the
+// JSON reader takes them and t_word reads them.
+std::string with_python_words_quoted(const std::string& text) {
+  std::string out;
+  bool in_string = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      out += c;
+      if (c == '\\' && i + 1 < text.size()) out += text[++i];
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') in_string = true;
+    bool quoted = false;
+    for (std::string_view word : {"-Infinity", "Infinity", "NaN"})
+      if (text.compare(i, word.size(), word) == 0) {
+        out += "\"" + std::string(word) + "\"", i += word.size() - 1, quoted = true;
+        break;
+      }
+    if (!quoted) out += c;
+  }
+  return out;
+}
+
 // The common answer line, {"id": "...", "class": "...", "t": ...} with plain strings, read
 // without building a JSON tree; nullopt for anything else (escapes, other keys, repeats, bad
 // values), which the full reader then reads or rejects with a message naming the field.
@@ -142,15 +178,17 @@ std::optional<Answer> parse_answer_fast(std::string_view s) {
     if (*c != HitClass::tangent) a.hit.failure = HitFailure::t_unwritten;
     return a;
   }
-  std::optional<double> x;
-  if (t_quoted) {
+  std::optional<double> x = t_word(*t);
+  if (x) {
+    if (std::isnan(*x)) return a.hit.failure = HitFailure::nan_t, a;
+  } else if (t_quoted) {
     x = parse_hex_double(*t);  // a string is a hex float or nothing (cases.md)
   } else if (!t->empty() && t->find_first_not_of("0123456789+-.eE") == std::string_view::npos) {
     double v;
     const auto [end, ec] = std::from_chars(t->data(), t->data() + t->size(), v);  // nearest double, as strtod
     if (ec == std::errc() && end == t->data() + t->size()) x = v;
   }
-  if (!x || !std::isfinite(*x)) return std::nullopt;  // the full reader names what is wrong
+  if (!x || std::isnan(*x)) return std::nullopt;  // the full reader names what is wrong
   a.hit.t = *x;
   return a;
 }
@@ -158,7 +196,7 @@ std::optional<Answer> parse_answer_fast(std::string_view s) {
 
 Answer parse_answer_line(const std::string& text) {
   if (auto fast = parse_answer_fast(text)) return std::move(*fast);
-  const json j = parse_json_text(text);
+  const json j = parse_json_text(text.find_first_of("IN") == std::string::npos ? text : with_python_words_quoted(text));
   if (!j.is_object()) throw FieldError("", "an answer line is a JSON object");
   check_keys(j, "", {"id", "class", "t"}, {"id", "class"});
   if (!j.at("id").is_string()) throw FieldError("id", "must be a string");
@@ -171,9 +209,9 @@ Answer parse_answer_line(const std::string& text) {
   const bool has_t = j.contains("t") && !j.at("t").is_null();
   if (*cls == HitClass::miss) return a;  // a miss's t means nothing
   if (has_t) {
-    if (j.at("t").is_string() && j.at("t").get<std::string>().find_first_of("nN") != std::string::npos)
-      return a.hit.failure = HitFailure::nan_t, a;
-    a.hit.t = read_number(j.at("t"), "t");
+    const auto word = j.at("t").is_string() ? t_word(j.at("t").get<std::string>()) : std::nullopt;
+    if (word && std::isnan(*word)) return a.hit.failure = HitFailure::nan_t, a;
+    a.hit.t = word ? *word : read_number(j.at("t"), "t");
   } else if (*cls != HitClass::tangent) {
     a.hit.failure = HitFailure::t_unwritten;  // only a tangent may come without t (a ray lying in the surface)
   }

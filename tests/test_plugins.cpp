@@ -317,6 +317,13 @@ TEST(ExecProtocol, AnswerLinesMeanTheSameWhicheverReaderReadsThem) {
       {R"({"id":"a","class":"tangent"})", HitClass::tangent, NAN, HitFailure::none},
       {R"({"id":"a","class":"enter"})", HitClass::enter, NAN, HitFailure::t_unwritten},
       {R"({"id":"a","class":"enter","t":"nan"})", HitClass::enter, NAN, HitFailure::nan_t},
+      // Issue 25, item 10: words for ∞ mean ∞ on every path; Python's bare Infinity and NaN too.
+      {R"({"id":"a","class":"exit","t":"inf"})", HitClass::exit, INFINITY, HitFailure::none},
+      {R"({"id":"\u0061","class":"exit","t":"inf"})", HitClass::exit, INFINITY, HitFailure::none},  // full reader
+      {R"({"id":"a","class":"exit","t":Infinity})", HitClass::exit, INFINITY, HitFailure::none},
+      {R"({"id":"\u0061","class":"exit","t": -Infinity})", HitClass::exit, -INFINITY, HitFailure::none},
+      {R"({"id":"a","class":"enter","t":NaN})", HitClass::enter, NAN, HitFailure::nan_t},
+      {R"({"id":"\u0061","class":"enter","t":NaN})", HitClass::enter, NAN, HitFailure::nan_t},
   };
   for (const Line& l : good) {
     const peers::Answer a = peers::parse_answer_line(l.text);
