@@ -32,6 +32,8 @@ TEST(MySphere, TangentRaysAreWhereItFails) {
   EXPECT_THAT(report, ::testing::Not(rayproof::HasNoWrongClass()));
   ASSERT_FALSE(report.findings.empty());
   EXPECT_TRUE(report.findings[0].expect.has_value());
+  // A failing EXPECT_THAT shows the report as a line of totals, not as its bytes.
+  EXPECT_EQ(::testing::PrintToString(report).rfind("rayproof audit of", 0), 0u) << ::testing::PrintToString(report);
 }
 
 }  // namespace

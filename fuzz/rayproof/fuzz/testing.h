@@ -5,9 +5,20 @@
 
 #include <gmock/gmock.h>
 
+#include <ostream>
+#include <string>
+
 #include "rayproof/fuzz/audit.h"
 
 namespace rayproof {
+
+// How GoogleTest shows a report in "Value of" lines: one line of totals, not its bytes (the
+// matchers below add the table and the shrunk cases).
+inline void PrintTo(const AuditReport& r, std::ostream* os) {
+  *os << "rayproof audit of " << (r.name.empty() ? std::string("an intersector") : r.name) << " on "
+      << to_string(r.shape) << ": " << r.total.cases << " cases, " << r.total.wrong << " wrong, " << r.total.cannot_tell
+      << " cannot tell, " << r.total.failures() << " failures, " << r.findings.size() << " findings";
+}
 
 // No answer of a class the exact oracle refutes (cannot-tell answers at exact touches allowed).
 MATCHER(HasNoWrongClass, "answers no class the exact oracle refutes") {
