@@ -3,6 +3,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <set>
 #include <memory>
 
 #include "commands.h"
@@ -98,6 +99,7 @@ struct CheckOptions {
   ExternalFlags ext;
   TracerFlags tracer_flags;
   std::vector<std::string> answers;  // NAME=FILE
+  std::vector<std::string> ids;      // only these cases (--id)
 };
 
 struct CheckRun {
@@ -111,6 +113,10 @@ struct CheckRun {
   std::vector<const Tracer*> tracers;                // judged on mesh cases
   std::map<std::string, std::map<std::string, long>> tracer_kinds;  // tracer → kind → cases
   long mesh_cases = 0;
+  std::set<std::string> ids;                 // --id: only these cases are judged
+  std::set<std::string> ids_seen;
+  std::vector<Disagreement> disagreements;  // for the examples and hints after the table (bounded)
+  static constexpr std::size_t kMaxKept = 50000;
 };
 
 // A mesh case (docs/spec/tracer.md): every chosen tracer on it, as it sees it (float tracers: the
@@ -186,6 +192,20 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
   }
   for (size_t i = 0; i < pending.size(); ++i) {
     const Case& c = pending[i].c;
+    for (const VariantOutcome& o : outcomes[i]) {  // kept for the examples and hints after the table
+      if (run.disagreements.size() >= CheckRun::kMaxKept || !o.variant) break;
+      const bool failed = o.hit.failed();
+      if (failed ? (o.hit.failure == HitFailure::stopped || o.hit.failure == HitFailure::not_representable)
+                 : o.agreement == Agreement::agrees)
+        continue;
+      Disagreement d;
+      d.variant = std::string(o.variant->name), d.c = c, d.file = path;
+      d.exact = o.own_exact ? o.own_exact->cls : exact[i].cls;
+      d.exact_t = o.own_exact ? o.own_exact->t : exact[i].t;
+      if (failed) d.failure = is_plugin_error(o.hit.failure) ? "plugin_error" : std::string(to_string(o.hit.failure));
+      else d.answered = o.hit.cls, d.answered_t = o.hit.has_t() ? std::optional<double>(o.hit.t) : std::nullopt;
+      run.disagreements.push_back(std::move(d));
+    }
     add_to_summary(run.summary, exact[i], outcomes[i]);
     out << json_text(check_line(c.id, exact[i], outcomes[i])) << "\n";
     if (c.expect && run.rule == HitRule::nearest_contact) {
@@ -208,6 +228,8 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
   const bool opened = read_case_file(
       path,
       [&](const Case& c, long line) {
+        if (!run.ids.empty() && !run.ids.count(c.id)) return;
+        run.ids_seen.insert(c.id);
         ++run.cases, ++in_file;
         pending.push_back({c, line});
         if (pending.size() == kCheckChunk) judge_chunk(path, pending, run, out);
@@ -218,13 +240,15 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
         std::cerr << "rayproof: " << e.to_string() << "\n";
       },
       [&](const MeshCase& c, long line) {
+        if (!run.ids.empty() && !run.ids.count(c.id)) return;
+        run.ids_seen.insert(c.id);
         ++run.cases, ++in_file;
         judge_mesh_case(path, line, c, run, out);
         progress.update(run.cases, 0);
       });
   judge_chunk(path, pending, run, out);
   if (!opened) ++run.unopened;
-  if (opened && in_file == 0 && run.unreadable == errors_before) {
+  if (opened && in_file == 0 && run.unreadable == errors_before && run.ids.empty()) {
     ++run.unreadable;
     std::cerr << "rayproof: " << printable(path) << ": no cases in file\n";
   }
@@ -241,6 +265,7 @@ int run_check(const CheckOptions& opts) {
   CheckRun run{parse_variants(opts.variants, parse_shapes(opts.shapes)), parse_rule(opts.rule),
                Oracle(Oracle::Options{!opts.exact_only})};
   run.tracers = parse_tracers(opts.tracer_flags.names);
+  run.ids.insert(opts.ids.begin(), opts.ids.end());
   refuse_output_over_input(opts.output, [&] {
     std::vector<std::string> inputs = opts.files;
     for (const std::string& a : opts.answers) inputs.push_back(peers::split_assignment("--answers", a).second);
@@ -262,7 +287,10 @@ int run_check(const CheckOptions& opts) {
     for (const auto& [kind, n] : kinds) std::cerr << " " << kind << " " << n;
     std::cerr << "\n";
   }
+  if (opts.format != "json") print_digest(std::cerr, run.disagreements, run.variants);
   print_oracle_stats(std::cerr, run.oracle);
+  for (const std::string& id : run.ids)
+    if (!run.ids_seen.count(id)) ++run.unreadable, std::cerr << "rayproof: --id " << printable(id) << ": no case has this id\n";
   std::cerr << "rayproof check: " << run.cases << " cases, " << run.unreadable << " unreadable, " << run.contradicted
             << " expectations contradicted by the exact oracle\n";
   if (summary_file) {
@@ -301,6 +329,7 @@ void add_check_command(CLI::App& app, int& exit_code) {
   cmd->add_option("-o,--output", opts->output, "write the per-case lines here (atomically) instead of stdout");
   add_format_flag(cmd, opts->format);
   cmd->add_flag("--exact-only", opts->exact_only, "skip the interval filter (decide every class in rationals)");
+  cmd->add_option("--id", opts->ids, "judge only the case with this id (repeatable): how fuzz and check replay one example");
   cmd->callback([opts, &exit_code] { exit_code = run_check(*opts); });
 }
 

@@ -10,6 +10,7 @@
 
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
+#include "rayproof/core/casefile.h"
 #include "rayproof/core/json_fields.h"
 #include "rayproof/fuzz/campaign.h"
 #include "rayproof/fuzz/tracer_campaign.h"
@@ -148,6 +149,19 @@ void run_fuzz(const FuzzOptions& opts) {
   const fuzz::CampaignReport report = fuzz::run_campaign(o);
   progress.finish();
   fuzz::print_report(report, o.threads, *table_format_from_string(opts.format), std::cerr);
+  if (opts.format != "json") {  // a few lines a user reads: one case per kind, its replay, the hints
+    std::vector<Case> findings;
+    read_case_file(o.output, [&](const Case& c, long) { findings.push_back(c); }, [](const CaseError&) {}, [](const MeshCase&, long) {});
+    std::vector<const Variant*> judged;
+    for (const auto& [key, tally] : report.tallies)
+      if (const Variant* v = find_variant(key.name); v && std::find(judged.begin(), judged.end(), v) == judged.end()) judged.push_back(v);
+    print_digest(std::cerr, disagreements_in_findings(findings, o.output), judged, [&](const std::string& name) {
+      std::uint64_t holes = 0;
+      for (const auto& [key, tally] : report.tallies)
+        if (key.name == name) holes += tally.shared_edge_holes;
+      return holes;
+    });
+  }
   std::cerr << "rayproof fuzz: " << report.findings_written << " findings in " << o.output << "\n";
   if (!opts.spawn_csv.empty()) {
     // Near-origin hits raise the question users ask most: which t_min / offset? Answer it.

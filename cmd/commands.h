@@ -4,6 +4,8 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdint>
+#include <functional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -13,6 +15,7 @@
 #include "rayproof/fuzz/generators.h"
 #include "rayproof/fuzz/tracer_families.h"
 #include "rayproof/studies/trade.h"
+#include "rayproof/verify/diagnose.h"
 
 namespace rayproof::cli {
 
@@ -82,6 +85,12 @@ std::vector<const Variant*> parse_variants(const std::vector<std::string>& names
                                            const std::vector<ShapeKind>& shapes = {kAllShapeKinds.begin(),
                                                                                    kAllShapeKinds.end()});
 HitRule parse_rule(const std::string& rule);
+
+// After a table of `fuzz` or `check`: one example per variant and kind with the `check --id`
+// command that replays it, then the diagnosis hints (verify/diagnose.h). Only the user's own
+// code is shown when some is among `selected`.
+void print_digest(std::ostream& out, const std::vector<Disagreement>& all, const std::vector<const Variant*>& selected,
+                  const std::function<std::uint64_t(const std::string&)>& shared_edge_holes = nullptr);
 int thread_count(int flag);  // 0: every hardware thread
 
 // Everything `trade` and the benchmarks measure: the registered variants, their batched forms
