@@ -16,10 +16,11 @@ echo "rayproof fuzz: a short campaign, every family and shape (shrunk findings, 
 "$rp" fuzz --count 20000 --max-findings 10 --seed 1 -o "$out/fuzz-findings.jsonl" --summary "$out/fuzz-summary.json" \
   2>&1 | grep -E "^(family|tangent(-full)? +textbook|grazing(-full)? +(moller-trumbore|watertight)|extremes +(textbook|hearn-baker))|^t error|findings in" || true
 if [ -f "$build/plugins/weekend_sphere.so" ]; then
-  echo "your own code: the Ray Tracing in One Weekend sphere as a plugin (examples/plugins), fuzzed on tangents:"
+  echo "your own code: the Ray Tracing in One Weekend sphere as a plugin (examples/plugins), fuzzed on tangents"
+  echo "and rays spawned from surfaces: one case per kind with the command that replays it, then the diagnosis:"
   "$rp" fuzz --plugin "$build/plugins/weekend_sphere.so" --variants weekend-sphere --shapes sphere \
-    --families tangent,near-origin --count 20000 --max-findings 10 -o "$out/plugin-findings.jsonl" 2>&1 \
-    | grep -E "^(family|(tangent|near-origin)(-full)? +weekend)|findings in" || true
+    --families tangent,near-origin --count 20000 -o "$out/plugin-findings.jsonl" 2>&1 \
+    | grep -E "^(family|(tangent|near-origin)(-full)? +weekend)|^examples|^  weekend-sphere|^    rayproof check|^diagnosis|findings in" || true
 fi
 echo "rayproof fuzz --tracer: whole tracers (BVH, box test, triangle test, precision together) on adversarial"
 echo "meshes, with the one-hit-per-shared-edge rule GPU APIs promise (docs/spec/tracer.md):"

@@ -203,6 +203,43 @@ TEST(Plugins, CasesDoNotDependOnWhichPluginsAreLoaded) {
   EXPECT_EQ(fa.str(), fb.str());
 }
 
+// Issue 25, items 1-2: after the table, fuzz shows one case per kind with the command that
+// replays it, and names each bundled example's known defect from the findings' numbers.
+TEST(Diagnosis, EachBundledExamplesKnownDefectIsNamed) {
+  struct Example {
+    std::string flags, variant, shape, families, defect;
+  };
+  const std::string dir = RAYPROOF_PLUGIN_DIR;
+  const std::vector<Example> examples = {
+      {"--plugin " + dir + "/weekend_sphere.so", "weekend-sphere", "sphere", "near-origin,exit-entry",
+       "(t_min, an epsilon) of about 0.000"},  // t_min = 0.001
+      {"--plugin " + dir + "/scratchapixel_sphere.so", "scratchapixel-sphere", "sphere", "near-origin,exit-entry", "(tca < 0)"},
+      {"--plugin " + dir + "/glsl_sphere.so", "glsl-sphere", "sphere", "near-origin,exit-entry",
+       "the float rounding of the origin"},
+      {"--plugin " + dir + "/wikipedia_moller_trumbore.so", "wikipedia-mt", "triangle", "near-origin,exit-entry",
+       "(t_min, an epsilon) of about 1"},  // t > EPSILON = 1e-7
+      {"--plugin " + dir + "/minmax_slab_box.so", "minmax-slab", "box", "near-origin,exit-entry", "t >= 0 where t > 0 is meant"},
+      {"--exec py-sphere=" + std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py", "py-sphere", "sphere",
+       "extremes", "underflow double"},
+  };
+  for (const Example& e : examples) {
+    const std::string out = test_dir() + "/" + e.variant + ".jsonl";
+    const CliRun r = run("fuzz " + e.flags + " --variants " + e.variant + " --shapes " + e.shape + " --families " + e.families +
+                         " --count " + (e.variant == "py-sphere" ? "20000" : "3000") + " --max-findings 100 -o " + out);
+    ASSERT_EQ(r.status, 0) << e.variant << ": " << r.err;
+    EXPECT_NE(r.err.find("diagnosis (from the findings"), std::string::npos) << e.variant << ": " << r.err;
+    EXPECT_NE(r.err.find(e.variant + ": "), std::string::npos) << e.variant;
+    EXPECT_NE(r.err.find(e.defect), std::string::npos) << e.variant << " should be diagnosed with '" << e.defect << "':\n" << r.err;
+    // The replay line of the first example is a command that reproduces it.
+    const std::size_t at = r.err.find("    rayproof check ");
+    ASSERT_NE(at, std::string::npos) << r.err;
+    const std::string replay = r.err.substr(at + 4 + 9, r.err.find('\n', at) - at - 4 - 9);  // after "rayproof "
+    const CliRun again = run(replay);
+    EXPECT_EQ(lines_of(again.out).size(), 1u) << replay << "\n" << again.err;
+    EXPECT_EQ(again.err.find("no case has this id"), std::string::npos) << replay;
+  }
+}
+
 TEST(Exec, PythonIntersectorIsJudgedLikeAPlugin) {
   const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
   const std::string cases = std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl";

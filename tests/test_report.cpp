@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "rayproof/verify/diagnose.h"
 #include "rayproof/verify/report.h"
 
 namespace rayproof {
@@ -18,6 +19,57 @@ VariantOutcome answer(HitClass cls, double t, HitClass exact_cls, double exact_t
   exact.cls = exact_cls;
   exact.t = exact_t;
   return judge_answer(exact, Hit{cls, t});
+}
+
+// Issue 25: hints come from the numbers, and only where the numbers show them.
+Disagreement missed_exit(double t, double direction_length, int i) {
+  Disagreement d;
+  d.variant = "v";
+  d.c.id = "c" + std::to_string(i);
+  d.c.ray = Ray{Vec3(0, 0, 0), Vec3(direction_length, 0, 0)};
+  d.c.shape = Sphere{Vec3(0.25, 0, 0), 1};
+  d.exact = HitClass::exit, d.exact_t = t, d.answered = HitClass::miss;
+  return d;
+}
+
+std::string hints_of(const std::vector<Disagreement>& all) {
+  std::vector<const Disagreement*> ptrs;
+  for (const Disagreement& d : all) ptrs.push_back(&d);
+  std::string out;
+  for (const std::string& h : diagnose(ptrs, Precision::f64)) out += h + "\n";
+  return out;
+}
+
+TEST(Diagnose, ATMinIsNamedWhereTheMissedContactsStopAtIt) {
+  std::vector<Disagreement> all;
+  for (int i = 0; i < 40; ++i) all.push_back(missed_exit(1e-3 * std::pow(10.0, -i / 10.0), std::ldexp(1.0, i % 20 - 10), i));
+  for (int i = 0; i < 10; ++i) all.push_back(missed_exit(2 + i, 1, 100 + i));
+  const std::string hints = hints_of(all);
+  EXPECT_NE(hints.find("40 of 50 enter->miss/exit->miss findings have exact t <= 0.001"), std::string::npos) << hints;
+  EXPECT_NE(hints.find("not scaled with the direction's length"), std::string::npos) << hints;
+}
+
+TEST(Diagnose, NoThresholdIsNamedWhereMissedContactsSpreadEvenly) {
+  std::vector<Disagreement> all;
+  for (int i = 0; i < 60; ++i) all.push_back(missed_exit(1e-8 * std::pow(10.0, i / 5.0), 1, i));  // 1e-8 … 1e4
+  EXPECT_EQ(hints_of(all).find("drops near contacts"), std::string::npos) << hints_of(all);
+}
+
+TEST(Diagnose, ContactsAtTZeroAndOverflowAreNamedWithTheirCounts) {
+  std::vector<Disagreement> all;
+  for (int i = 0; i < 4; ++i) {
+    Disagreement d = missed_exit(1, 1, i);
+    d.exact = HitClass::miss, d.exact_t.reset(), d.answered = HitClass::exit, d.answered_t = 0.0;
+    all.push_back(d);
+  }
+  for (int i = 0; i < 3; ++i) {
+    Disagreement d = missed_exit(1, std::ldexp(1.0, 300), 10 + i);
+    d.failure = "plugin_error";
+    all.push_back(d);
+  }
+  const std::string hints = hints_of(all);
+  EXPECT_NE(hints.find("4 of 4 contacts answered where the exact answer is miss are at t <= 0"), std::string::npos) << hints;
+  EXPECT_NE(hints.find("3 of 3 plugin_error findings have numbers of magnitude 2^300"), std::string::npos) << hints;
 }
 
 TEST(Report, TErrorCountsOnlyCasesWhoseClassAgrees) {

@@ -146,9 +146,18 @@ bool contact_missed(const Disagreement& d, Precision p) {
 // H1: contacts missed below a threshold: a fixed t_min on t, a minimum distance t·|d|, or — when
 // the edge is sharper relative to the shape's size — the code's own rounding of the origin
 // (a ray spawned from a surface). The measure whose edge is sharpest is the one reported.
-// Epsilons people write lie in [1e-13, 0.1]; rounding edges at 2^-(p-8) or below. Returns the
-// t_min found (0: none), so later hints leave out what it explains.
-double near_contacts_dropped(const std::vector<const Disagreement*>& ds, Precision precision, std::vector<std::string>& hints) {
+// Epsilons people write lie in [1e-13, 0.1]; rounding edges at 2^-(p-8) or below. Returns what
+// it found, so later hints leave out what it explains.
+struct Explained {
+  double t_min = 0;              // contacts with exact t <= this
+  double relative_distance = 0;  // contacts within this x the shape's size of the origin
+  bool covers(const Disagreement& d) const {
+    if (!d.exact_t) return false;
+    const double size = size_of(d.c);
+    return *d.exact_t <= t_min || (size > 0 && *d.exact_t * norm(d.c.ray.direction) <= relative_distance * size);
+  }
+};
+Explained near_contacts_dropped(const std::vector<const Disagreement*>& ds, Precision precision, std::vector<std::string>& hints) {
   std::vector<double> ts, distances, relative;
   for (const Disagreement* d : ds)
     if (contact_missed(*d, precision)) {
@@ -163,7 +172,7 @@ double near_contacts_dropped(const std::vector<const Disagreement*>& ds, Precisi
   int best = -1;
   for (int m = 0; m < 3; ++m)
     if (edges[m] && (best < 0 || edges[m]->sharpness > edges[best]->sharpness)) best = m;
-  if (best < 0) return 0;
+  if (best < 0) return {};
   const Edge& e = *edges[best];
   const std::string counts = std::to_string(e.below) + " of " + std::to_string(ts.size()) + " enter->miss/exit->miss findings";
   const std::string edge = number(e.threshold) + ", only " + std::to_string(e.just_above) + " between that and 10x more";
@@ -172,7 +181,7 @@ double near_contacts_dropped(const std::vector<const Disagreement*>& ds, Precisi
                     std::to_string(e.just_above) + " between that and 10x more): the " + (p == 24 ? "float" : "double") +
                     " rounding of the origin (2^-" + std::to_string(p) +
                     " relative) decides them: rays spawned from a surface need an offset (see rayproof spawn)?");
-    return 0;
+    return {0, e.threshold};
   }
   std::string hint = counts + " have exact " + (best == 1 ? "distance t*|d|" : "t") + " <= " + edge + ": a minimum " +
                      (best == 1 ? "distance" : "t (t_min, an epsilon)") + " of about " + number(e.threshold) +
@@ -186,7 +195,7 @@ double near_contacts_dropped(const std::vector<const Disagreement*>& ds, Precisi
               ": a t_min on t is not scaled with the direction's length.";
   }
   hints.push_back(hint);
-  return best == 0 ? e.threshold : 0;
+  return {best == 0 ? e.threshold : 0, 0};
 }
 
 // H2 (triangles): contacts dropped where the determinant e1·(d×e2) is small — an absolute
@@ -277,17 +286,17 @@ void contacts_at_zero(const std::vector<const Disagreement*>& ds, std::vector<st
 
 // H6 (spheres): exits missed from inside with the centre always behind the origin (none ahead):
 // an early "centre behind the ray: miss" test (tca < 0) made before asking whether the origin is
-// inside. Exits already explained by a t_min are left out.
-void exits_missed_centre_behind(const std::vector<const Disagreement*>& ds, double t_min, std::vector<std::string>& hints) {
+// inside. Exits already explained (a t_min, the origin's rounding) are left out.
+void exits_missed_centre_behind(const std::vector<const Disagreement*>& ds, Precision precision, const Explained& explained,
+                                std::vector<std::string>& hints) {
   std::size_t behind = 0, ahead = 0;
   for (const Disagreement* d : ds) {
-    if (!d->failure.empty() || d->exact != HitClass::exit || d->answered != HitClass::miss) continue;
-    if (d->exact_t && *d->exact_t <= t_min) continue;
+    if (!contact_missed(*d, precision) || d->exact != HitClass::exit || explained.covers(*d)) continue;
     const auto* s = std::get_if<Sphere>(&d->c.shape);
     if (!s) continue;
     ++(dot(s->center - d->c.ray.origin, d->c.ray.direction) < 0 ? behind : ahead);
   }
-  if (behind >= 3 && ahead == 0)
+  if (behind >= 10 && ahead == 0)
     hints.push_back("all " + std::to_string(behind) +
                     " exit->miss findings start inside the sphere with its centre behind the origin (none with it ahead): "
                     "an early \"centre behind the ray: miss\" test (tca < 0) rejects rays that leave the sphere?");
@@ -307,9 +316,9 @@ void shared_edge_holes_found(std::uint64_t holes, std::vector<std::string>& hint
 std::vector<std::string> diagnose(const std::vector<const Disagreement*>& of_variant, Precision precision,
                                   std::uint64_t shared_edge_holes) {
   std::vector<std::string> hints;
-  const double t_min = near_contacts_dropped(of_variant, precision, hints);
+  const Explained explained = near_contacts_dropped(of_variant, precision, hints);
   small_determinants_dropped(of_variant, precision, hints);
-  exits_missed_centre_behind(of_variant, t_min, hints);
+  exits_missed_centre_behind(of_variant, precision, explained, hints);
   contacts_at_zero(of_variant, hints);
   inputs_rounded_away(of_variant, precision, hints);
   magnitudes_beyond(of_variant, precision, hints);
