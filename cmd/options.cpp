@@ -239,16 +239,10 @@ void print_digest(std::ostream& out, const std::vector<Disagreement>& all, const
   std::vector<std::string> shown;
   for (const Variant* v : selected)
     if (v->external) shown.push_back(std::string(v->name));
-  auto quoted = [](const std::string& s) {
-    if (s.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./=:") == std::string::npos) return s;
-    std::string q = "'";
-    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return q + "'";
-  };
   const auto replay = [&](const Disagreement& d) {
     const Variant* v = find_variant(d.variant);
     const std::string flags = v ? loading_flags(*v) : "";
-    return "rayproof check " + quoted(printable(d.file)) + " --id " + quoted(printable(d.c.id)) + " --variants " + d.variant +
+    return "rayproof check " + shell_quoted(printable(d.file)) + " --id " + shell_quoted(printable(d.c.id)) + " --variants " + d.variant +
            (flags.empty() ? "" : " " + flags);
   };
   print_examples_and_hints(out, all, replay, 12, shown, shared_edge_holes);

@@ -217,6 +217,14 @@ std::string printable(std::string_view text) {
   return out;
 }
 
+std::string shell_quoted(std::string_view text) {
+  constexpr std::string_view kSafe = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./=:,@+%";
+  if (!text.empty() && text.find_first_not_of(kSafe) == std::string_view::npos) return std::string(text);
+  std::string q = "'";
+  for (char c : text) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
 std::string printable_prefix(std::string_view text, std::size_t max_bytes) {
   if (text.size() <= max_bytes) return printable(text);
   std::size_t cut = max_bytes;

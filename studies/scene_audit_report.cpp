@@ -45,6 +45,38 @@ std::vector<std::string> image_stems(const SceneAudit& a) {
   return stems;
 }
 
+// The command that audits this scene again with the same variants and tracers, loading the same
+// plugins, exec commands and tracer libraries (origins: "built-in", a library's path, "exec: CMD").
+std::string reproduce_command(const SceneAudit& a, const std::string& scene_path) {
+  std::vector<std::string> variants, tracers, loads;
+  auto once = [](std::vector<std::string>& list, const std::string& item) {
+    if (std::find(list.begin(), list.end(), item) == list.end()) list.push_back(item);
+  };
+  for (const VariantAudit& va : a.variants) {
+    const bool exec = va.origin.rfind("exec: ", 0) == 0, library = va.origin.find('/') != std::string::npos && !exec;
+    if (va.tracer) {
+      once(tracers, va.name);
+      if (exec) once(loads, "--tracer-exec " + shell_quoted(va.name + "=" + va.origin.substr(6)));
+      else if (library) once(loads, "--tracer " + shell_quoted(va.origin));
+    } else {
+      once(variants, va.name);
+      if (exec) once(loads, "--exec " + shell_quoted(va.name + "=" + va.origin.substr(6)));
+      else if (library) once(loads, "--plugin " + shell_quoted(va.origin));
+    }
+  }
+  auto joined = [](const std::vector<std::string>& list) {
+    std::string out;
+    for (const std::string& s : list) out += (out.empty() ? "" : ",") + s;
+    return out;
+  };
+  std::string cmd = "rayproof audit " + shell_quoted(scene_path) + " -o DIR";
+  if (!variants.empty()) cmd += " --variants " + joined(variants);
+  if (!tracers.empty()) cmd += " --tracers " + joined(tracers);
+  for (const std::string& l : loads) cmd += " " + l;
+  if (a.headroom) cmd += " --headroom";
+  return cmd;
+}
+
 std::string base64(const std::string& bytes) {
   static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
@@ -275,8 +307,7 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
       if (va.exact_for_scene()) pair(va);
     h << "</details>\n";
   }
-  h << "<p>Reproduce: <code>rayproof audit " << html_escape(scene_path) << " -o DIR" << (a.headroom ? " --headroom" : "")
-    << "</code></p>\n";
+  h << "<p>Reproduce: <code>" << html_escape(reproduce_command(a, scene_path)) << "</code></p>\n";
   // For automated checks (a headless browser dumps the DOM after load): how many images decoded.
   h << "<script>window.addEventListener('load',function(){var n=0,imgs=document.images;for(var i=0;i<imgs.length;i++)"
        "if(imgs[i].complete&&imgs[i].naturalWidth>0)n++;document.body.setAttribute('data-images-decoded',n+'/'+imgs.length);});"

@@ -191,6 +191,10 @@ TEST(HostileAudit, VariantFilesNeverCollide) {
     EXPECT_FALSE(read(dir + "/" + v["render"].get<std::string>()).empty());
   }
   EXPECT_EQ(files.size(), 4u);
+  // Issue 25, item 12: the report's reproduce line is the command, with the variants and the exec.
+  const std::string html = read(dir + "/report.html");
+  EXPECT_NE(html.find("--variants stable,stable-diff --exec stable-diff=" + script), std::string::npos)
+      << html.substr(html.find("Reproduce"), 300);
 }
 
 // Item 10: shard numbers are never wrapped to 32 bits, negative indices name their variable.

@@ -330,13 +330,8 @@ std::string loading_flags(const Variant& v) {
   if (!v.external) return "";
   const std::string origin(v.origin);
   if (origin.rfind("answers: ", 0) == 0) return "";
-  auto quoted = [](const std::string& s) {
-    std::string q = "'";
-    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return q + "'";
-  };
-  if (origin.rfind("exec: ", 0) == 0) return "--exec " + quoted(std::string(v.name) + "=" + origin.substr(6));
-  return "--plugin " + quoted(origin);
+  if (origin.rfind("exec: ", 0) == 0) return "--exec " + shell_quoted(std::string(v.name) + "=" + origin.substr(6));
+  return "--plugin " + shell_quoted(origin);
 }
 
 namespace {

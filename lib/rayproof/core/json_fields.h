@@ -43,6 +43,10 @@ std::string printable(std::string_view text);
 // when cut: for strings from outside (answer lines, plugin names) that end up in messages.
 std::string printable_prefix(std::string_view text, std::size_t max_bytes);
 
+// A word a POSIX shell reads back as `text`: as it is when it holds only safe characters, else
+// in single quotes (a ' inside as '\''). For the commands rayproof prints for users to run.
+std::string shell_quoted(std::string_view text);
+
 // Every JSON that rayproof writes goes through here: j.dump(indent), except that a string (or
 // key) that is not valid UTF-8 (a file name, a plugin's message) has its bad bytes written as
 // \xNN instead of making the dump throw and the file go unwritten.
