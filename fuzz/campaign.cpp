@@ -432,6 +432,11 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
              {"detail", f.generated.detail},
              {"rule", std::string(to_string(o.rule))},
              {"disagreeing", disagreeing_answers(variants, oracle, c, o.rule)}};
+  // Asked again, external code may answer otherwise (a plugin error that comes and goes): the
+  // finding still names the variant it was found for, never an empty disagreeing.
+  if (c.found["disagreeing"].empty())
+    c.found["disagreeing"][std::string(f.first_disagreeing->name)] = {
+        {"error", f.failure != HitFailure::none ? std::string(to_string(f.failure)) : std::string("not reproduced when asked again")}};
   if (f.failure != HitFailure::none) {
     c.found["kind"] = is_plugin_error(f.failure) ? "plugin_error" : std::string(to_string(f.failure));
     c.found["variant"] = std::string(f.first_disagreeing->name);
@@ -500,8 +505,15 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       Judged judged = judge_batch(b, variants, o, workers, cp.report);
       const double check_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       count_shared_edge_holes(b, judged, variants, cp.report);
+      // The cap keeps the file short, but never drops the finding that stopped external code (a
+      // crash, a hang, a protocol error): it is that variant's last word and its replay.
       const std::uint64_t room = o.max_findings > cp.findings_in_pair ? o.max_findings - cp.findings_in_pair : 0;
-      if (judged.findings.size() > room) judged.findings.resize(room);
+      if (judged.findings.size() > room) {
+        std::vector<Finding> kept(judged.findings.begin(), judged.findings.begin() + static_cast<std::ptrdiff_t>(room));
+        for (std::size_t i = room; i < judged.findings.size(); ++i)
+          if (stops_variant(judged.findings[i].failure)) kept.push_back(judged.findings[i]);
+        judged.findings = std::move(kept);
+      }
       // Step 4: append the findings whole, then checkpoint what they complete.
       for (const std::string& line : shrink_and_format(b, judged.findings, variants, o, workers)) {
         out << line;

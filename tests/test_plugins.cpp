@@ -173,6 +173,23 @@ TEST(Plugins, FuzzCampaignKeepsEverythingWhenAPluginCrashes) {
   EXPECT_GE(s["tallies"]["random\ttest-crash-often"]["crashes"], 1);
 }
 
+// Issue 25, item 9: the finding that stopped a variant is kept even when --max-findings is full,
+// and no finding carries an empty `disagreeing`.
+TEST(Plugins, TheCrashFindingIsKeptPastTheFindingsCap) {
+  const std::string out = test_dir() + "/findings.jsonl";
+  const CliRun r = run("fuzz --shapes sphere --families tangent --count 3000 --threads 1 --max-findings 0 --no-shrink"
+                       " --variants textbook,test-crash-often" + kPlugin + "-o " + out);
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::ifstream in(out);
+  int crashes = 0, lines = 0;
+  for (std::string line; std::getline(in, line); ++lines) {
+    const Case c = parse_case(line);
+    crashes += c.found.value("kind", "") == "crash";
+    EXPECT_FALSE(c.found["disagreeing"].empty()) << line;
+  }
+  EXPECT_EQ(crashes, 1) << lines << " findings";
+}
+
 TEST(Plugins, RenderSaysWhenThePluginItDrawsWithStopped) {
   const std::string scene = write("scene.json", R"({"camera": {"eye": [1, 0, 5], "look_at": [1, 0, 0], "up": [0, 1, 0],
     "fov_deg": 40, "width": 32, "height": 24}, "shading": "flat", "background": [0, 0, 0],
