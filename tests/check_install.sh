@@ -9,6 +9,14 @@ trap 'rm -rf "$work"' EXIT
 cmake --install "$build" --prefix "$work/prefix" > "$work/install.log"
 test -f "$work/prefix/include/rayproof/plugin.h"
 test -x "$work/prefix/bin/rayproof"
+# The bundled cases, scenes and examples come along, and the installed rayproof reads them.
+test -f "$work/prefix/share/rayproof/cases/sphere.jsonl"
+test -f "$work/prefix/share/rayproof/examples/plugins/weekend_sphere.c"
+"$work/prefix/bin/rayproof" check "$work/prefix/share/rayproof/cases/sphere.jsonl" --variants stable > /dev/null 2>&1
+"$work/prefix/bin/rayproof" render "$work/prefix/share/rayproof/scenes/seed1-sphere.json" -o "$work/seed1.png" > /dev/null 2>&1
+# A plugin compiles against the installed header alone.
+cc -O2 -shared -fPIC -I "$work/prefix/include" -o "$work/weekend.so" "$work/prefix/share/rayproof/examples/plugins/weekend_sphere.c" -lm
+"$work/prefix/bin/rayproof" variants --plugin "$work/weekend.so" | grep -q '^weekend-sphere' 
 cmake -S "$source/examples/consumer" -B "$work/consumer" -DCMAKE_PREFIX_PATH="$work/prefix" -DCMAKE_BUILD_TYPE=Release > "$work/configure.log"
 cmake --build "$work/consumer" -j2 > "$work/build.log" || { cat "$work/build.log"; exit 1; }
 "$work/consumer/my_sphere_test"
