@@ -1,5 +1,6 @@
 // rayproof check FILE...: the exact verdict and every variant's class, t, ULP error and
 // agreement, one JSON line per case; the per-variant summary on stderr.
+#include <algorithm>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -113,6 +114,7 @@ struct CheckRun {
   std::vector<const Tracer*> tracers;                // judged on mesh cases
   std::map<std::string, std::map<std::string, long>> tracer_kinds;  // tracer → kind → cases
   long mesh_cases = 0;
+  std::vector<ShapeKind> shapes;             // --shapes: an --exec command (every shape) gets only these
   std::set<std::string> ids;                 // --id: only these cases are judged
   std::set<std::string> ids_seen;
   std::vector<Disagreement> disagreements;  // for the examples and hints after the table (bounded)
@@ -178,7 +180,9 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
     std::vector<Verdict> truth;
     std::vector<size_t> where;
     for (size_t i = 0; i < pending.size(); ++i)
-      if (v->handles(kind_of(pending[i].c.shape))) queries.push_back(pending[i].c), truth.push_back(exact[i]), where.push_back(i);
+      if (v->handles(kind_of(pending[i].c.shape)) &&
+          (!v->all_shapes || std::count(run.shapes.begin(), run.shapes.end(), kind_of(pending[i].c.shape)) > 0))
+        queries.push_back(pending[i].c), truth.push_back(exact[i]), where.push_back(i);
     if (queries.empty()) continue;
     std::vector<VariantOutcome> judged = judge_variant_all(run.oracle, *v, queries, truth, run.rule);
     for (size_t k = 0; k < judged.size(); ++k) {
@@ -266,6 +270,7 @@ int run_check(const CheckOptions& opts) {
                Oracle(Oracle::Options{!opts.exact_only})};
   run.tracers = parse_tracers(opts.tracer_flags.names);
   run.ids.insert(opts.ids.begin(), opts.ids.end());
+  run.shapes = parse_shapes(opts.shapes);
   refuse_output_over_input(opts.output, [&] {
     std::vector<std::string> inputs = opts.files;
     for (const std::string& a : opts.answers) inputs.push_back(peers::split_assignment("--answers", a).second);

@@ -257,6 +257,23 @@ TEST(Diagnosis, EachBundledExamplesKnownDefectIsNamed) {
   }
 }
 
+// Issue 25, item 8: --shapes narrows an exec command (which answers every shape) too.
+TEST(Exec, ShapesNarrowAnExecCommand) {
+  const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
+  const std::string cases = std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/";
+  const CliRun r = run("check " + cases + "sphere.jsonl " + cases + "plane.jsonl --shapes sphere --exec py=" + script +
+                       " --variants py --summary " + test_dir() + "/s.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json s = json::parse(std::ifstream(test_dir() + "/s.json"));
+  std::size_t sphere_cases = 0;
+  for (const json& l : lines_of(r.out)) sphere_cases += l["variants"].contains("py");
+  EXPECT_EQ(s["variants"]["py"]["cases"].get<std::size_t>() + s["variants"]["py"].value("crashes", std::size_t{0}), sphere_cases);
+  std::ifstream in(cases + "sphere.jsonl");
+  std::size_t lines = 0;
+  for (std::string line; std::getline(in, line);) lines += !line.empty();
+  EXPECT_EQ(sphere_cases, lines) << "only the sphere cases go to the exec command";
+}
+
 TEST(Exec, PythonIntersectorIsJudgedLikeAPlugin) {
   const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
   const std::string cases = std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl";
