@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -225,16 +226,17 @@ TEST(Plugins, CasesDoNotDependOnWhichPluginsAreLoaded) {
 TEST(Diagnosis, EachBundledExamplesKnownDefectIsNamed) {
   struct Example {
     std::string flags, variant, shape, families, defect;
+    double about = 0;  // the constant in the code, where the defect names one: within a factor of 2
   };
   const std::string dir = RAYPROOF_PLUGIN_DIR;
   const std::vector<Example> examples = {
       {"--plugin " + dir + "/weekend_sphere.so", "weekend-sphere", "sphere", "near-origin,exit-entry",
-       "(t_min, an epsilon) of about 0.000"},  // t_min = 0.001
+       "(t_min, an epsilon) of about ", 0.001},
       {"--plugin " + dir + "/scratchapixel_sphere.so", "scratchapixel-sphere", "sphere", "near-origin,exit-entry", "(tca < 0)"},
       {"--plugin " + dir + "/glsl_sphere.so", "glsl-sphere", "sphere", "near-origin,exit-entry",
        "the float rounding of the origin"},
       {"--plugin " + dir + "/wikipedia_moller_trumbore.so", "wikipedia-mt", "triangle", "near-origin,exit-entry",
-       "(t_min, an epsilon) of about 1"},  // t > EPSILON = 1e-7
+       "(t_min, an epsilon) of about ", 1e-7},  // t > EPSILON
       {"--plugin " + dir + "/minmax_slab_box.so", "minmax-slab", "box", "near-origin,exit-entry", "t >= 0 where t > 0 is meant"},
       {"--exec py-sphere=" + std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py", "py-sphere", "sphere",
        "extremes", "underflow double"},
@@ -247,6 +249,10 @@ TEST(Diagnosis, EachBundledExamplesKnownDefectIsNamed) {
     EXPECT_NE(r.err.find("diagnosis (from the findings"), std::string::npos) << e.variant << ": " << r.err;
     EXPECT_NE(r.err.find(e.variant + ": "), std::string::npos) << e.variant;
     EXPECT_NE(r.err.find(e.defect), std::string::npos) << e.variant << " should be diagnosed with '" << e.defect << "':\n" << r.err;
+    if (e.about > 0 && r.err.find(e.defect) != std::string::npos) {
+      const double named = std::strtod(r.err.c_str() + r.err.find(e.defect) + e.defect.size(), nullptr);
+      EXPECT_TRUE(named > e.about / 2 && named < e.about * 2) << e.variant << ": named " << named << ", the code has " << e.about;
+    }
     // The replay line of the first example is a command that reproduces it.
     const std::size_t at = r.err.find("    rayproof check ");
     ASSERT_NE(at, std::string::npos) << r.err;
