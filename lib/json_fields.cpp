@@ -196,17 +196,15 @@ std::size_t utf8_sequence(std::string_view text, std::size_t i) {
 }
 }  // namespace
 
-std::string printable(std::string_view text) {
-  // Control characters and every byte that is not part of well-formed UTF-8 as \xNN: the result
-  // is safe on a terminal and valid in JSON output (nlohmann refuses invalid UTF-8 when dumping).
+namespace {
+// text with every byte that is not part of well-formed UTF-8 as \xNN and, unless
+// keep_controls, every control character too (ESC sequences among them).
+std::string escaped_bytes(std::string_view text, bool keep_controls) {
   std::string out;
   for (std::size_t i = 0; i < text.size();) {
     const unsigned char c = static_cast<unsigned char>(text[i]);
-    if (c >= 0x20 && c < 0x7f) {
-      out += static_cast<char>(c), ++i;
-      continue;
-    }
-    if (const std::size_t n = c >= 0x80 ? utf8_sequence(text, i) : 0) {
+    const bool plain = c < 0x80 && (keep_controls || (c >= 0x20 && c < 0x7f));
+    if (const std::size_t n = plain ? 1 : c >= 0x80 ? utf8_sequence(text, i) : 0) {
       out.append(text.substr(i, n)), i += n;
       continue;
     }
@@ -216,6 +214,10 @@ std::string printable(std::string_view text) {
   }
   return out;
 }
+}  // namespace
+
+// Safe on a terminal and valid in JSON output (nlohmann refuses invalid UTF-8 when dumping).
+std::string printable(std::string_view text) { return escaped_bytes(text, false); }
 
 std::string shell_quoted(std::string_view text) {
   constexpr std::string_view kSafe = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./=:,@+%";
@@ -233,23 +235,8 @@ std::string printable_prefix(std::string_view text, std::size_t max_bytes) {
 }
 
 namespace {
-// text with each byte that is not part of well-formed UTF-8 as \xNN (control characters stay:
-// the JSON writer escapes them).
-std::string valid_utf8(std::string_view text) {
-  std::string out;
-  for (std::size_t i = 0; i < text.size();) {
-    const unsigned char c = static_cast<unsigned char>(text[i]);
-    const std::size_t n = c < 0x80 ? 1 : utf8_sequence(text, i);
-    if (n > 0) {
-      out.append(text.substr(i, n)), i += n;
-      continue;
-    }
-    char buf[8];
-    std::snprintf(buf, sizeof buf, "\\x%02x", c);
-    out += buf, ++i;
-  }
-  return out;
-}
+// Control characters stay in JSON strings: the JSON writer escapes them.
+std::string valid_utf8(std::string_view text) { return escaped_bytes(text, true); }
 
 template <class Json>
 Json with_valid_utf8(const Json& j) {
