@@ -232,8 +232,10 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
   const bool opened = read_case_file(
       path,
       [&](const Case& c, long line) {
-        if (!run.ids.empty() && !run.ids.count(c.id)) return;
-        run.ids_seen.insert(c.id);
+        if (!run.ids.empty()) {  // --id: only those cases (nothing per case without it)
+          if (!run.ids.count(c.id)) return;
+          run.ids_seen.insert(c.id);
+        }
         ++run.cases, ++in_file;
         pending.push_back({c, line});
         if (pending.size() == kCheckChunk) judge_chunk(path, pending, run, out);
@@ -244,8 +246,10 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
         std::cerr << "rayproof: " << e.to_string() << "\n";
       },
       [&](const MeshCase& c, long line) {
-        if (!run.ids.empty() && !run.ids.count(c.id)) return;
-        run.ids_seen.insert(c.id);
+        if (!run.ids.empty()) {  // --id: only those cases (nothing per case without it)
+          if (!run.ids.count(c.id)) return;
+          run.ids_seen.insert(c.id);
+        }
         ++run.cases, ++in_file;
         judge_mesh_case(path, line, c, run, out);
         progress.update(run.cases, 0);

@@ -216,11 +216,9 @@ class WorkerProcess {
  private:
   // The worker's end, bounded: one that closed its pipe but runs on is killed (its group too).
   std::string finish(std::uint32_t& stopped_at) {
-    bool killed = false;
-    const int status = end_child(pid_, 1.0, &killed);
     reaped_ = true;
     stopped_at = shared_->progress.load(std::memory_order_relaxed);
-    return killed ? "closed its response pipe and kept running (killed)" : signal_reason(status);
+    return end_worker(pid_);
   }
   pid_t pid_ = -1;
   int request_ = -1, response_ = -1;

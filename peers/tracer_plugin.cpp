@@ -246,10 +246,8 @@ class TracerWorker {
  private:
   // The worker's end, bounded: one that closed its pipe but runs on is killed (its group too).
   std::string finish() {
-    bool killed = false;
-    const int status = end_child(pid_, 1.0, &killed);
     reaped_ = true;
-    return killed ? "closed its response pipe and kept running (killed)" : signal_reason(status);
+    return end_worker(pid_);
   }
   pid_t pid_ = -1;
   int request_ = -1, response_ = -1, fd_ = -1;

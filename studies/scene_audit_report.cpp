@@ -11,6 +11,7 @@
 #include "rayproof/core/json_fields.h"
 #include "rayproof/studies/scene_audit.h"
 #include "rayproof/studies/svg.h"
+#include "rayproof/verify/diagnose.h"
 
 namespace rayproof::studies {
 
@@ -60,8 +61,7 @@ std::string reproduce_command(const SceneAudit& a, const std::string& scene_path
       else if (library) once(loads, "--tracer " + shell_quoted(va.origin));
     } else {
       once(variants, va.name);
-      if (exec) once(loads, "--exec " + shell_quoted(va.name + "=" + va.origin.substr(6)));
-      else if (library) once(loads, "--plugin " + shell_quoted(va.origin));
+      if (const std::string flags = va.variant ? loading_flags(*va.variant) : ""; !flags.empty()) once(loads, flags);
     }
   }
   auto joined = [](const std::vector<std::string>& list) {

@@ -84,7 +84,7 @@ class ExecProcess {
       }
       // A command that ended while something it started holds its output open never sends EOF:
       // look for its end directly, and take what it wrote before.
-      if (lines.size() < expected && ended_within(pid_, 0)) {
+      if (ready == 0 && lines.size() < expected && ended_within(pid_, 0)) {  // only when the pipes are quiet
         read_lines(expected, lines, max_line_bytes);
         if (lines.size() < expected) return kind = HitFailure::crash, ended("exited", case_timeout);
       }

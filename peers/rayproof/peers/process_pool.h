@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "rayproof/peers/child_process.h"
+
 namespace rayproof::peers {
 
 // How a child process ended, for a one-line report: "killed by SIGSEGV", "exited with status 3".
@@ -23,6 +25,14 @@ inline std::string signal_reason(int status) {
   }
   if (WIFEXITED(status)) return "exited with status " + std::to_string(WEXITSTATUS(status));
   return "ended";
+}
+
+// Ends a plugin or tracer worker whose pipe failed (bounded: one that closed its pipe but runs
+// on is killed with its group) and says why it stopped.
+inline std::string end_worker(pid_t pid) {
+  bool killed = false;
+  const int status = end_child(pid, 1.0, &killed);
+  return killed ? "closed its response pipe and kept running (killed)" : signal_reason(status);
 }
 
 // Why a piece of external code stopped (a crash, a hang, a protocol error): the first stop's
