@@ -113,6 +113,19 @@ void add_audit_command(CLI::App& app, int& exit_code) {
       for (size_t i = 0; i < r.close.size(); ++i) std::cerr << (i == 0 ? " (within 10%: " : ", ") << r.close[i]->label;
       std::cerr << (r.close.empty() ? "\n" : ")\n");
     }
+    for (const std::string& v : studies::users_code_verdicts(audit)) std::cerr << "your code: " << printable(v) << "\n";
+    const std::vector<std::string> stems = studies::audit_file_stems(audit);
+    for (std::size_t i = 0; i < audit.variants.size(); ++i) {
+      const studies::VariantAudit& va = audit.variants[i];
+      if (va.cases.empty()) continue;
+      const std::string file = (std::filesystem::absolute(opts->dir) / (stems[i] + "-cases.jsonl")).string();
+      std::cerr << "wrong pixels of " << printable(va.label) << " as cases: " << va.cases.size();
+      if (va.cases_left_out > 0) std::cerr << " of " << va.cases.size() + va.cases_left_out;
+      std::cerr << "; replay: " << printable(studies::cases_replay_command(va, file)) << "\n";
+    }
+    for (const std::string& w : audit.warnings)  // the scene's own were printed when it was loaded
+      if (std::find(scene.warnings.begin(), scene.warnings.end(), w) == scene.warnings.end())
+        std::cerr << "rayproof audit: warning: " << printable(w) << "\n";
     std::cerr << "rayproof audit: report " << (std::filesystem::absolute(opts->dir) / "report.html").string() << "\n";
     exit_code = 0;
     for (const studies::VariantAudit& va : audit.variants)

@@ -33,20 +33,7 @@ bool Intersectors::use(std::string_view name) {
 }
 
 SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray) {
-  SceneHit best;
-  double t_limit = std::numeric_limits<double>::infinity();
-  index.traverse(kind, ray, t_limit, [&](std::int32_t id, const Shape& shape) {
-    const Hit h = variant.intersect(ray, shape, rule);
-    // A contact without t (a ray lying in a plane) has no point to show.
-    if (h.cls == HitClass::miss || !h.has_t() || !(h.t >= 0)) return false;
-    const Primitive& p = index.primitive(id);
-    if (nearer(h.t, id, p, best, index)) {
-      best = {p.object, id, h};
-      t_limit = h.t;
-    }
-    return false;
-  });
-  return best;
+  return trace_kind_with(index, kind, ray, [&](const Shape& shape) { return variant.intersect(ray, shape, rule); });
 }
 
 SceneHit trace(const SceneIndex& index, const Intersectors& isect, const Ray& ray) {

@@ -38,7 +38,8 @@ echo "... each finding shrunk to a few triangles and replayed by check (its kind
 "$rp" check "$out/tracer-findings.jsonl" "${tracer_lib[@]}" --tracers "$tracers" -o "$out/tracer-check.jsonl" 2>&1 \
   | grep -E "^tracer|rayproof check" || true
 echo "rayproof audit: which intersector does a scene need? (docs/spec/audit.md)"
-"$rp" audit scenes/audit/edge-grid-tilted.json -o "$out/audit-edge-grid-tilted" 2>&1 | grep -E "^(variant|moller|watertight|recommendation)" || true
+"$rp" audit scenes/audit/edge-grid-tilted.json -o "$out/audit-edge-grid-tilted" 2>&1 \
+  | grep -E "^(variant|moller|watertight|recommendation|wrong pixels of)" || true
 if [ -f "$build/scenes/bunny.json" ]; then
   echo "... the Stanford bunny on a ground plane with a ball and a light, moved up to 2^62 from the origin"
   echo "    (--headroom), with two float intersectors people copy (examples/plugins) beside the built-ins:"
@@ -47,7 +48,7 @@ if [ -f "$build/scenes/bunny.json" ]; then
     [ -f "$build/plugins/$p.so" ] && plugins+=(--plugin "$build/plugins/$p.so")
   done
   "$rp" audit "$build/scenes/bunny.json" -o "$out/audit-bunny" --headroom "${plugins[@]}" 2>&1 \
-    | grep -E "^(variant|textbook|stable|hearn|direct|moller|watertight|glsl|wikipedia|certified|recommendation)" || true
+    | grep -E "^(variant|textbook|stable|hearn|direct|moller|watertight|glsl|wikipedia|certified|recommendation|your code|rayproof audit: warning)" || true
   report="$out/audit-bunny/report.html"
 else
   report="$out/audit-edge-grid-tilted/report.html"

@@ -23,6 +23,12 @@ std::vector<int> headroom_exponents() {
 
 Vec3 headroom_offset(int k) { return std::ldexp(1.0, k) * Vec3(1, 0.75, 0.5); }
 
+PixelCounts& PixelCounts::operator+=(const PixelCounts& o) {
+  wrong += o.wrong, holes += o.holes, false_hits += o.false_hits, shadow_wrong += o.shadow_wrong, acne += o.acne;
+  wrongly_shadowed += o.wrongly_shadowed, wrongly_lit += o.wrongly_lit;
+  return *this;
+}
+
 namespace {
 
 constexpr int kMaxLights = 64;
@@ -138,12 +144,12 @@ class Auditor {
 
   const SceneIndex& index() const { return index_; }
 
-  // The exact render: per pixel the nearest exact contact per kind and overall, and (shaded)
-  // the exact shadow status of each light and the colour.
-  void exact_pass(bool shaded, SceneAudit* out) {
+  // The exact render: per pixel the nearest exact contact per kind and overall, and the exact
+  // shadow status of each light; with `out`, the colours and the counts too.
+  void exact_pass(SceneAudit* out) {
     const Camera& cam = scene_.camera;
     exact_.assign(size_t(cam.width) * cam.height, ExactPixel{});
-    if (shaded) out->exact = Image{cam.width, cam.height, std::vector<std::uint8_t>(3 * exact_.size())};
+    Image colours{cam.width, cam.height, std::vector<std::uint8_t>(out ? 3 * exact_.size() : 0)};
     struct State {
       ExactTracer tracer;
       long shadow_rays = 0, beyond = 0;
@@ -169,13 +175,15 @@ class Auditor {
               c = st.tracer.nearest(kind, ray);
               if (st.tracer.before(ray, c, e.visible)) e.visible = c;
             }
-            if (shaded) put(out->exact, px, exact_colour(st, ray, e));
-            if (shaded) st.shadow_rays += std::popcount(e.facing);
+            const Vec3 colour = exact_colour(st, ray, e);
+            if (out) put(colours, px, colour);
+            st.shadow_rays += std::popcount(e.facing);
             if (st.tracer.beyond_intervals() != before) ++st.beyond;
           }
         },
         stage_progress("exact render"));
     if (out) {
+      out->exact = std::move(colours);
       out->exact_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       out->primary_rays = static_cast<long>(exact_.size());
       out->shadow_rays = shadow_total;
@@ -183,21 +191,21 @@ class Auditor {
     }
   }
 
-  // One variant of one kind, the other kinds exact (from exact_pass's per-kind contacts).
-  // Shaded: colours, shadows and the diff image too.
-  // `exact_image`: the exact render the diff image dims (shaded passes).
-  PixelCounts variant_pass(const Contender& c, bool shaded, VariantAudit* out, const Image* exact_image = nullptr) {
+  // One variant of one kind, the other kinds exact (from exact_pass's per-kind contacts): its
+  // pixel counts, shadows included; with `out`, its render, the diff image over `exact_image`
+  // dimmed, and its wrong pixels as cases.
+  PixelCounts variant_pass(const Contender& c, VariantAudit* out = nullptr, const Image* exact_image = nullptr) {
     const Camera& cam = scene_.camera;
     std::unique_ptr<TracerOnScene> tracer;
     if (c.tracer) {
       tracer = std::make_unique<TracerOnScene>(*c.tracer, index_);
       if (!tracer->failure.empty() && out) out->stopped = c.tracer->name + ": " + tracer->failure;
     }
-    if (shaded) {
+    if (out) {
       out->render = Image{cam.width, cam.height, std::vector<std::uint8_t>(3 * exact_.size())};
       out->diff = out->render;
     }
-    std::vector<PixelCounts> per_row(cam.height);
+    std::vector<RowResult> per_row(cam.height);
     struct State {
       ExactTracer tracer;
       void finish() {}
@@ -208,48 +216,76 @@ class Auditor {
           std::vector<SceneHit> row;  // a tracer answers the row's primary rays in one call
           if (tracer) row = trace_row(*tracer, y);
           for (int x = 0; x < cam.width; ++x)
-            variant_pixel(st.tracer, c, tracer.get(), tracer ? &row[x] : nullptr, shaded, x, y, per_row[y], out, exact_image);
+            variant_pixel(st.tracer, {c, tracer.get(), out, exact_image}, tracer ? &row[x] : nullptr, x, y, per_row[y]);
         },
         stage_progress((c.tracer ? c.tracer->name : std::string(c.variant->name)) + " (" + std::string(to_string(c.kind)) + ")"));
     PixelCounts total;
-    for (const PixelCounts& c : per_row) {
-      total.wrong += c.wrong;
-      total.holes += c.holes;
-      total.false_hits += c.false_hits;
-      total.shadow_wrong += c.shadow_wrong;
-      total.acne += c.acne;
+    for (RowResult& r : per_row) {
+      total += r.counts;
+      if (!out || c.tracer) continue;
+      for (WrongPixelCase& w : r.cases)
+        if (out->cases.size() < kMaxCasesPerVariant) out->cases.push_back(std::move(w));
+        else ++out->cases_left_out;
     }
     return total;
   }
 
   // ns per primary ray of the variant against its shape's primitives, on one thread: the
   // fastest of three rounds of whole frames (each at least 0.05 s), so that a busy moment on the
-  // machine does not decide a recommendation.
-  double time_variant(const Contender& c) const {
-    if (c.tracer) return time_tracer(*c.tracer);
+  // machine does not decide a recommendation. External code is timed where it runs: one frame,
+  // each leaf test's round trip replaced by the time the worker spent in the code (a plugin's
+  // inner_seconds); `round_trip` gets the frame's wall time, pipe included. Code that cannot be
+  // timed where it runs (an --exec command) is charged its round trips.
+  struct Timing {
+    double ns_per_ray = 0, round_trip_ns_per_ray = 0;
+    bool in_worker = false;
+  };
+  Timing time_variant(const Contender& c) const {
+    if (c.tracer) return {time_tracer(*c.tracer), 0, false};
     const Variant& v = *c.variant;
-    const ShapeKind kind = c.kind;
     const Camera& cam = scene_.camera;
+    const double rays = double(cam.width) * cam.height;
+    if (v.external) {
+      double trips = 0, inside = 0, checksum = 0;
+      bool timed_inside = true;
+      const auto start = std::chrono::steady_clock::now();
+      for (int y = 0; y < cam.height; ++y)
+        for (int x = 0; x < cam.width; ++x)
+          checksum += trace_kind_with(index_, c.kind, cam.ray_through(x + 0.5, y + 0.5), [&](const Shape& shape) {
+                        const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
+                        const auto t0 = std::chrono::steady_clock::now();
+                        const Hit h = v.intersect(ray, shape, HitRule::nearest_contact);
+                        trips += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                        const double in = v.external->inner_seconds();
+                        if (in >= 0) inside += in;
+                        else timed_inside = false;
+                        return h;
+                      }).primitive;
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      volatile double sink = checksum;
+      (void)sink;
+      const double own = timed_inside ? wall - trips + inside : wall;
+      return {own * 1e9 / rays, wall * 1e9 / rays, timed_inside};
+    }
     double best = std::numeric_limits<double>::infinity(), checksum = 0;
     for (int round = 0; round < 3; ++round) {
-      long rays = 0;
+      long traced = 0;
       double seconds = 0;
       const auto start = std::chrono::steady_clock::now();
       do {
         for (int y = 0; y < cam.height; ++y)
           for (int x = 0; x < cam.width; ++x) {
-            const SceneHit h = trace_kind(index_, kind, v, HitRule::nearest_contact, cam.ray_through(x + 0.5, y + 0.5));
+            const SceneHit h = trace_kind(index_, c.kind, v, HitRule::nearest_contact, cam.ray_through(x + 0.5, y + 0.5));
             checksum += h.primitive;
-            ++rays;
+            ++traced;
           }
         seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       } while (seconds < 0.05);
-      best = std::min(best, seconds * 1e9 / static_cast<double>(rays));
-      if (v.external) break;  // code behind a process boundary: one round (each call is a round trip)
+      best = std::min(best, seconds * 1e9 / static_cast<double>(traced));
     }
     volatile double sink = checksum;  // keeps the traced answers alive
     (void)sink;
-    return best;
+    return {best, 0, false};
   }
 
   // ns per primary ray of a whole tracer over the scene's triangles (building excluded), one
@@ -337,35 +373,39 @@ class Auditor {
     return shade_point(scene_, scene_.objects[prim.object].color, p, ray, light_terms(cosines, e.lit));
   }
 
-  // Whether the variant, for its kind, and the oracle, for the others, see a blocker on the
-  // segment (0 < t < 1) other than `self`; `adjacent_blocker` tells whether a blocker of the
-  // variant's kind is `self` or its neighbour (the acne test; asked only when it matters).
-  bool variant_blocked(ExactTracer& tracer, const Contender& c, const TracerOnScene* on, const Ray& segment,
-                       std::int32_t self, bool* adjacent_blocker) const {
-    if (on) return tracer_blocked(tracer, *c.tracer, *on, segment, self, adjacent_blocker);
-    const Variant& v = *c.variant;
-    const ShapeKind kind = c.kind;
+  // What a shadow ray met: whether it is blocked, and the blocker of the contender's kind that
+  // decided it (−1: none, or only another kind, which the oracle judges).
+  struct Blocker {
     bool blocked = false;
+    std::int32_t primitive = -1;
+  };
+
+  // The variant, for its kind, and the oracle, for the others, on the segment (0 < t < 1),
+  // `self` passed over. With `adjacent_only`, only a blocker of the variant's kind that is `self`'s
+  // neighbour counts (the acne test; asked only when it matters).
+  Blocker variant_blocked(ExactTracer& tracer, const Contender& c, const TracerOnScene* on, const Ray& segment,
+                          std::int32_t self, bool adjacent_only = false) const {
+    if (on) return tracer_blocked(tracer, *c.tracer, *on, segment, self, adjacent_only);
+    const Variant& v = *c.variant;
+    Blocker b;
     double t_limit = 1;
-    index_.traverse(kind, segment, t_limit, [&](std::int32_t id, const Shape& shape) {
-      if (id == self) return false;
+    index_.traverse(c.kind, segment, t_limit, [&](std::int32_t id, const Shape& shape) {
+      if (id == self || (adjacent_only && !index_.same_or_adjacent(self, id))) return false;
       const Hit h = v.intersect(segment, shape, HitRule::nearest_contact);
       if (h.cls == HitClass::miss || !h.has_t() || !(h.t < 1)) return false;
-      blocked = true;
-      if (adjacent_blocker && index_.same_or_adjacent(self, id)) *adjacent_blocker = true;
-      return adjacent_blocker == nullptr || *adjacent_blocker;
+      b = {true, id};
+      return true;
     });
-    if (blocked) return true;
+    if (b.blocked || adjacent_only) return b;
     for (ShapeKind other : index_.shapes_used())
-      if (other != kind && tracer.blocks(other, segment, self)) return true;
-    return false;
+      if (other != c.kind && tracer.blocks(other, segment, self)) return {true, -1};
+    return b;
   }
 
   // A tracer's shadow test on the segment (0 < t < 1): its any-hit list where it has one (so the
   // primitive the ray leaves is passed over, as for variants), else its nearest hit.
-  bool tracer_blocked(ExactTracer& tracer, const Tracer& t, const TracerOnScene& on, const Ray& segment, std::int32_t self,
-                      bool* adjacent_blocker) const {
-    bool blocked = false;
+  Blocker tracer_blocked(ExactTracer& tracer, const Tracer& t, const TracerOnScene& on, const Ray& segment,
+                         std::int32_t self, bool adjacent_only) const {
     if (const auto r = on.scene ? on.seen(segment, 1) : std::nullopt) {
       std::vector<std::uint32_t> hits;
       if (t.has_all_hits) {
@@ -379,23 +419,40 @@ class Auditor {
       }
       for (std::uint32_t h : hits) {
         if (h >= on.primitive_of.size() || on.primitive_of[h] == self) continue;
-        blocked = true;
-        if (adjacent_blocker && index_.same_or_adjacent(self, on.primitive_of[h])) *adjacent_blocker = true;
+        if (adjacent_only && !index_.same_or_adjacent(self, on.primitive_of[h])) continue;
+        return {true, on.primitive_of[h]};
       }
     }
-    if (blocked) return true;
+    if (adjacent_only) return {};
     for (ShapeKind other : index_.shapes_used())
-      if (other != ShapeKind::triangle && tracer.blocks(other, segment, self)) return true;
-    return false;
+      if (other != ShapeKind::triangle && tracer.blocks(other, segment, self)) return {true, -1};
+    return {};
   }
 
-  void variant_pixel(ExactTracer& tracer, const Contender& c, const TracerOnScene* on, const SceneHit* traced, bool shaded,
-                     int x, int y, PixelCounts& counts, VariantAudit* out, const Image* exact_image) {
+  // What one pass of variant_pixel needs besides the pixel.
+  struct PassContext {
+    const Contender& c;
+    const TracerOnScene* on;
+    VariantAudit* out;         // null: counts only
+    const Image* exact_image;  // dimmed under the diff marks
+  };
+  struct RowResult {
+    PixelCounts counts;
+    std::vector<WrongPixelCase> cases;
+  };
+
+  void variant_pixel(ExactTracer& tracer, const PassContext& pass, const SceneHit* traced, int x, int y, RowResult& row) {
+    const Contender& c = pass.c;
     const ShapeKind kind = c.kind;
     const Camera& cam = scene_.camera;
     const size_t px = size_t(y) * cam.width + x;
     const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
     const ExactPixel& e = exact_[px];
+    PixelCounts& counts = row.counts;
+    auto add_case = [&](const char* what, int light, bool shadow_ray, const Ray& r, std::int32_t primitive) {
+      if (pass.out && primitive >= 0 && row.cases.size() < kMaxCasesPerVariant)
+        row.cases.push_back({x, y, what, light, shadow_ray, r, primitive, index_.primitive(primitive).shape});
+    };
     // The variant's nearest among its kind, against the exact nearest among the other kinds.
     const SceneHit mine = traced ? *traced : trace_kind(index_, kind, *c.variant, HitRule::nearest_contact, ray);
     ExactContact others;
@@ -418,11 +475,13 @@ class Auditor {
       false_hit = exact_object < 0 || (visible.object >= 0 && visible.hit.t < e.visible.t);
       hole = !false_hit;
       ++(hole ? counts.holes : counts.false_hits);
+      // The primitive of the variant's kind that decided it: the one it missed, or the one it hit.
+      if (hole && kind_of(index_.primitive(e.visible.primitive).shape) == kind) add_case("hole", -1, false, ray, e.visible.primitive);
+      if (false_hit && visible_is_variant) add_case("false_hit", -1, false, ray, visible.primitive);
     }
-    if (!shaded) return;
 
     Vec3 colour = scene_.background;
-    bool shadow_wrong = false, acne = false;
+    bool shadow_wrong = false, acne = false, wrongly_shadowed = false, wrongly_lit = false;
     if (visible.object >= 0) {
       const Primitive& prim = index_.primitive(visible.primitive);
       // The variant's own hit point and spawn (offset by the error bound) for its kind; the exact
@@ -442,30 +501,46 @@ class Auditor {
           const bool compared = !wrong && (e.facing & bit);
           if (!(cosines[l] > 0) && !compared) continue;
           const Ray segment{start, scene_.lights[l].position - start};
-          bool adjacent = false;
-          const bool blocked = variant_blocked(tracer, c, on, segment, visible.primitive, nullptr);
-          if (cosines[l] > 0 && !blocked) lit |= bit;
-          if (compared && blocked == bool(e.lit & bit)) {  // blocked here, lit exactly, or the reverse
-            shadow_wrong = true;
-            if (blocked && visible_is_variant) {
-              variant_blocked(tracer, c, on, segment, visible.primitive, &adjacent);
-              acne = acne || adjacent;
-            }
+          const Blocker blocker = variant_blocked(tracer, c, pass.on, segment, visible.primitive);
+          if (cosines[l] > 0 && !blocker.blocked) lit |= bit;
+          if (!compared || blocker.blocked != bool(e.lit & bit)) continue;  // agrees with the exact status
+          shadow_wrong = true;
+          if (blocker.blocked) {
+            wrongly_shadowed = true;
+            const Blocker neighbour = visible_is_variant
+                                          ? variant_blocked(tracer, c, pass.on, segment, visible.primitive, true)
+                                          : Blocker{};
+            acne = acne || neighbour.blocked;
+            if (neighbour.blocked) add_case("acne", int(l), true, segment, neighbour.primitive);
+            else if (blocker.primitive >= 0) add_case("wrongly_shadowed", int(l), true, segment, blocker.primitive);
+            else if (visible_is_variant) add_case("wrongly_shadowed", int(l), false, ray, visible.primitive);
+          } else {
+            wrongly_lit = true;
+            // The exact blocker of the variant's kind on the variant's own segment, if one is;
+            // else the segment started elsewhere than the exact one: the primary hit's t moved it.
+            const ExactContact should = tracer.nearest(kind, segment);
+            if (should.found() && should.primitive != visible.primitive && should.t < 1)
+              add_case("wrongly_lit", int(l), true, segment, should.primitive);
+            else if (visible_is_variant) add_case("wrongly_lit", int(l), false, ray, visible.primitive);
           }
         }
       }
       colour = shade_point(scene_, scene_.objects[prim.object].color, p, ray, light_terms(cosines, lit));
     }
-    put(out->render, px, colour);
     counts.shadow_wrong += shadow_wrong;
     counts.acne += acne;
-    if (hole) put(out->diff, px, kHoleColour);
-    else if (false_hit) put(out->diff, px, kFalseHitColour);
-    else if (acne) put(out->diff, px, kAcneColour);
-    else if (shadow_wrong) put(out->diff, px, kShadowColour);
+    counts.wrongly_shadowed += wrongly_shadowed;
+    counts.wrongly_lit += wrongly_lit;
+    if (!pass.out) return;
+    put(pass.out->render, px, colour);
+    Image& diff = pass.out->diff;
+    if (hole) put(diff, px, kHoleColour);
+    else if (false_hit) put(diff, px, kFalseHitColour);
+    else if (acne) put(diff, px, kAcneColour);
+    else if (shadow_wrong) put(diff, px, kShadowColour);
     else
       for (int k = 0; k < 3; ++k)
-        out->diff.rgb[3 * px + k] = static_cast<std::uint8_t>(std::lround(kDiffDimming * exact_image->rgb[3 * px + k]));
+        diff.rgb[3 * px + k] = static_cast<std::uint8_t>(std::lround(kDiffDimming * pass.exact_image->rgb[3 * px + k]));
   }
 
  private:
@@ -475,6 +550,59 @@ class Auditor {
   int threads_;
   std::vector<ExactPixel> exact_;
 };
+
+}  // namespace
+
+namespace {
+
+// Headroom: the scene translated by each 2^k·(1, 0.75, 0.5) in turn (added to its own
+// coordinates), each variant still clean re-audited, shadows included (what exact_for_scene
+// counts), until every variant has failed or translating drops triangles as degenerate.
+void audit_headroom(const Scene& scene, const SceneAuditOptions& options, const std::vector<Contender>& chosen,
+                    const std::vector<int>& original_objects, SceneAudit& audit) {
+  audit.headroom = true;
+  const std::vector<int> ks = headroom_exponents();
+  for (VariantAudit& va : audit.variants) va.headroom_wrong.assign(ks.size(), -1);
+  for (size_t i = 0; i < ks.size(); ++i) {
+    bool any_clean = false;
+    for (const VariantAudit& va : audit.variants) any_clean |= !va.first_wrong_log2_translate.has_value();
+    if (!any_clean) break;
+    const Scene moved = translated(scene, headroom_offset(ks[i]));
+    if (!moved.warnings.empty()) {
+      audit.headroom_collapsed_at = ks[i];
+      for (const std::string& w : moved.warnings)
+        audit.warnings.push_back("headroom k=" + std::to_string(ks[i]) + ": " + w +
+                                 "; the scene is no longer itself, so no k from here on is rendered");
+      break;
+    }
+    SceneAuditOptions quiet = options;
+    if (options.progress)
+      quiet.progress = [&, k = ks[i]](const std::string& stage, long done, long total) {
+        options.progress("headroom k=" + std::to_string(k) + " " + stage, done, total);
+      };
+    Auditor moved_auditor(moved, quiet);
+    moved_auditor.exact_pass(nullptr);
+    const std::vector<int> moved_objects = moved_auditor.exact_objects();
+    long changed = 0;
+    for (size_t p = 0; p < moved_objects.size(); ++p) changed += moved_objects[p] != original_objects[p];
+    audit.headroom_scene_changed.push_back(changed);
+    for (size_t j = 0; j < chosen.size(); ++j) {
+      VariantAudit& va = audit.variants[j];
+      if (va.first_wrong_log2_translate) continue;
+      const long wrong = moved_auditor.variant_pass(chosen[j]).any_wrong();
+      va.headroom_wrong[i] = wrong;
+      if (wrong > 0) va.first_wrong_log2_translate = ks[i];
+    }
+  }
+  // The last clean exponent, for a variant exact on the scene itself: before its first wrong k,
+  // before the collapse, or the last k.
+  for (VariantAudit& va : audit.variants) {
+    if (!va.exact_for_scene()) continue;
+    const int end = va.first_wrong_log2_translate.value_or(audit.headroom_collapsed_at.value_or(ks.back() + 1));
+    if (const auto it = std::lower_bound(ks.begin(), ks.end(), end); it != ks.begin())
+      va.exact_up_to_log2_translate = *std::prev(it);
+  }
+}
 
 }  // namespace
 
@@ -497,8 +625,7 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
     if (has_triangles) chosen.push_back({nullptr, t, ShapeKind::triangle});
     else audit.warnings.push_back("tracer " + t->name + " not audited: the scene has no triangles");
 
-  auditor.exact_pass(true, &audit);
-  const std::vector<int> original_objects = auditor.exact_objects();
+  auditor.exact_pass(&audit);
   audit.variants.reserve(chosen.size());  // recommendation points into it
   for (const Contender& c : chosen) {
     VariantAudit va;
@@ -513,8 +640,11 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
       va.label += '@';
       va.label += to_string(c.kind);
     }
-    va.counts = auditor.variant_pass(c, true, &va, &audit.exact);
-    va.ns_per_ray = auditor.time_variant(c);
+    va.counts = auditor.variant_pass(c, &va, &audit.exact);
+    const auto timing = auditor.time_variant(c);
+    va.ns_per_ray = timing.ns_per_ray;
+    va.round_trip_ns_per_ray = timing.round_trip_ns_per_ray;
+    va.timed_in_worker = timing.in_worker;
     if (c.variant && c.variant->external) va.stopped = c.variant->external->stop_reason();
     if (c.tracer && va.stopped.empty()) va.stopped = c.tracer->stop_reason();
     audit.variants.push_back(std::move(va));
@@ -534,41 +664,7 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
     audit.recommendation.push_back(r);
   }
 
-  if (options.headroom) {
-    audit.headroom = true;
-    const std::vector<int> ks = headroom_exponents();
-    for (VariantAudit& va : audit.variants) va.headroom_wrong.assign(ks.size(), -1);
-    for (size_t i = 0; i < ks.size(); ++i) {
-      bool any_clean = false;
-      for (const VariantAudit& va : audit.variants) any_clean |= !va.first_wrong_log2_translate.has_value();
-      if (!any_clean) break;
-      const Scene moved = translated(scene, headroom_offset(ks[i]));
-      for (const std::string& w : moved.warnings) audit.warnings.push_back("headroom k=" + std::to_string(ks[i]) + ": " + w);
-      SceneAuditOptions quiet = options;
-      if (options.progress)
-        quiet.progress = [&, k = ks[i]](const std::string& stage, long done, long total) {
-          options.progress("headroom k=" + std::to_string(k) + " " + stage, done, total);
-        };
-      Auditor moved_auditor(moved, quiet);
-      moved_auditor.exact_pass(false, nullptr);
-      const std::vector<int> moved_objects = moved_auditor.exact_objects();
-      long changed = 0;
-      for (size_t p = 0; p < moved_objects.size(); ++p) changed += moved_objects[p] != original_objects[p];
-      audit.headroom_scene_changed.push_back(changed);
-      for (size_t j = 0; j < chosen.size(); ++j) {
-        VariantAudit& va = audit.variants[j];
-        if (va.first_wrong_log2_translate) continue;
-        const long wrong = moved_auditor.variant_pass(chosen[j], false, nullptr).wrong;
-        va.headroom_wrong[i] = wrong;
-        if (wrong > 0) {
-          va.first_wrong_log2_translate = ks[i];
-          if (i > 0) va.exact_up_to_log2_translate = ks[i - 1];
-        }
-      }
-    }
-    for (VariantAudit& va : audit.variants)
-      if (!va.first_wrong_log2_translate) va.exact_up_to_log2_translate = ks.back();
-  }
+  if (options.headroom) audit_headroom(scene, options, chosen, auditor.exact_objects(), audit);
   return audit;
 }
 

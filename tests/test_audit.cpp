@@ -8,8 +8,10 @@
 #include <nlohmann/json.hpp>
 #include <random>
 #include <set>
+#include <sstream>
 
 #include "cli_run.h"
+#include "rayproof/core/casefile.h"
 #include "rayproof/core/render.h"
 #include "rayproof/core/scene_index.h"
 #include "rayproof/studies/scene_audit.h"
@@ -258,15 +260,35 @@ Hit triangle_with_tolerance(const Ray& ray, const Shape& shape, HitRule rule) {
   return {HitClass::enter, t};
 }
 
-TEST(Audit, ShadowErrorsAndAcneAreCountedForAVariantThatOverreaches) {
+const Variant& tolerant_variant() {
   static const Variant& tolerant = register_variant(
       {"test-tolerant-triangle", ShapeKind::triangle, "Möller–Trumbore with a 5% barycentric tolerance (test only)",
        triangle_with_tolerance});
+  return tolerant;
+}
+
+TEST(Audit, ShadowErrorsAndAcneAreCountedForAVariantThatOverreaches) {
+  const Variant& tolerant = tolerant_variant();
   const auto a = audit_of(kScenes + "/audit/terrain-grazing.json", {"watertight", "test-tolerant-triangle"});
   const auto& bad = row(a, tolerant.name);
   EXPECT_GT(bad.counts.shadow_wrong, 0);
   EXPECT_GT(bad.counts.acne, 0);
   EXPECT_LE(bad.counts.acne, bad.counts.shadow_wrong);
+  // Which way (issue 25, item 4): acne is wrongly shadowed; every shadow-wrong pixel is one way
+  // or the other, and neither way counts more pixels than are shadow wrong.
+  EXPECT_LE(bad.counts.acne, bad.counts.wrongly_shadowed);
+  EXPECT_LE(bad.counts.wrongly_shadowed, bad.counts.shadow_wrong);
+  EXPECT_LE(bad.counts.wrongly_lit, bad.counts.shadow_wrong);
+  EXPECT_GE(bad.counts.wrongly_shadowed + bad.counts.wrongly_lit, bad.counts.shadow_wrong);
+  long acne_cases = 0;
+  for (const auto& w : bad.cases) {
+    acne_cases += w.kind == "acne";
+    if (w.kind == "acne") {
+      EXPECT_TRUE(w.shadow_ray);
+      EXPECT_GE(w.light, 0);
+    }
+  }
+  EXPECT_GT(acne_cases, 0);
   EXPECT_FALSE(bad.exact_for_scene());
   EXPECT_GT(a.shadow_rays, 5000);  // the lit side of the terrain (8,877 when written)
   ASSERT_NE(a.recommendation[1].best, nullptr);
@@ -274,6 +296,112 @@ TEST(Audit, ShadowErrorsAndAcneAreCountedForAVariantThatOverreaches) {
   const std::string dir = test_dir() + "/out";
   studies::write_scene_audit(a, "terrain-grazing.json", dir);
   expect_counts_match_images(dir);
+}
+
+// Issue 25, item 4: each wrong pixel is a case that `check` replays, its pixel marked in the diff.
+TEST(Audit, WrongPixelsAreCasesThatCheckReplays) {
+  const std::string dir = test_dir() + "/cases";
+  const auto run = testing_support::run_cli("audit " + kScenes + "/audit/edge-grid-tilted.json -o " + dir +
+                                            " --variants moller-trumbore,watertight --threads 2");
+  ASSERT_EQ(run.status, 0) << run.err;
+  nlohmann::json j;
+  std::ifstream(dir + "/audit.json") >> j;
+  const nlohmann::json* mt = nullptr;
+  for (const auto& v : j["variants"]) {
+    if (v["name"] == "moller-trumbore") mt = &v;
+    if (v["name"] == "watertight") EXPECT_FALSE(v.contains("cases")) << "an exact variant has no wrong pixels to write";
+  }
+  ASSERT_NE(mt, nullptr);
+  ASSERT_TRUE(mt->contains("cases"));
+  const long written = (*mt)["cases_written"], holes = (*mt)["holes"];
+  EXPECT_EQ(written + (*mt)["cases_left_out"].get<long>(), holes) << "one case per hole, nothing else wrong";
+  const Image diff = read_png(dir + "/" + (*mt)["diff"].get<std::string>());
+  const std::string file = dir + "/" + (*mt)["cases"].get<std::string>();
+  long read = 0;
+  read_case_file(
+      file,
+      [&](const Case& c, long) {
+        ++read;
+        EXPECT_EQ(c.found["kind"], "hole");
+        EXPECT_EQ(c.found["ray"], "primary");
+        const int x = c.found["pixel"][0], y = c.found["pixel"][1];
+        EXPECT_EQ(diff.at(x, y), studies::kHoleColour) << c.id;
+      },
+      [&](const CaseError& e) { ADD_FAILURE() << e.to_string(); });
+  EXPECT_EQ(read, written);
+  // The replay line printed is a command check runs; Möller–Trumbore misses what the exact
+  // oracle says each ray meets (an edge or the interior of the triangle behind the hole).
+  const std::string marker = "replay: rayproof ";
+  const std::size_t at = run.err.find(marker);
+  ASSERT_NE(at, std::string::npos) << run.err;
+  const auto replay = testing_support::run_cli(run.err.substr(at + marker.size(), run.err.find('\n', at) - at - marker.size()));
+  ASSERT_EQ(replay.status, 0) << replay.err;
+  long replayed = 0, disagree = 0;
+  std::istringstream lines(replay.out);
+  for (std::string line; std::getline(lines, line);) {
+    const auto l = nlohmann::json::parse(line);
+    ++replayed;
+    EXPECT_NE(l["exact"]["class"], "miss") << line;
+    disagree += !l["variants"]["moller-trumbore"]["agrees"].get<bool>();
+  }
+  EXPECT_EQ(replayed, written);
+  EXPECT_EQ(disagree, replayed);
+}
+
+// Issue 25, item 4: a diff with few marks gets each circled in the report; many are not.
+TEST(Audit, SparseWrongPixelsAreCircledInTheReport) {
+  studies::SceneAudit a;
+  a.width = 64, a.height = 48;
+  a.shapes = {ShapeKind::sphere};
+  a.exact = Image{64, 48, std::vector<std::uint8_t>(64 * 48 * 3, 10)};
+  studies::VariantAudit one;
+  one.name = one.label = "one-wrong";
+  one.render = a.exact;
+  one.diff = a.exact;
+  one.counts.wrong = one.counts.holes = 1;
+  for (int k = 0; k < 3; ++k) one.diff.rgb[3 * (5 * 64 + 7) + k] = studies::kHoleColour[k];
+  studies::VariantAudit many = one;
+  many.name = many.label = "many-wrong";
+  for (int px = 0; px < 200; ++px)
+    for (int k = 0; k < 3; ++k) many.diff.rgb[3 * px + k] = studies::kFalseHitColour[k];
+  auto circles = [](const std::string& html) {
+    long n = 0;
+    for (std::size_t at = 0; (at = html.find("<circle", at)) != std::string::npos; ++at) ++n;
+    return n;
+  };
+  a.variants = {one};
+  EXPECT_EQ(circles(studies::scene_audit_html(a, "s.json")), 1);
+  a.variants = {many};
+  EXPECT_EQ(circles(studies::scene_audit_html(a, "s.json")), 0);
+}
+
+// Issue 25, item 5: headroom counts what exact_for_scene counts (shadows too), gives a headroom
+// only to a variant exact on the scene itself, and stops where translating collapses the scene.
+TEST(Audit, HeadroomCountsShadowsAndStopsWhereTheSceneCollapses) {
+  const Variant& tolerant = tolerant_variant();
+  const auto a = audit_of(kScenes + "/audit/terrain-grazing.json", {"watertight", std::string(tolerant.name)}, true);
+  const auto& bad = row(a, tolerant.name);
+  ASSERT_GT(bad.counts.shadow_wrong, 0);
+  EXPECT_FALSE(bad.exact_up_to_log2_translate) << "not exact on the scene itself: no headroom";
+  ASSERT_FALSE(bad.headroom_wrong.empty());
+  EXPECT_EQ(bad.first_wrong_log2_translate, 0);
+  EXPECT_GE(bad.headroom_wrong[0], bad.counts.shadow_wrong / 2) << "shadow errors counted at k = 0 too";
+  // The edge grid's 4,096 small triangles collapse long before 2^62; watertight is exact until then.
+  const auto grid = audit_of(kScenes + "/audit/edge-grid.json", {"watertight"}, true);
+  const auto& good = row(grid, "watertight");
+  ASSERT_TRUE(good.exact_for_scene());
+  ASSERT_TRUE(grid.headroom_collapsed_at);
+  const std::vector<int> ks = studies::headroom_exponents();
+  for (size_t i = 0; i < ks.size(); ++i)
+    if (ks[i] >= *grid.headroom_collapsed_at) EXPECT_EQ(good.headroom_wrong[i], -1) << "k = " << ks[i] << " rendered";
+  ASSERT_TRUE(good.exact_up_to_log2_translate);
+  EXPECT_EQ(*good.exact_up_to_log2_translate, *grid.headroom_collapsed_at - 2);
+  bool warned = false;
+  for (const std::string& w : grid.warnings) warned |= w.find("headroom k=" + std::to_string(*grid.headroom_collapsed_at)) == 0;
+  EXPECT_TRUE(warned);
+  const std::string html = studies::scene_audit_html(grid, "edge-grid.json");
+  EXPECT_NE(html.find("the translated scene collapses"), std::string::npos);
+  EXPECT_NE(html.find("id=\"warnings\""), std::string::npos);
 }
 
 TEST(Audit, HeadroomIsTheLastCleanExponentBeforeTheFirstWrongOne) {
@@ -296,7 +424,7 @@ TEST(Audit, HeadroomIsTheLastCleanExponentBeforeTheFirstWrongOne) {
         EXPECT_EQ(v.headroom_wrong[i], -1) << v.variant->name << ": rendered after its first wrong k";
       }
     }
-    if (first == 0) {
+    if (first == 0 || !v.exact_for_scene()) {
       EXPECT_FALSE(v.exact_up_to_log2_translate);
     } else {
       EXPECT_EQ(v.exact_up_to_log2_translate, first - 2);

@@ -221,6 +221,33 @@ TEST(Plugins, CasesDoNotDependOnWhichPluginsAreLoaded) {
   EXPECT_EQ(fa.str(), fb.str());
 }
 
+// Issue 25, item 6: the user's own code in an audit: said to be exact (or not) in one line, its
+// cost timed in its worker (below the round trips through the pipe, which are given beside it).
+TEST(Plugins, AuditSaysWhetherTheUsersCodeIsExactAndWhatItCostsInItsWorker) {
+  const std::string scene = write("spheres.json", R"({"camera": {"eye": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0],
+    "fov_deg": 40, "width": 24, "height": 16}, "shading": "flat", "background": [0, 0, 0],
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "color": [1, 0, 0]}]})");
+  const std::string dir = test_dir() + "/audit-users-code";
+  const CliRun r = run("audit " + scene + " --plugin " + std::string(RAYPROOF_PLUGIN_DIR) +
+                       "/glsl_sphere.so --variants stable,glsl-sphere --threads 1 -o " + dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json a = json::parse(std::ifstream(dir + "/audit.json"));
+  const json* glsl = nullptr;
+  for (const json& v : a["variants"])
+    if (v["name"] == "glsl-sphere") glsl = &v;
+  ASSERT_NE(glsl, nullptr);
+  ASSERT_TRUE((*glsl)["exact_for_scene"].get<bool>()) << "a sphere at the origin seen from 5 units: float is enough";
+  EXPECT_TRUE((*glsl)["timed_in_worker"].get<bool>());
+  EXPECT_LT((*glsl)["ns_per_ray"].get<double>(), (*glsl)["round_trip_ns_per_ray"].get<double>());
+  EXPECT_NE(r.err.find("your code: glsl-sphere (" + std::string(RAYPROOF_PLUGIN_DIR) + "/glsl_sphere.so) is exact for this scene"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("ns per primary ray (rayproof's traversal plus the code's own time in its worker"), std::string::npos);
+  std::stringstream html;
+  html << std::ifstream(dir + "/report.html").rdbuf();
+  EXPECT_NE(html.str().find("Your code: glsl-sphere"), std::string::npos);
+}
+
 // Issue 25, items 1-2: after the table, fuzz shows one case per kind with the command that
 // replays it, and names each bundled example's known defect from the findings' numbers.
 TEST(Diagnosis, EachBundledExamplesKnownDefectIsNamed) {

@@ -1,6 +1,7 @@
 // A small multithreaded renderer on top of the variants, so their errors can be seen.
 #pragma once
 
+#include <limits>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -57,6 +58,26 @@ inline bool nearer(double t, int primitive, const Primitive& p, const SceneHit& 
   if (t != best.hit.t) return t < best.hit.t;
   const Primitive& b = index.primitive(best.primitive);
   return p.object != b.object ? p.object < b.object : primitive < best.primitive;
+}
+
+// trace_kind with the leaf test given as `intersect(shape) -> Hit` (the audit times external code
+// through it).
+template <class Intersect>
+SceneHit trace_kind_with(const SceneIndex& index, ShapeKind kind, const Ray& ray, Intersect&& intersect) {
+  SceneHit best;
+  double t_limit = std::numeric_limits<double>::infinity();
+  index.traverse(kind, ray, t_limit, [&](std::int32_t id, const Shape& shape) {
+    const Hit h = intersect(shape);
+    // A contact without t (a ray lying in a plane) has no point to show.
+    if (h.cls == HitClass::miss || !h.has_t() || !(h.t >= 0)) return false;
+    const Primitive& p = index.primitive(id);
+    if (nearer(h.t, id, p, best, index)) {
+      best = {p.object, id, h};
+      t_limit = h.t;
+    }
+    return false;
+  });
+  return best;
 }
 
 // Linear 0..1 colour of one primary ray (scene.md's shading rules).

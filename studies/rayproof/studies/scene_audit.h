@@ -40,7 +40,30 @@ struct SceneAuditOptions {
 // is not blocked.
 struct PixelCounts {
   long wrong = 0, holes = 0, false_hits = 0, shadow_wrong = 0, acne = 0;
+  // shadow_wrong by direction (a pixel with two lights may be both): the variant's shadow ray
+  // blocked where the exact one reaches the light, and the reverse.
+  long wrongly_shadowed = 0, wrongly_lit = 0;
+  PixelCounts& operator+=(const PixelCounts& o);
+  // Pixels with anything wrong (wrong and shadow_wrong never count the same pixel).
+  long any_wrong() const { return wrong + shadow_wrong; }
 };
+
+// A wrong pixel as a case (docs/spec/cases.md), so `rayproof check` replays what decided it: the
+// pixel's primary ray and the primitive it should have hit (a hole) or wrongly hit (a false hit),
+// or its shadow ray and the primitive that wrongly blocked it or should have; a shadow error with
+// no such primitive of the variant's shape is the primary ray and the primitive it hit (the hit
+// point, and so the shadow ray's start, is where the variant went wrong). One per pixel and light.
+struct WrongPixelCase {
+  int x = 0, y = 0;
+  std::string kind;  // "hole", "false_hit", "acne", "wrongly_shadowed", "wrongly_lit"
+  int light = -1;    // the light of a shadow error (scene.md's lights, from 0), else −1
+  bool shadow_ray = false;  // `ray` is the shadow ray, else the pixel's primary ray
+  Ray ray;
+  std::int32_t primitive = -1;  // the scene's primitive (audit's index) and its shape
+  Shape shape;
+};
+// At most this many cases per variant, in pixel order (the rest are counted).
+inline constexpr std::size_t kMaxCasesPerVariant = 256;
 
 struct VariantAudit {
   const Variant* variant = nullptr;  // or
@@ -52,12 +75,21 @@ struct VariantAudit {
   std::string label;
   PixelCounts counts;
   double ns_per_ray = 0;      // primary rays against the scene's primitives of its shape, one thread
+  // External code: ns_per_ray is rayproof's traversal plus the time the code spent in its worker
+  // (timed_in_worker; an --exec command cannot be timed there and is charged its round trips);
+  // round_trip_ns_per_ray is the same frame's wall time, the pipe included.
+  double round_trip_ns_per_ray = 0;
+  bool timed_in_worker = false;
+  bool users_code() const { return origin != "built-in"; }
   Image render, diff;         // the variant's render; wrong pixels over the dimmed exact render
+  std::vector<WrongPixelCase> cases;  // variants only (a tracer's triangles are judged as a mesh)
+  long cases_left_out = 0;
   std::string stopped;        // external code that stopped: why (its later answers are misses)
   // A variant that stopped (crash, hang, protocol error) left pixels unjudged: never exact.
-  bool exact_for_scene() const { return counts.wrong == 0 && counts.shadow_wrong == 0 && stopped.empty(); }
-  // Headroom: wrong pixels per exponent of headroom_exponents() (−1: not rendered, because an
-  // earlier exponent already had wrong pixels).
+  bool exact_for_scene() const { return counts.any_wrong() == 0 && stopped.empty(); }
+  // Headroom: pixels wrong or shadow wrong (what exact_for_scene counts) per exponent of
+  // headroom_exponents() (−1: not rendered, because an earlier exponent already had some, or
+  // the scene collapsed). exact_up_to is set only for a variant exact for the scene itself.
   std::vector<long> headroom_wrong;
   std::optional<int> exact_up_to_log2_translate, first_wrong_log2_translate;
 };
@@ -87,14 +119,18 @@ struct SceneAudit {
   // own (untranslated) exact render. Where this grows, rounding to doubles has changed the scene
   // itself, and a variant's headroom beyond that point says little.
   std::vector<long> headroom_scene_changed;
+  // The first exponent at which translating dropped triangles as degenerate: the scene is no
+  // longer itself, so no exponent from there on is rendered (their warnings say how many).
+  std::optional<int> headroom_collapsed_at;
   std::vector<std::string> warnings;
 };
 
 // Throws std::runtime_error for a scene the audit cannot take (more than 64 lights).
 SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options);
 
-// DIR/audit.json, DIR/exact.png, DIR/VARIANT.png, DIR/VARIANT-diff.png, DIR/report.html and (with
-// headroom) DIR/headroom.svg, each written atomically. `scene_path` is what audit.json's "scene" says.
+// DIR/audit.json, DIR/exact.png, DIR/VARIANT.png, DIR/VARIANT-diff.png, DIR/VARIANT-cases.jsonl
+// (variants with wrong pixels), DIR/report.html and (with headroom) DIR/headroom.svg, each written
+// atomically. `scene_path` is what audit.json's "scene" says.
 void write_scene_audit(const SceneAudit& audit, const std::string& scene_path, const std::string& dir);
 
 // The marks of the diff images (distinct from any dimmed pixel: each has a channel of 255,
@@ -102,6 +138,15 @@ void write_scene_audit(const SceneAudit& audit, const std::string& scene_path, c
 inline constexpr std::array<std::uint8_t, 3> kHoleColour{255, 0, 0}, kFalseHitColour{0, 160, 255},
     kShadowColour{255, 255, 0}, kAcneColour{255, 128, 0};
 inline constexpr double kDiffDimming = 0.3;
+
+// Each row's file stem (STEM.png, STEM-diff.png, STEM-cases.jsonl): its label made a file name,
+// made unique against the other rows and the audit's own files.
+std::vector<std::string> audit_file_stems(const SceneAudit& audit);
+// The command that replays a variant's wrong pixels from `cases_path`.
+std::string cases_replay_command(const VariantAudit& va, const std::string& cases_path);
+// Per row of users' code (plugins, exec commands, tracers), one sentence: exact for the scene or
+// not, and what it costs, saying where it was timed.
+std::vector<std::string> users_code_verdicts(const SceneAudit& audit);
 
 // The report page alone (self-contained HTML, images inline as data: URIs).
 std::string scene_audit_html(const SceneAudit& audit, const std::string& scene_path);
