@@ -1,4 +1,5 @@
 // rayproof fuzz: every variant against the oracle on generated families; findings replayable.
+#include <unistd.h>
 #include <algorithm>
 #include <charconv>
 #include <iomanip>
@@ -74,6 +75,7 @@ struct FuzzOptions {
   std::string shard = "0/1", output, rule = "nearest", summary, format = "table", spawn_csv, construction = "both";
   static constexpr std::uint64_t kModeDefault = std::numeric_limits<std::uint64_t>::max();
   std::uint64_t count = 100000, seed = 1, max_findings = kModeDefault, batch = 8192;  // findings: 1000 (variants) or 20 (tracers)
+  std::uint64_t max_shrunk = fuzz::CampaignOptions{}.max_shrunk;
   int threads = 0;
   bool resume = false, no_shrink = false, keep_checkpoint = false;
   long crash_after = -1;
@@ -92,6 +94,7 @@ fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
   o.rule = parse_rule(opts.rule);
   o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
   o.crash_after_batches = opts.crash_after;
+  o.max_shrunk = opts.max_shrunk;
   return o;
 }
 
@@ -145,6 +148,12 @@ void run_fuzz(const FuzzOptions& opts) {
       current = {family, shape};
     }
     progress.update(static_cast<long>(done), static_cast<long>(total));
+  };
+  o.shrink_progress = [&](std::uint64_t done, std::uint64_t total) {
+    if (isatty(2) && current)  // on the pair's line, cleared to its end; the next batch writes over it
+      std::fprintf(stderr, "\rfuzz %s/%s: shrinking findings %llu/%llu\033[K", std::string(to_string(current->first)).c_str(),
+                   std::string(to_string(current->second)).c_str(), static_cast<unsigned long long>(done),
+                   static_cast<unsigned long long>(total));
   };
   const fuzz::CampaignReport report = fuzz::run_campaign(o);
   progress.finish();
@@ -201,6 +210,9 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->add_flag("--resume", opts->resume, "continue from OUTPUT.checkpoint after the last completed batch");
   cmd->add_flag("--keep-checkpoint", opts->keep_checkpoint, "keep OUTPUT.checkpoint after the campaign completes");
   cmd->add_flag("--no-shrink", opts->no_shrink, "write findings as found, without shrinking");
+  cmd->add_option("--max-shrunk", opts->max_shrunk,
+                  "findings shrunk per family, shape and kind (default " + std::to_string(opts->max_shrunk) +
+                      "); the rest are written as found");
   cmd->add_option("--spawn-csv", opts->spawn_csv,
                   "also run the spawn (shadow-acne) study on the chosen shapes and write its CSV here");
   add_format_flag(cmd, opts->format);

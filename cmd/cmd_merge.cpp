@@ -118,6 +118,8 @@ int run_merge(const MergeOptions& o) {
     shards.emplace_back(path, shard.shard_of);
     for (const auto& [k, t] : shard.tallies) merged.tallies[k].merge(t);
     for (const auto& [k, s] : shard.seconds) merged.seconds[k] += s;
+    for (const auto& [k, s] : shard.shrink_seconds) merged.shrink_seconds[k] += s;
+    merged.findings_unshrunk += shard.findings_unshrunk;
     for (const auto& [k, n] : shard.cases) merged.cases[k] += n;
     merged.shard_of = {shard.shard_of.campaign, 0, 1};  // merged: the whole of that campaign
   }

@@ -226,7 +226,7 @@ void Progress::update(long done, long total) {
   const long percent = done * 100 / total;
   if (percent == last_percent_) return;
   last_percent_ = percent;
-  std::fprintf(stderr, "\r%s: %ld/%ld (%ld%%)", label_.c_str(), done, total, percent);
+  std::fprintf(stderr, "\r%s: %ld/%ld (%ld%%)\033[K", label_.c_str(), done, total, percent);  // cleared to the line's end
   std::fflush(stderr);
 }
 

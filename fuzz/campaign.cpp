@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -96,8 +97,10 @@ json CampaignReport::to_json() const {
              return j;
            })},
           {"seconds", keyed_to_json(seconds, plain)},
+          {"shrink_seconds", keyed_to_json(shrink_seconds, plain)},
           {"cases", keyed_to_json(cases, plain)},
           {"findings_written", findings_written},
+          {"findings_unshrunk", findings_unshrunk},
           {"coverage", coverage()}};
   shard_of.write_to(j);
   return j;
@@ -106,14 +109,18 @@ json CampaignReport::to_json() const {
 CampaignReport CampaignReport::from_json(const json& j) {
   CampaignReport r;
   r.tallies = keyed_from_json<Tally>(j.at("tallies"), "tallies", [](const json& v, const std::string&) { return Tally::from_json(v); });
-  r.seconds = keyed_from_json<double>(j.at("seconds"), "seconds", [](const json& v, const std::string& field) {
+  const auto seconds = [](const json& v, const std::string& field) {
     if (!v.is_number() || !(v.get<double>() >= 0)) throw FieldError(field, "expected seconds >= 0");
     return v.get<double>();
-  });
+  };
+  r.seconds = keyed_from_json<double>(j.at("seconds"), "seconds", seconds);
+  // Summaries written before shrink times and unshrunk counts were kept have neither.
+  if (j.contains("shrink_seconds")) r.shrink_seconds = keyed_from_json<double>(j.at("shrink_seconds"), "shrink_seconds", seconds);
   r.cases = keyed_from_json<std::uint64_t>(j.at("cases"), "cases", [](const json& v, const std::string& field) {
     return read_count(v, field);
   });
   r.findings_written = read_count(j.at("findings_written"), "findings_written");
+  if (j.contains("findings_unshrunk")) r.findings_unshrunk = read_count(j.at("findings_unshrunk"), "findings_unshrunk");
   r.shard_of = ShardOf::read_from(j);
   return r;
 }
@@ -141,7 +148,7 @@ json fingerprint(const CampaignOptions& o) {
   for (const Variant* x : o.variants) v.push_back(std::string(x->name));
   return {{"families", f}, {"constructions", c}, {"shapes", s}, {"variants", v}, {"count", o.count}, {"seed", o.seed}, {"shard", o.shard},
           {"shards", o.shards}, {"rule", std::string(to_string(o.rule))}, {"shrink", o.shrink},
-          {"max_findings", o.max_findings}, {"batch", o.batch}};
+          {"max_findings", o.max_findings}, {"max_shrunk", o.max_shrunk}, {"batch", o.batch}};
 }
 
 // Where the campaign stands after the last completed batch.
@@ -150,6 +157,7 @@ struct Checkpoint {
   std::uint64_t next = 0;  // first case index not yet done in `pair`
   bool pair_started = false;
   std::uint64_t findings_in_pair = 0;
+  std::map<std::string, std::uint64_t> shrunk_in_pair;  // by finding kind
   std::uintmax_t findings_bytes = 0;
   FindingsHash findings_hash;  // of those bytes
   CampaignReport report;
@@ -159,6 +167,7 @@ void save(const std::string& path, const CampaignOptions& o, const Checkpoint& c
   AtomicFile f(path);
   f.stream() << json_text(json{{"fingerprint", fingerprint(o)}, {"pair", c.pair}, {"next", c.next},
                      {"pair_started", c.pair_started}, {"findings_in_pair", c.findings_in_pair},
+                     {"shrunk_in_pair", c.shrunk_in_pair},
                      {"findings_bytes", c.findings_bytes}, {"findings_hash", c.findings_hash.value},
                      {"report", c.report.to_json()}})
              << "\n";
@@ -176,6 +185,7 @@ Checkpoint load(const std::string& path, const CampaignOptions& o) {
     Checkpoint c;
     c.pair = j.at("pair"), c.next = j.at("next"), c.pair_started = j.at("pair_started");
     c.findings_in_pair = j.at("findings_in_pair"), c.findings_bytes = j.at("findings_bytes");
+    c.shrunk_in_pair = j.at("shrunk_in_pair").get<std::map<std::string, std::uint64_t>>();
     c.findings_hash.value = j.at("findings_hash");
     c.report = CampaignReport::from_json(j.at("report"));
     return c;
@@ -240,6 +250,8 @@ struct Finding {
   GeneratedCase generated;
   const Variant* first_disagreeing;  // or the first that failed on it (plugin.md: crash, timeout, ...)
   HitFailure failure = HitFailure::none;
+  std::string kind;  // "VARIANT exact->reported" or "VARIANT failure": what max_shrunk counts
+  bool shrink = true;  // false: written as found (beyond max_shrunk)
 };
 
 // What hole counting needs of one case of a grazing-triangle batch.
@@ -301,6 +313,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
     std::vector<VariantOutcome>& outcomes = me.outcomes;
     std::vector<const Variant*> first;  // by case in the chunk: the first variant that disagreed or failed
     std::vector<HitFailure> failure;
+    std::vector<HitClass> reported;  // by case: the first disagreeing variant's class
     for (std::uint64_t chunk = lo; chunk < hi; chunk += chunk_size) {
       const size_t n = static_cast<size_t>(std::min<std::uint64_t>(chunk_size, hi - chunk));
       cases.clear(), queries.clear(), exact.clear();
@@ -309,7 +322,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         if (keep_queries) queries.push_back(cases.back());
         exact.push_back(me.oracle.judge(cases.back().ray, cases.back().shape, o.rule));
       }
-      first.assign(n, nullptr), failure.assign(n, HitFailure::none);
+      first.assign(n, nullptr), failure.assign(n, HitFailure::none), reported.assign(n, HitClass::miss);
       for (size_t k = 0; k < n && pairs_of_triangles; ++k) {
         EdgeEvidence& edge = judged.edges[chunk + k - b.start];
         edge.shared_edge = is_shared_edge_pair(cases[k]), edge.exact = exact[k], edge.variant_hit.resize(variants.size());
@@ -323,7 +336,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         if (direct) {
           for (size_t k = 0; k < n; ++k) {
             const Hit h = v.kernel(cases[k].ray, cases[k].shape, o.rule);
-            if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k]) first[k] = &v;
+            if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k]) first[k] = &v, reported[k] = h.cls;
             if (pairs_of_triangles) judged.edges[chunk + k - b.start].variant_hit[vi] = h.cls != HitClass::miss;
           }
           continue;
@@ -338,7 +351,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
               me.tallies[vi].add(exact[k].cls, VariantOutcome{&v, h});
               if ((stops_variant(h.failure) || is_plugin_error(h.failure)) && !first[k]) first[k] = &v, failure[k] = h.failure;
             } else if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k]) {
-              first[k] = &v;
+              first[k] = &v, reported[k] = h.cls;
             }
             if (pairs_of_triangles) judged.edges[chunk + k - b.start].variant_hit[vi] = !h.failed() && h.cls != HitClass::miss;
           }
@@ -350,7 +363,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           me.tallies[vi].add(exact[k].cls, r);
           const bool finding = r.hit.failed() ? stops_variant(r.hit.failure) || is_plugin_error(r.hit.failure)
                                               : r.agreement != Agreement::agrees;
-          if (finding && !first[k]) first[k] = variants[vi], failure[k] = r.hit.failure;
+          if (finding && !first[k]) first[k] = variants[vi], failure[k] = r.hit.failure, reported[k] = r.hit.cls;
           if (pairs_of_triangles) {
             EdgeEvidence& edge = judged.edges[chunk + k - b.start];
             edge.variant_hit[vi] = !r.hit.failed() && r.hit.cls != HitClass::miss;
@@ -359,8 +372,14 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           }
         }
       }
-      for (size_t k = 0; k < n; ++k)
-        if (first[k]) me.findings.push_back({chunk + k, std::move(cases[k]), first[k], failure[k]});
+      for (size_t k = 0; k < n; ++k) {
+        if (!first[k]) continue;
+        std::string kind = std::string(first[k]->name) + " ";
+        kind += failure[k] != HitFailure::none
+                    ? std::string(to_string(failure[k]))
+                    : std::string(to_string(exact[k].cls)) + "->" + std::string(to_string(reported[k]));
+        me.findings.push_back({chunk + k, std::move(cases[k]), first[k], failure[k], std::move(kind)});
+      }
     }
   });
   for (Worker& w : workers) {
@@ -419,7 +438,7 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
   c.shape = f.generated.shape;
   const Case original = c;
   // A variant that stopped (crash, timeout, protocol) cannot be asked again: its case stays as found.
-  const bool shrinkable = o.shrink && !stops_variant(f.failure);
+  const bool shrinkable = o.shrink && f.shrink && !stops_variant(f.failure);
   if (shrinkable) c = shrink(c, *f.first_disagreeing, oracle, o.rule, 3000, f.failure);
   // `expect` keeps the case format's meaning, the nearest contact, whatever rule found the case
   // (found.rule says which): the finding replays green under `check`.
@@ -444,6 +463,9 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
     if (is_plugin_error(f.failure)) c.found["reason"] = std::string(to_string(f.failure));
     if (stops_variant(f.failure)) c.found["disagreeing"][std::string(f.first_disagreeing->name)] = {{"error", c.found["kind"]}};
   }
+  if (o.shrink && stops_variant(f.failure)) c.found["not_shrunk"] = "code that stopped cannot be asked again";
+  else if (o.shrink && !f.shrink)
+    c.found["not_shrunk"] = "beyond the " + std::to_string(o.max_shrunk) + " shrunk for " + f.kind + " in this family and shape";
   if (shrinkable) {
     c.found["shrunk_for"] = std::string(f.first_disagreeing->name);
     const json now = case_to_json(c), before = case_to_json(original);
@@ -459,9 +481,16 @@ std::vector<std::string> shrink_and_format(const Batch& b, const std::vector<Fin
                                            std::vector<Worker>& workers) {
   std::vector<std::string> lines(findings.size());
   const int threads = static_cast<int>(workers.size());
+  std::atomic<std::uint64_t> done{0};
+  const std::uint64_t to_shrink = o.shrink ? static_cast<std::uint64_t>(std::count_if(
+                                                 findings.begin(), findings.end(), [](const Finding& f) { return f.shrink; }))
+                                           : 0;
   run_workers(threads, [&](int w) {
-    for (size_t k = w; k < findings.size(); k += threads)
+    for (size_t k = w; k < findings.size(); k += threads) {
       lines[k] = finding_line(b, findings[k], variants, o, workers[w].oracle);
+      const std::uint64_t d = done += findings[k].shrink;
+      if (w == 0 && o.shrink_progress && to_shrink > 0) o.shrink_progress(d, to_shrink);
+    }
   });
   return lines;
 }
@@ -490,7 +519,7 @@ CampaignReport run_campaign(const CampaignOptions& o) {
   Checkpoint cp = open_findings(o, checkpoint_path, out);
   std::vector<Worker> workers(std::max(1, o.threads));
   long batches_done = 0;
-  for (; cp.pair < pairs.size(); ++cp.pair, cp.pair_started = false, cp.findings_in_pair = 0) {
+  for (; cp.pair < pairs.size(); ++cp.pair, cp.pair_started = false, cp.findings_in_pair = 0, cp.shrunk_in_pair.clear()) {
     const auto [family, construction, shape] = pairs[cp.pair];
     std::vector<const Variant*> variants = variants_for(shape);
     std::erase_if(variants, [&](const Variant* v) {
@@ -514,7 +543,16 @@ CampaignReport run_campaign(const CampaignOptions& o) {
           if (stops_variant(judged.findings[i].failure)) kept.push_back(judged.findings[i]);
         judged.findings = std::move(kept);
       }
+      // Shrink the first max_shrunk of each kind in this family and shape (in index order, so
+      // the choice does not depend on threads); the rest are written as found.
+      for (Finding& f : judged.findings) {
+        std::uint64_t& shrunk = cp.shrunk_in_pair[f.kind];
+        f.shrink = shrunk < o.max_shrunk && !stops_variant(f.failure);
+        shrunk += f.shrink;
+        cp.report.findings_unshrunk += !f.shrink || !o.shrink;
+      }
       // Step 4: append the findings whole, then checkpoint what they complete.
+      const auto t1 = std::chrono::steady_clock::now();
       for (const std::string& line : shrink_and_format(b, judged.findings, variants, o, workers)) {
         out << line;
         cp.findings_hash.add(line);
@@ -526,6 +564,7 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       if (o.crash_after_batches >= 0 && ++batches_done > o.crash_after_batches) std::_Exit(3);  // testing hook
       cp.report.cases[pair_key] += b.size();
       cp.report.seconds[pair_key] += check_seconds;
+      cp.report.shrink_seconds[pair_key] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
       cp.next = b.end;
       cp.findings_bytes = std::filesystem::file_size(o.output);
       save(checkpoint_path, o, cp);
@@ -559,11 +598,17 @@ void print_report(const CampaignReport& r, int threads, TableFormat format, std:
     }
   for (const auto& [k, seconds] : r.seconds) {
     const std::uint64_t n = r.cases.at(k);
+    const auto shrinking = r.shrink_seconds.find(k);
+    const double shrink = shrinking != r.shrink_seconds.end() ? shrinking->second : 0;
     out << "throughput " << k.family << "/" << k.name << ": " << n << " cases checked in " << std::fixed
         << std::setprecision(2) << seconds << " s, " << std::setprecision(0) << (seconds > 0 ? n / seconds / threads : 0)
-        << " cases/s per core (" << threads << " threads)\n"
+        << " cases/s per core (" << threads << " threads); findings shrunk and written in " << std::setprecision(2)
+        << shrink << " s\n"
         << std::defaultfloat;
   }
+  if (r.findings_unshrunk > 0)
+    out << "findings: " << r.findings_unshrunk << " of " << r.findings_written
+        << " written as found (beyond --max-shrunk per family, shape and kind, or from code that stopped)\n";
 }
 
 }  // namespace rayproof::fuzz

@@ -281,6 +281,7 @@ TEST(Shrink, WrittenFindingsStillDisagreeForTheVariantTheyWereShrunkFor) {
   const std::string out = rayproof::testing_support::test_dir() + "/shrunk.jsonl";
   CampaignOptions o = small_campaign(out, 2);
   o.families = {Family::random, Family::extremes};
+  o.max_shrunk = 1000;  // every finding shrunk
   run_campaign(o);
   Oracle exact_only(Oracle::Options{.filter = false});  // rationals alone: not the campaign's stages
   int checked = 0;
@@ -299,6 +300,38 @@ TEST(Shrink, WrittenFindingsStillDisagreeForTheVariantTheyWereShrunkFor) {
   EXPECT_GT(checked, 10);
 }
 
+// Issue 25, item 3: the first max_shrunk findings of each family, shape and kind are shrunk, the
+// rest written as found, saying so, and counted; the time spent is reported beside the checking.
+TEST(Shrink, OnlyTheFirstFindingsOfEachKindAreShrunkAndTheRestCounted) {
+  const std::string out = rayproof::testing_support::test_dir() + "/budget.jsonl";
+  CampaignOptions o = small_campaign(out, 2);
+  o.max_shrunk = 2;
+  const CampaignReport r = run_campaign(o);
+  std::map<std::string, int> shrunk, unshrunk;  // by family/shape and first disagreeing variant
+  std::uint64_t written = 0, as_found = 0;
+  read_case_file(out, [&](const Case& c, long) {
+    ++written;
+    const std::string pair = c.id.substr(0, c.id.find('/', c.id.find('/') + 1));
+    if (c.found.contains("shrunk_for")) {
+      ++shrunk[pair + " " + c.found["shrunk_for"].get<std::string>()];
+      EXPECT_FALSE(c.found.contains("not_shrunk")) << c.id;
+      return;
+    }
+    ++as_found;
+    ASSERT_TRUE(c.found.contains("not_shrunk")) << c.id;
+    const std::string why = c.found["not_shrunk"];
+    EXPECT_NE(why.find("beyond the 2 shrunk for "), std::string::npos) << why;
+    ++unshrunk[pair];
+  }, [](const CaseError& e) { ADD_FAILURE() << e.to_string(); });
+  EXPECT_EQ(written, r.findings_written);
+  EXPECT_EQ(as_found, r.findings_unshrunk);
+  EXPECT_GT(as_found, 0u) << "the campaign must have more findings than the budget to test it";
+  // A variant has several kinds, each at most 2 shrunk: at most 2 × its kinds, here at most 2 × 9.
+  for (const auto& [key, n] : shrunk) EXPECT_LE(n, 18) << key;
+  EXPECT_FALSE(shrunk.empty());
+  for (const auto& [key, seconds] : r.seconds) EXPECT_TRUE(r.shrink_seconds.count(key)) << key.to_string();
+}
+
 int run(const std::string& args) {
   const int status = std::system((std::string(RAYPROOF_CLI) + " " + args + " 2>/dev/null").c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -307,6 +340,7 @@ int run(const std::string& args) {
 std::string summary_without_seconds(const std::string& path) {
   json j = json::parse(read(path));
   j.erase("seconds");
+  j.erase("shrink_seconds");
   return j.dump();
 }
 
