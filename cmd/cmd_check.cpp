@@ -188,9 +188,9 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
     for (size_t k = 0; k < judged.size(); ++k) {
       if (stops_variant(judged[k].hit.failure) && ++run.stopped)
         std::cerr << "rayproof: " << printable(path) << ":" << pending[where[k]].line << ": case '"
-                  << printable(pending[where[k]].c.id) << "': variant " << v->name << " stopped: "
+                  << printable(pending[where[k]].c.id) << "': variant " << v->name << ": "
                   << to_string(judged[k].hit.failure)
-                  << (v->external ? " (" + v->external->stop_reason() + ")" : std::string()) << "\n";
+                  << (v->external ? " (" + v->external->last_failure() + ")" : std::string()) << "\n";
       outcomes[where[k]].push_back(std::move(judged[k]));
     }
   }
@@ -300,6 +300,10 @@ int run_check(const CheckOptions& opts) {
   print_oracle_stats(std::cerr, run.oracle);
   for (const std::string& id : run.ids)
     if (!run.ids_seen.count(id)) ++run.unreadable, std::cerr << "rayproof: --id " << printable(id) << ": no case has this id\n";
+  for (const Variant* v : run.variants)
+    if (v->external && !v->external->stop_reason().empty())
+      std::cerr << "rayproof check: variant " << v->name << " stopped (" << v->external->stop_reason()
+                << "); its later cases say \"stopped\"\n";
   std::cerr << "rayproof check: " << run.cases << " cases, " << run.unreadable << " unreadable, " << run.contradicted
             << " expectations contradicted by the exact oracle\n";
   if (summary_file) {

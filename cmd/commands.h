@@ -52,6 +52,7 @@ struct ExternalFlags {
   std::vector<std::string> plugins, execs;
   double case_timeout = 10;
   std::string exec_precision = "double";
+  int max_crashes = 10;
 };
 void add_external_flags(CLI::App* cmd, ExternalFlags& flags);
 // Loads the plugins and starts nothing yet (exec commands start on first use); call first in a

@@ -74,6 +74,10 @@ void add_external_flags(CLI::App* cmd, ExternalFlags& flags) {
   cmd->add_option("--exec", flags.execs, "NAME=COMMAND: a command that answers cases over pipes (docs/spec/plugin.md); repeatable");
   cmd->add_option("--case-timeout", flags.case_timeout, "seconds a plugin or exec command may take on one case (default 10)")
       ->check(CLI::Range(0.001, 86400.0));
+  cmd->add_option("--max-crashes", flags.max_crashes,
+                  "crashes or hangs of one plugin or exec variant before it is stopped; after each a fresh worker "
+                  "goes on with the next case (default 10)")
+      ->check(CLI::Range(1, 1000000));
   cmd->add_option("--exec-precision", flags.exec_precision, "double, or float: exec commands get float-rounded cases")
       ->check(CLI::IsMember({"double", "float"}));
 }
@@ -82,6 +86,7 @@ void load_externals(const ExternalFlags& flags) {
   peers::ExternalOptions options;
   options.case_timeout_seconds = flags.case_timeout;
   options.exec_precision = flags.exec_precision == "float" ? Precision::f32 : Precision::f64;
+  options.max_crashes = flags.max_crashes;
   for (const std::string& path : flags.plugins) peers::load_plugin(path, options);
   for (const std::string& text : flags.execs) {
     const auto [name, command] = peers::split_assignment("--exec", text);

@@ -459,7 +459,7 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
   if (f.failure != HitFailure::none) {
     c.found["kind"] = is_plugin_error(f.failure) ? "plugin_error" : std::string(to_string(f.failure));
     c.found["variant"] = std::string(f.first_disagreeing->name);
-    if (f.first_disagreeing->external) c.found["reason"] = f.first_disagreeing->external->stop_reason();
+    if (f.first_disagreeing->external) c.found["reason"] = f.first_disagreeing->external->last_failure();
     if (is_plugin_error(f.failure)) c.found["reason"] = std::string(to_string(f.failure));
     if (stops_variant(f.failure)) c.found["disagreeing"][std::string(f.first_disagreeing->name)] = {{"error", c.found["kind"]}};
   }

@@ -21,6 +21,7 @@
 #include <string>
 
 #include "rayproof/core/json_fields.h"
+#include "rayproof/peers/crash_budget.h"
 #include "rayproof/peers/exec_process.h"
 #include "rayproof/peers/external.h"
 #include "rayproof/peers/process_pool.h"
@@ -222,10 +223,22 @@ namespace {
 
 class ExecVariant final : public ExternalIntersector {
  public:
-  ExecVariant(std::string command, const ExternalOptions& options) : command_(std::move(command)), options_(options) {}
+  ExecVariant(std::string command, const ExternalOptions& options)
+      : command_(std::move(command)), options_(options), budget_(options.max_crashes) {}
 
   void answer_all(std::span<const Query> qs, std::span<Hit> out) override {
-    if (stopped_.load()) return std::fill(out.begin(), out.end(), Hit::failure_of(HitFailure::stopped));
+    for (std::size_t done = 0; done < qs.size();) {
+      if (budget_.stopped()) return std::fill(out.begin() + done, out.end(), Hit::failure_of(HitFailure::stopped));
+      done += answer_until_failure(qs.subspan(done), out.subspan(done));
+    }
+  }
+  std::string stop_reason() const override { return budget_.stop_reason(); }
+  std::string last_failure() const override { return budget_.last_failure(); }
+
+ private:
+  // One command answers the cases in order; returns how many are settled (all, or up to and
+  // including the case it failed on).
+  std::size_t answer_until_failure(std::span<const Query> qs, std::span<Hit> out) {
     std::unique_ptr<ExecProcess> process = take();
     std::string payload;
     std::vector<std::string> ids;
@@ -255,30 +268,27 @@ class ExecVariant final : public ExternalIntersector {
     }
     if (!why.empty()) kind = HitFailure::protocol;
     else why = ended;
-    if (why.empty()) return give_back(std::move(process));
-    if (!stopped_.exchange(true)) {
-      std::lock_guard lock(mutex_);
-      reason_ = why;
+    if (why.empty()) {
+      give_back(std::move(process));
+      return qs.size();
     }
+    // The command is gone (or spoke wrongly): blame the case it was on; after a crash or a hang a
+    // fresh command goes on with the next case while the crash budget lasts. A protocol error
+    // stops it now: a fresh command would answer the same way.
     out[i] = Hit::failure_of(kind);
-    std::fill(out.begin() + i + 1, out.end(), Hit::failure_of(HitFailure::stopped));
-  }
-  std::string stop_reason() const override {
-    std::lock_guard lock(mutex_);
-    return reason_;
+    if (kind == HitFailure::protocol) budget_.stop(why);
+    else budget_.spend(why);
+    return i + 1;
   }
 
- private:
   std::unique_ptr<ExecProcess> take() {
     return processes_.take([this] { return std::make_unique<ExecProcess>(command_); });
   }
   void give_back(std::unique_ptr<ExecProcess> p) { processes_.give_back(std::move(p)); }
   std::string command_;
   ExternalOptions options_;
-  std::atomic<bool> stopped_{false};
+  CrashBudget budget_;
   std::atomic<std::uint64_t> next_id_{0};
-  mutable std::mutex mutex_;
-  std::string reason_;
   ProcessPool<ExecProcess> processes_;
 };
 

@@ -30,6 +30,7 @@
 
 #include "rayproof/core/json_fields.h"
 #include "rayproof/peers/child_process.h"
+#include "rayproof/peers/crash_budget.h"
 #include "rayproof/peers/external.h"
 #include "rayproof/peers/library_table.h"
 #include "rayproof/peers/process_pool.h"
@@ -244,14 +245,15 @@ class Plugin {
 class PluginVariant final : public ExternalIntersector {
  public:
   PluginVariant(Plugin& plugin, std::uint32_t index, ShapeKind shape, const ExternalOptions& options)
-      : plugin_(plugin), index_(index), shape_(shape), options_(options) {}
+      : plugin_(plugin), index_(index), shape_(shape), options_(options), budget_(options.max_crashes) {}
 
   void answer_all(std::span<const Query> qs, std::span<Hit> out) override {
     double inside = 0;
-    for (std::size_t start = 0; start < qs.size(); start += kBatchCapacity) {
+    for (std::size_t start = 0; start < qs.size();) {
       const std::size_t n = std::min(kBatchCapacity, qs.size() - start);
-      if (stopped_.load()) {
+      if (budget_.stopped()) {
         std::fill(out.begin() + start, out.end(), Hit::failure_of(HitFailure::stopped));
+        inside = -1;
         break;
       }
       std::unique_ptr<WorkerProcess> worker = plugin_.take();
@@ -274,36 +276,31 @@ class PluginVariant final : public ExternalIntersector {
       inside += b.inner_seconds;
       if (why.empty()) {
         plugin_.give_back(std::move(worker));
+        start += n;
         continue;
       }
-      // The worker is gone: blame the case it was on, stop this variant, keep what it answered.
-      if (!stopped_.exchange(true)) {
-        std::lock_guard lock(reason_mutex_);
-        reason_ = why;
-      }
+      // The worker is gone: blame the case it was on, keep what it answered, and go on with a
+      // fresh worker from the next case while the crash budget lasts (a forking plugin stops now).
       out[start + answered] =
           Hit::failure_of(worker->forked() ? HitFailure::protocol : timed_out ? HitFailure::timeout : HitFailure::crash);
-      std::fill(out.begin() + start + answered + 1, out.end(), Hit::failure_of(HitFailure::stopped));
-      inside = -1;
-      break;
+      if (worker->forked()) budget_.stop(why);
+      else budget_.spend(why);
+      inside = -1;  // a batch with a crash times nothing
+      start += answered + 1;
     }
     last_inner_seconds_ = inside;
   }
   double inner_seconds() const override { return last_inner_seconds_; }
   void set_timing_repeats(int repeats) override { timing_repeats_ = static_cast<std::uint32_t>(std::max(1, repeats)); }
-  std::string stop_reason() const override {
-    std::lock_guard lock(reason_mutex_);
-    return reason_;
-  }
+  std::string stop_reason() const override { return budget_.stop_reason(); }
+  std::string last_failure() const override { return budget_.last_failure(); }
 
  private:
   Plugin& plugin_;
   std::uint32_t index_;
   ShapeKind shape_;
   ExternalOptions options_;
-  std::atomic<bool> stopped_{false};
-  mutable std::mutex reason_mutex_;
-  std::string reason_;
+  CrashBudget budget_;
   static thread_local double last_inner_seconds_;
   static thread_local std::uint32_t timing_repeats_;
 };

@@ -647,6 +647,8 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
     va.timed_in_worker = timing.in_worker;
     if (c.variant && c.variant->external) va.stopped = c.variant->external->stop_reason();
     if (c.tracer && va.stopped.empty()) va.stopped = c.tracer->stop_reason();
+    if (!va.stopped.empty())  // it answered "stopped" at no cost: a time would be one it never had
+      va.ns_per_ray = va.round_trip_ns_per_ray = std::numeric_limits<double>::quiet_NaN();
     audit.variants.push_back(std::move(va));
   }
   for (ShapeKind kind : audit.shapes) {

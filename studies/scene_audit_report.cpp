@@ -1,6 +1,7 @@
 // The audit's files: audit.json (docs/spec/audit.md's keys, plus compatible extras), the PNGs
 // and report.html, one self-contained page.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -386,7 +387,7 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
       << (va.origin != "built-in" ? " <small>(" + html_escape(va.origin) + ")</small>" : "")
       << (va.tracer ? " <small>[tracer]</small>" : "")
       << "</td><td>" << to_string(va.shape) << "</td><td>" << va.precision << "</td><td>"
-      << fixed(va.ns_per_ray, 1) << "</td><td>" << c.wrong << "</td><td>" << c.holes << "</td><td>" << c.false_hits
+      << (std::isnan(va.ns_per_ray) ? std::string("–") : fixed(va.ns_per_ray, 1)) << "</td><td>" << c.wrong << "</td><td>" << c.holes << "</td><td>" << c.false_hits
       << "</td><td>" << c.shadow_wrong << "</td><td>" << c.wrongly_shadowed << "</td><td>" << c.wrongly_lit << "</td><td>"
       << c.acne << "</td><td>"
       << (va.exact_for_scene() ? "yes" : "no") << (va.stopped.empty() ? "" : " (stopped: " + html_escape(va.stopped) + ")")

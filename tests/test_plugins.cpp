@@ -60,24 +60,47 @@ TEST(Plugins, ListedWithTheirSourcePrecisionAndRule) {
   EXPECT_NE(r.out.find("test-crashing\tsphere"), std::string::npos);
 }
 
+// A crash costs its case: a fresh worker answers the next (issue 25, item 9) until --max-crashes
+// crashes stop the variant; the others go on either way.
 TEST(Plugins, SegfaultIsReportedWithItsCaseAndCostsNothingElse) {
   const std::string cases = write("cases.jsonl", sphere_case("before", 1) + "\n" + sphere_case("segfault", 13) + "\n" +
-                                                     sphere_case("after", 1) + "\n");
+                                                     sphere_case("after", 1) + "\n" + sphere_case("again", 13) + "\n" +
+                                                     sphere_case("last", 1) + "\n");
   const CliRun r = run("check " + cases + kPlugin + "--variants test-crashing,stable --summary " + test_dir() + "/s.json");
-  EXPECT_EQ(r.status, 1) << r.err;  // a variant stopped: the run says so in its exit code
-  const auto lines = lines_of(r.out);
-  ASSERT_EQ(lines.size(), 3u) << r.out;
+  EXPECT_EQ(r.status, 1) << r.err;  // a variant crashed: the run says so in its exit code
+  auto lines = lines_of(r.out);
+  ASSERT_EQ(lines.size(), 5u) << r.out;
   EXPECT_EQ(lines[0]["variants"]["test-crashing"]["class"], "hit");
   EXPECT_EQ(lines[0]["variants"]["test-crashing"]["agrees"], true);
   EXPECT_EQ(lines[1]["variants"]["test-crashing"], (json{{"error", "crash"}}));
-  EXPECT_EQ(lines[2]["variants"]["test-crashing"], (json{{"error", "stopped"}}));
+  EXPECT_EQ(lines[2]["variants"]["test-crashing"]["agrees"], true) << "a fresh worker answers the case after a crash";
+  EXPECT_EQ(lines[3]["variants"]["test-crashing"], (json{{"error", "crash"}}));
+  EXPECT_EQ(lines[4]["variants"]["test-crashing"]["agrees"], true);
   for (const json& l : lines) EXPECT_EQ(l["variants"]["stable"]["agrees"], true);  // the others go on
   EXPECT_NE(r.err.find("case 'segfault'"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("SIGSEGV"), std::string::npos) << r.err;
-  const json summary = json::parse(std::ifstream(test_dir() + "/s.json"));
-  EXPECT_EQ(summary["variants"]["test-crashing"]["crashes"], 1);
-  EXPECT_EQ(summary["variants"]["test-crashing"]["cases"], 1);
-  EXPECT_EQ(summary["variants"]["stable"]["cases"], 3);
+  EXPECT_EQ(r.err.find("stopped"), std::string::npos) << r.err;
+  json summary = json::parse(std::ifstream(test_dir() + "/s.json"));
+  EXPECT_EQ(summary["variants"]["test-crashing"]["crashes"], 2);
+  EXPECT_EQ(summary["variants"]["test-crashing"]["cases"], 3);
+  EXPECT_EQ(summary["variants"]["stable"]["cases"], 5);
+
+  // --max-crashes 1: the first crash stops it; its later cases say so.
+  const CliRun once = run("check " + cases + kPlugin + "--variants test-crashing --max-crashes 1");
+  EXPECT_EQ(once.status, 1);
+  lines = lines_of(once.out);
+  ASSERT_EQ(lines.size(), 5u) << once.out;
+  EXPECT_EQ(lines[1]["variants"]["test-crashing"], (json{{"error", "crash"}}));
+  for (int i = 2; i < 5; ++i) EXPECT_EQ(lines[i]["variants"]["test-crashing"], (json{{"error", "stopped"}})) << i;
+  EXPECT_NE(once.err.find("variant test-crashing stopped (killed by SIGSEGV)"), std::string::npos) << once.err;
+  // --max-crashes 2: stopped at the second crash, with the count in the reason.
+  const CliRun twice = run("check " + cases + kPlugin + "--variants test-crashing --max-crashes 2");
+  lines = lines_of(twice.out);
+  ASSERT_EQ(lines.size(), 5u) << twice.out;
+  EXPECT_EQ(lines[2]["variants"]["test-crashing"]["agrees"], true);
+  EXPECT_EQ(lines[3]["variants"]["test-crashing"], (json{{"error", "crash"}}));
+  EXPECT_EQ(lines[4]["variants"]["test-crashing"], (json{{"error", "stopped"}}));
+  EXPECT_NE(twice.err.find("(crash 2, --max-crashes 2)"), std::string::npos) << twice.err;
 }
 
 TEST(Plugins, AbortAndHangAreCrashAndTimeout) {
@@ -166,12 +189,15 @@ TEST(Plugins, FuzzCampaignKeepsEverythingWhenAPluginCrashes) {
     EXPECT_GT(c.ray.origin.x(), 0.5);  // the case it crashed on, unshrunk
     EXPECT_EQ(c.found["reason"], "killed by SIGSEGV");
   }
-  EXPECT_GE(crashes, 1);
-  EXPECT_LE(crashes, 2);  // one per thread at most: the variant stops
+  // Every crash is a finding (kept past any cap); a fresh worker goes on after each until the
+  // tenth (--max-crashes' default); the other thread may be mid-batch then: one more at most.
   const json s = json::parse(std::ifstream(test_dir() + "/s.json"));
+  EXPECT_EQ(crashes, s["tallies"]["random\ttest-crash-often"]["crashes"].get<int>());
+  EXPECT_GE(crashes, 10);
+  EXPECT_LE(crashes, 11);
+  EXPECT_GT(s["tallies"]["random\ttest-crash-often"]["cases"].get<int>(), crashes) << "it answered between crashes";
   EXPECT_EQ(s["tallies"]["random\tstable"]["cases"], 4000);
   EXPECT_EQ(s["tallies"]["random\ttest-float"]["cases"], 4000);
-  EXPECT_GE(s["tallies"]["random\ttest-crash-often"]["crashes"], 1);
 }
 
 // Issue 25, item 9: the finding that stopped a variant is kept even when --max-findings is full,
@@ -179,7 +205,7 @@ TEST(Plugins, FuzzCampaignKeepsEverythingWhenAPluginCrashes) {
 TEST(Plugins, TheCrashFindingIsKeptPastTheFindingsCap) {
   const std::string out = test_dir() + "/findings.jsonl";
   const CliRun r = run("fuzz --shapes sphere --families tangent --count 3000 --threads 1 --max-findings 0 --no-shrink"
-                       " --variants textbook,test-crash-often" + kPlugin + "-o " + out);
+                       " --max-crashes 1 --variants textbook,test-crash-often" + kPlugin + "-o " + out);
   ASSERT_EQ(r.status, 0) << r.err;
   std::ifstream in(out);
   int crashes = 0, lines = 0;
@@ -198,7 +224,7 @@ TEST(Plugins, RenderSaysWhenThePluginItDrawsWithStopped) {
   const std::string png = test_dir() + "/out.png";
   const CliRun crashed = run("render " + scene + kPlugin + "--variants test-crash-often -o " + png);
   EXPECT_EQ(crashed.status, 1);
-  EXPECT_NE(crashed.err.find("test-crash-often stopped (killed by SIGSEGV)"), std::string::npos) << crashed.err;
+  EXPECT_NE(crashed.err.find("test-crash-often stopped (killed by SIGSEGV (crash 10, --max-crashes 10))"), std::string::npos) << crashed.err;
   EXPECT_TRUE(std::ifstream(png).good());  // the image is still written
   const CliRun fine = run("render " + scene + kPlugin + "--variants test-float -o " + png);
   EXPECT_EQ(fine.status, 0) << fine.err;

@@ -51,8 +51,8 @@ std::string notes_of(const Tally& t) {
     if (n == 0) return;
     notes = (notes == "-" ? "" : notes + "; ") + std::to_string(n) + " " + what;
   };
-  add(t.crashes, "crash (variant stopped)");
-  add(t.timeouts, "timeout (variant stopped)");
+  add(t.crashes, "crash");
+  add(t.timeouts, "timeout");
   add(t.protocol_errors, "protocol error (variant stopped)");
   add(t.plugin_errors, "plugin errors");
   add(t.not_representable, "not representable in float");

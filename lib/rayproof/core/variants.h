@@ -48,6 +48,8 @@ class ExternalIntersector {
   virtual void set_timing_repeats(int repeats) { (void)repeats; }
   // One line: why it stopped (signal, exit status, the unreadable line), empty while it runs.
   virtual std::string stop_reason() const { return {}; }
+  // Why the last crash, hang or protocol error happened, also when a fresh worker went on after it.
+  virtual std::string last_failure() const { return stop_reason(); }
 };
 
 struct Variant {

@@ -74,7 +74,9 @@ struct VariantAudit {
   // shapes; file names and headroom keys use it.
   std::string label;
   PixelCounts counts;
-  double ns_per_ray = 0;      // primary rays against the scene's primitives of its shape, one thread
+  // Primary rays against the scene's primitives of its shape, one thread; NaN (null in
+  // audit.json) for external code that stopped.
+  double ns_per_ray = 0;
   // External code: ns_per_ray is rayproof's traversal plus the time the code spent in its worker
   // (timed_in_worker; an --exec command cannot be timed there and is charged its round trips);
   // round_trip_ns_per_ray is the same frame's wall time, the pipe included.
