@@ -163,11 +163,12 @@ void run_fuzz(const FuzzOptions& opts) {
     read_case_file(o.output, [&](const Case& c, long) { findings.push_back(c); }, [](const CaseError&) {}, [](const MeshCase&, long) {});
     std::vector<const Variant*> judged;
     for (const auto& [key, tally] : report.tallies)
-      if (const Variant* v = find_variant(key.name); v && std::find(judged.begin(), judged.end(), v) == judged.end()) judged.push_back(v);
+      if (const Variant* v = fuzz::variant_of_tally(key.name).first; v && std::find(judged.begin(), judged.end(), v) == judged.end())
+        judged.push_back(v);
     print_digest(std::cerr, disagreements_in_findings(findings, o.output), judged, [&](const std::string& name) {
       std::uint64_t holes = 0;
       for (const auto& [key, tally] : report.tallies)
-        if (key.name == name) holes += tally.shared_edge_holes;
+        if (const Variant* v = fuzz::variant_of_tally(key.name).first; v && v->name == name) holes += tally.shared_edge_holes;
       return holes;
     });
   }

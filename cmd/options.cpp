@@ -89,8 +89,22 @@ void load_externals(const ExternalFlags& flags) {
   options.max_crashes = flags.max_crashes;
   for (const std::string& path : flags.plugins) peers::load_plugin(path, options);
   for (const std::string& text : flags.execs) {
-    const auto [name, command] = peers::split_assignment("--exec", text);
-    peers::add_exec_variant(name, command, options);
+    // NAME=COMMAND, or NAME:SHAPE[,SHAPE]=COMMAND for a command that answers only those shapes.
+    const auto [declared, command] = peers::split_assignment("--exec", text);
+    const std::size_t colon = declared.find(':');
+    std::vector<ShapeKind> shapes;
+    if (colon != std::string::npos) {
+      std::stringstream list(declared.substr(colon + 1));
+      for (std::string shape; std::getline(list, shape, ',');) {
+        const auto k = shape_kind_from_string(shape);
+        if (!k)
+          throw std::runtime_error("--exec " + printable(declared) + "=...: '" + printable(shape) +
+                                   "' is not a shape (sphere, plane, triangle, box)");
+        if (std::find(shapes.begin(), shapes.end(), *k) == shapes.end()) shapes.push_back(*k);
+      }
+      if (shapes.empty()) throw std::runtime_error("--exec " + printable(declared) + "=...: no shape after ':'");
+    }
+    peers::add_exec_variant(declared.substr(0, colon), command, options, shapes);
   }
 }
 
@@ -165,6 +179,13 @@ std::vector<fuzz::Family> parse_families(const std::vector<std::string>& names) 
                                    "--families", "family", fuzz::family_from_string);
 }
 
+namespace {
+// Variants named by --exec or --answers: always judged (plugin.md, Selection).
+bool given_by_name(const Variant& v) {
+  return v.origin.rfind("exec: ", 0) == 0 || v.origin.rfind("answers: ", 0) == 0;
+}
+}  // namespace
+
 std::vector<const Variant*> parse_variants(const std::vector<std::string>& names, const std::vector<ShapeKind>& shapes) {
   std::vector<const Variant*> every;
   for (const Variant& v : all_variants()) every.push_back(&v);
@@ -175,8 +196,8 @@ std::vector<const Variant*> parse_variants(const std::vector<std::string>& names
   std::string known;
   for (const Variant* v : every) known += (known.empty() ? "" : ", ") + std::string(v->name);
   std::vector<const Variant*> chosen = parse_named<const Variant*>(names, every, "--variants", "variant", lookup, known);
-  for (const Variant* v : every)  // --exec variants are always judged (plugin.md, Selection)
-    if (v->all_shapes && std::find(chosen.begin(), chosen.end(), v) == chosen.end()) chosen.push_back(v);
+  for (const Variant* v : every)  // --exec and --answers variants are always judged (plugin.md, Selection)
+    if (given_by_name(*v) && std::find(chosen.begin(), chosen.end(), v) == chosen.end()) chosen.push_back(v);
   std::erase_if(chosen, [&](const Variant* v) {
     return std::none_of(shapes.begin(), shapes.end(), [&](ShapeKind k) { return v->handles(k); });
   });

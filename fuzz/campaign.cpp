@@ -60,6 +60,18 @@ std::map<ReportKey, Value> keyed_from_json(const json& j, const std::string& fie
 }
 }  // namespace
 
+std::string tally_name(const Variant& v, ShapeKind shape) {
+  return v.all_shapes ? std::string(v.name) + "@" + std::string(to_string(shape)) : std::string(v.name);
+}
+
+std::pair<const Variant*, ShapeKind> variant_of_tally(const std::string& name) {
+  const std::size_t at = name.find('@');
+  const Variant* v = find_variant(name.substr(0, at));
+  if (at != std::string::npos)
+    if (const auto k = shape_kind_from_string(name.substr(at + 1))) return {v, *k};
+  return {v, v ? v->shape : ShapeKind::sphere};
+}
+
 json CampaignReport::coverage() const {
   // Every kind a variant could get wrong on its shape: an exact class it can be (cases.md) and
   // another class it can answer. A kind no family found is where the next family should aim.
@@ -69,8 +81,7 @@ json CampaignReport::coverage() const {
   json out = json::object();
   for (const auto& [key, tally] : tallies) {
     if (out.contains(key.name)) continue;
-    const Variant* v = find_variant(key.name);
-    const ShapeKind shape = v ? v->shape : ShapeKind::sphere;
+    const auto [v, shape] = variant_of_tally(key.name);
     std::vector<HitClass> exact = {HitClass::miss, HitClass::enter, HitClass::exit, HitClass::tangent};
     if (shape == ShapeKind::triangle) exact.push_back(HitClass::boundary);
     std::vector<HitClass> answers = exact;
@@ -384,7 +395,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
   });
   for (Worker& w : workers) {
     for (size_t vi = 0; vi < variants.size(); ++vi)
-      report.tallies[{family_label(b.family, b.construction), std::string(variants[vi]->name)}].merge(w.tallies[vi]);
+      report.tallies[{family_label(b.family, b.construction), tally_name(*variants[vi], b.shape)}].merge(w.tallies[vi]);
     for (Finding& f : w.findings) judged.findings.push_back(std::move(f));
   }
   std::sort(judged.findings.begin(), judged.findings.end(),
@@ -402,7 +413,7 @@ void count_shared_edge_holes(const Batch& b, const Judged& judged, const std::ve
       const Verdict& a = first.own[vi] ? *first.own[vi] : first.exact;
       const Verdict& c = second.own[vi] ? *second.own[vi] : second.exact;
       if (crosses_shared_edge(a, c) && !first.variant_hit[vi] && !second.variant_hit[vi])
-        ++report.tallies[{family_label(b.family, b.construction), std::string(variants[vi]->name)}].shared_edge_holes;
+        ++report.tallies[{family_label(b.family, b.construction), tally_name(*variants[vi], b.shape)}].shared_edge_holes;
     }
   }
 }
@@ -580,8 +591,7 @@ CampaignReport run_campaign(const CampaignOptions& o) {
 void print_report(const CampaignReport& r, int threads, TableFormat format, std::ostream& out) {
   std::vector<TallyRow> rows;
   for (const auto& [k, t] : r.tallies) {
-    const Variant* v = find_variant(k.name);
-    rows.push_back({k.family, k.name, v ? v->shape : ShapeKind::sphere, t});
+    rows.push_back({k.family, k.name, variant_of_tally(k.name).second, t});
   }
   std::vector<std::string> families;  // table order: each family, its full construction after it
   for (Family f : kAllFamilies)

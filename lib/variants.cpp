@@ -432,3 +432,14 @@ const Variant& default_variant(ShapeKind shape) {
 }
 
 }  // namespace rayproof
+
+namespace rayproof {
+std::string shapes_answered(const Variant& v) {
+  if (!v.all_shapes) return std::string(to_string(v.shape));
+  if (v.shape_mask == 0) return "any";
+  std::string out;
+  for (ShapeKind k : kAllShapeKinds)
+    if (v.handles(k)) out += (out.empty() ? "" : ",") + std::string(to_string(k));
+  return out;
+}
+}  // namespace rayproof

@@ -303,7 +303,8 @@ std::deque<std::string>& exec_strings() {  // names and origins the registry poi
 
 }  // namespace
 
-const Variant& add_exec_variant(const std::string& name, const std::string& command, const ExternalOptions& options) {
+const Variant& add_exec_variant(const std::string& name, const std::string& command, const ExternalOptions& options,
+                                const std::vector<ShapeKind>& shapes) {
   if (!valid_variant_name(name)) throw std::runtime_error("--exec " + name + "=...: the name must match [a-z0-9-]+");
   if (find_variant(name)) throw std::runtime_error("--exec " + name + "=...: a variant of that name exists already");
   exec_variants().push_back(std::make_unique<ExecVariant>(command, options));
@@ -313,7 +314,11 @@ const Variant& add_exec_variant(const std::string& name, const std::string& comm
   v.precision = options.exec_precision;
   v.external = exec_variants().back().get();
   v.origin = origin;
-  v.all_shapes = true;
+  // One declared shape: an ordinary variant of that shape; several (or none): it answers each.
+  v.all_shapes = shapes.size() != 1;
+  if (shapes.size() == 1) v.shape = shapes[0];
+  for (ShapeKind k : shapes) v.shape_mask |= 1u << static_cast<unsigned>(k);
+  if (v.all_shapes && !shapes.empty()) v.shape = shapes[0];
   return register_variant(v);
 }
 

@@ -333,6 +333,43 @@ TEST(Exec, ShapesNarrowAnExecCommand) {
   EXPECT_EQ(sphere_cases, lines) << "only the sphere cases go to the exec command";
 }
 
+// Issue 25, item 8: an exec command may declare its shapes (NAME:SHAPE[,SHAPE]=COMMAND) and is then
+// asked only those; one that does not is tallied per shape (NAME@shape), never under a nominal one.
+TEST(Exec, ACommandThatDeclaresItsShapesIsAskedOnlyThose) {
+  const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
+  const std::string args = " --families random --shapes sphere,plane --count 600 --threads 1 --variants stable --summary ";
+  const CliRun undeclared = run("fuzz --exec py=" + script + args + test_dir() + "/a.json -o " + test_dir() + "/a.jsonl");
+  ASSERT_EQ(undeclared.status, 0) << undeclared.err;
+  const json a = json::parse(std::ifstream(test_dir() + "/a.json"));
+  EXPECT_EQ(a["tallies"]["random\tpy@sphere"]["cases"], 600);
+  EXPECT_EQ(a["tallies"]["random\tpy@plane"]["cases"], 600);
+  EXPECT_FALSE(a["tallies"].contains("random\tpy"));
+  EXPECT_NE(undeclared.err.find("random  py@plane   plane"), std::string::npos) << undeclared.err;
+
+  const CliRun declared = run("fuzz --exec py:sphere=" + script + args + test_dir() + "/b.json -o " + test_dir() + "/b.jsonl");
+  ASSERT_EQ(declared.status, 0) << declared.err;
+  const json b = json::parse(std::ifstream(test_dir() + "/b.json"));
+  EXPECT_EQ(b["tallies"]["random\tpy"]["cases"], 600);
+  for (const auto& [key, tally] : b["tallies"].items()) EXPECT_EQ(key.find("py@"), std::string::npos) << key;
+  EXPECT_EQ(a["tallies"]["random\tpy@sphere"], b["tallies"]["random\tpy"]);  // the same answers, only relabelled
+
+  const CliRun listed = run("variants --shapes box --exec py:sphere,box=" + script);
+  EXPECT_NE(listed.out.find("py\tsphere,box\tdouble"), std::string::npos) << listed.out;
+  const CliRun plane_only = run("variants --shapes plane --exec py:sphere=" + script);
+  EXPECT_EQ(plane_only.out.find("py\t"), std::string::npos) << plane_only.out;
+  const CliRun bad = run("variants --exec py:cone=" + script);
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("'cone' is not a shape"), std::string::npos) << bad.err;
+  // The replay line a finding prints loads the command with its declaration.
+  const CliRun found = run("check " + std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl --exec py:sphere=" + script);
+  const std::size_t at = found.err.find("    rayproof check ");
+  ASSERT_NE(at, std::string::npos) << found.err;
+  const std::string replay = found.err.substr(at + 4 + 9, found.err.find('\n', at) - at - 4 - 9);
+  EXPECT_NE(replay.find("--exec py:sphere="), std::string::npos) << replay;
+  const CliRun again = run(replay);
+  EXPECT_EQ(lines_of(again.out).size(), 1u) << replay << "\n" << again.err;
+}
+
 TEST(Exec, PythonIntersectorIsJudgedLikeAPlugin) {
   const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
   const std::string cases = std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl";

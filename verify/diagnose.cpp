@@ -330,7 +330,10 @@ std::string loading_flags(const Variant& v) {
   if (!v.external) return "";
   const std::string origin(v.origin);
   if (origin.rfind("answers: ", 0) == 0) return "";
-  if (origin.rfind("exec: ", 0) == 0) return "--exec " + shell_quoted(std::string(v.name) + "=" + origin.substr(6));
+  if (origin.rfind("exec: ", 0) == 0) {
+    const std::string shapes = shapes_answered(v);
+    return "--exec " + shell_quoted(std::string(v.name) + (shapes == "any" ? "" : ":" + shapes) + "=" + origin.substr(6));
+  }
   return "--plugin " + shell_quoted(origin);
 }
 

@@ -72,6 +72,12 @@ struct CampaignReport {
   static CampaignReport from_json(const json& j);
 };
 
+// A tally row's name: the variant's, with "@shape" for one that answers several shapes (an --exec
+// command), so each shape it was fuzzed on has its own row; and back: the variant and the shape
+// a row is about (nullptr for a name no loaded variant has).
+std::string tally_name(const Variant& v, ShapeKind shape);
+std::pair<const Variant*, ShapeKind> variant_of_tally(const std::string& name);
+
 // What makes runs the same campaign (ShardOf::campaign): all but the shard and the run's settings.
 json campaign_identity(const CampaignOptions& options);
 

@@ -62,9 +62,12 @@ struct Variant {
   std::optional<HitRule> fixed_rule;      // external code reports one rule, whatever --rule asks
   ExternalIntersector* external = nullptr;  // set instead of kernel for plugins and --exec
   std::string_view origin = "built-in";     // where the code comes from: "built-in", a plugin path, "exec: CMD"
-  bool all_shapes = false;                  // an --exec command answers every shape (`shape` is then nominal)
+  bool all_shapes = false;   // an --exec command or answers file answers several shapes (`shape` is then nominal)
+  unsigned shape_mask = 0;  // with all_shapes: bit k set for each ShapeKind it declared (0: every shape)
 
-  bool handles(ShapeKind k) const { return all_shapes || shape == k; }
+  bool handles(ShapeKind k) const {
+    return all_shapes ? shape_mask == 0 || (shape_mask >> static_cast<unsigned>(k) & 1u) : shape == k;
+  }
 
   // The rule this variant's answers follow when `asked` is requested.
   HitRule rule_for(HitRule asked) const { return fixed_rule.value_or(asked); }
@@ -73,6 +76,10 @@ struct Variant {
   // Every query, in order; external code answers in one round trip.
   void intersect_all(std::span<const Query> qs, HitRule rule, std::span<Hit> out) const;
 };
+
+// The shapes a variant answers as `rayproof variants` lists them: "sphere", "sphere,box" (an
+// --exec command that declared them) or "any".
+std::string shapes_answered(const Variant& v);
 
 // Every variant: the built-ins above, then those registered at run time.
 std::span<const Variant> all_variants();

@@ -23,8 +23,10 @@ struct ExternalOptions {
 std::vector<const Variant*> load_plugin(const std::string& path, const ExternalOptions& options);
 
 // Registers `name` as a variant answered by `/bin/sh -c command` over the exec protocol; it
-// answers every shape. Throws on a bad or clashing name.
-const Variant& add_exec_variant(const std::string& name, const std::string& command, const ExternalOptions& options);
+// answers the shapes declared (`--exec NAME:sphere,box=COMMAND`), or every shape when none
+// are. Throws on a bad or clashing name.
+const Variant& add_exec_variant(const std::string& name, const std::string& command, const ExternalOptions& options,
+                                const std::vector<ShapeKind>& shapes = {});
 
 // One answer line of an answers file or an exec command: {"id", "class", "t"} (plugin.md). A
 // contact other than a tangent without t, or a NaN t, is a plugin error in `hit.failure`;
