@@ -43,17 +43,34 @@ struct Auditor {
       tally.add(exact[i].cls, outcomes[i]);
       const bool finding = outcomes[i].hit.failed() ? is_plugin_error(outcomes[i].hit.failure)
                                                     : outcomes[i].agreement != Agreement::agrees;
-      if (finding && report.findings.size() < options.keep) {
-        Case c = fuzz::shrink(chunk[i], variant, oracle, options.rule, 3000, outcomes[i].hit.failure);
-        const Verdict v = oracle.judge(c.ray, c.shape, HitRule::nearest_contact);
-        c.expect = Expectation{v.cls, v.t};
-        const Hit h = variant.intersect(c.ray, c.shape, options.rule);
-        c.found = {{"audit", report.name}, {"group", group}, {"answer", std::string(to_string(h.cls))}};
-        if (h.has_t()) c.found["t"] = hex_double(h.t);
-        report.findings.push_back(std::move(c));
-      }
+      if (finding && report.findings.size() < options.keep && shrinks < 4 * options.keep) keep(chunk[i], group, outcomes[i]);
     }
     chunk.clear();
+  }
+
+  // Shrinks a disagreement and keeps it, unless it shrinks to a case already kept (many cases of
+  // one family shrink to the same few numbers: the same finding is never reported twice). A
+  // shrunk case is another query than the one generated: it gets its own id, "ID/shrunk", and
+  // names the one it came from.
+  void keep(const Case& generated, const std::string& group, const VariantOutcome& outcome) {
+    ++shrinks;
+    Case c = fuzz::shrink(generated, variant, oracle, options.rule, 3000, outcome.hit.failure);
+    const json query = case_to_json(c);
+    for (const Case& k : report.findings) {
+      const json kept = case_to_json(k);
+      if (kept["ray"] == query["ray"] && kept["shape"] == query["shape"]) return;
+    }
+    const Verdict v = oracle.judge(c.ray, c.shape, HitRule::nearest_contact);
+    c.expect = Expectation{v.cls, v.t};
+    const Hit h = variant.intersect(c.ray, c.shape, options.rule);
+    c.found = {{"audit", report.name}, {"group", group}, {"answer", std::string(to_string(h.cls))}};
+    if (h.has_t()) c.found["t"] = hex_double(h.t);
+    const json original = case_to_json(generated);
+    if (original["ray"] != query["ray"] || original["shape"] != query["shape"]) {
+      c.id = generated.id + "/shrunk";
+      c.found["shrunk_from"] = generated.id;
+    }
+    report.findings.push_back(std::move(c));
   }
 
   AuditReport finish() {
@@ -66,6 +83,7 @@ struct Auditor {
   Variant variant;
   Oracle oracle;
   AuditReport report;
+  std::size_t shrinks = 0;  // bounded: findings that all shrink to one case stop being shrunk
 };
 
 constexpr size_t kChunk = 1024;

@@ -6,8 +6,11 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
+#include "rayproof/fuzz/generators.h"
+#include "rayproof/fuzz/testing.h"
 #include "rayproof/verify/diagnose.h"
 #include "rayproof/verify/report.h"
 
@@ -70,6 +73,44 @@ TEST(Diagnose, ContactsAtTZeroAndOverflowAreNamedWithTheirCounts) {
   const std::string hints = hints_of(all);
   EXPECT_NE(hints.find("4 of 4 contacts answered where the exact answer is miss are at t <= 0"), std::string::npos) << hints;
   EXPECT_NE(hints.find("3 of 3 plugin_error findings have numbers of magnitude 2^300"), std::string::npos) << hints;
+}
+
+// The gtest helpers (issue 25, item 11): a sphere with Ray Tracing in One Weekend's t_min = 0.001
+// misses every near contact; the near-origin family's cases shrink to a few numbers, many to
+// the same case, which is reported once, under its own id, naming the case it came from.
+Hit weekend_sphere(const Ray& ray, const Sphere& s) {
+  const Vec3 oc = ray.origin - s.center;
+  const double a = ray.direction.dot(ray.direction), half_b = oc.dot(ray.direction);
+  const double c = oc.dot(oc) - s.radius * s.radius, disc = half_b * half_b - a * c;
+  if (disc < 0) return Hit::miss();
+  const double root = std::sqrt(disc);
+  for (const double t : {(-half_b - root) / a, (-half_b + root) / a})
+    if (t > 0.001) return {c > 0 ? HitClass::enter : HitClass::exit, t};
+  return Hit::miss();
+}
+
+TEST(AuditHelpers, EachFindingOnceUnderItsOwnIdAndPrintedAsALine) {
+  const AuditReport r = audit(weekend_sphere, {.families = "near-origin", .count = 3000, .keep = 6});
+  ASSERT_GT(r.total.wrong, 6u) << "enough disagreements to fill the findings";
+  ASSERT_FALSE(r.findings.empty());
+  std::set<std::string> ids, queries;
+  for (const Case& c : r.findings) {
+    EXPECT_TRUE(ids.insert(c.id).second) << "id twice: " << c.id;
+    const json j = case_to_json(c);
+    EXPECT_TRUE(queries.insert(j["ray"].dump() + j["shape"].dump()).second) << "the same finding twice: " << j.dump();
+    if (c.found.contains("shrunk_from")) {
+      EXPECT_EQ(c.id, c.found["shrunk_from"].get<std::string>() + "/shrunk");
+      // The id it came from names a generated case, and that case is another query.
+      const std::string from = c.found["shrunk_from"];
+      const std::uint64_t index = std::stoull(from.substr(from.rfind('/') + 1));
+      Case generated;
+      static_cast<Query&>(generated) = fuzz::generate(fuzz::Family::near_origin, ShapeKind::sphere, 1, index);
+      generated.id = from;
+      const json g = case_to_json(generated);
+      EXPECT_FALSE(g["ray"] == j["ray"] && g["shape"] == j["shape"]) << c.id;
+    }
+  }
+  EXPECT_EQ(::testing::PrintToString(r).rfind("rayproof audit of", 0), 0u) << ::testing::PrintToString(r);
 }
 
 TEST(Report, TErrorCountsOnlyCasesWhoseClassAgrees) {
