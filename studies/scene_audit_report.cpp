@@ -343,7 +343,8 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     << "body{font-family:sans-serif;margin:2em;max-width:1400px;color:#222}"
     << "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
     << "td:first-child,th:first-child{text-align:left}tr.exact td{background:#eef8ee}"
-    << ".pair{display:inline-block;margin:0 1.5em 1.5em 0;vertical-align:top}figure{display:inline-block;margin:0 .5em 0 0}"
+    << ".pair{display:inline-block;margin:0 1.5em 1.5em 0;vertical-align:top}.pair p.cases{margin:.3em 0;max-width:760px}figure{display:inline-table;margin:0 .5em 0 0}"
+    << "figcaption{display:table-caption;caption-side:bottom}"
     << "img{image-rendering:pixelated;border:1px solid #999}.circled{position:relative;display:inline-block}"
     << ".circled svg{position:absolute;left:1px;top:1px;pointer-events:none}.key span{display:inline-block;width:1em;height:1em;"
     << "margin:0 .3em 0 1em;vertical-align:middle}code{background:#f4f4f4;padding:1px 4px}</style></head><body>\n";
@@ -429,15 +430,15 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
       << "</figcaption></figure><figure>" << diff_tag(va.diff, name + " diff") << "<figcaption>" << html_escape(name)
       << " vs exact: " << va.counts.holes << " holes, " << va.counts.false_hits << " false hits, " << va.counts.shadow_wrong
       << " shadow wrong (" << va.counts.wrongly_shadowed << " wrongly shadowed, " << va.counts.wrongly_lit
-      << " wrongly lit)";
-    if (has_cases_file(va)) {
+      << " wrongly lit)</figcaption></figure>";
+    if (has_cases_file(va)) {  // under the three images, as wide as they are
       const std::string file = stems[&va - a.variants.data()] + "-cases.jsonl";
-      h << "<br>" << va.cases.size() << " wrong pixels as cases" << (va.cases_left_out ? " (of " : "")
+      h << "<p class=\"cases\">" << va.cases.size() << " wrong pixels as cases" << (va.cases_left_out ? " (of " : "")
         << (va.cases_left_out ? std::to_string(va.cases.size() + va.cases_left_out) + ")" : "") << ": <a href=\""
-        << html_escape(file) << "\">" << html_escape(file) << "</a>, replayed in this directory by<br><code>"
-        << html_escape(cases_replay_command(va, file)) << "</code>";
+        << html_escape(file) << "\">" << html_escape(file) << "</a>, replayed in this directory by <code>"
+        << html_escape(cases_replay_command(va, file)) << "</code></p>";
     }
-    h << "</figcaption></figure></div>\n";
+    h << "</div>\n";
   };
   long exact_count = 0;
   for (const VariantAudit& va : a.variants)
