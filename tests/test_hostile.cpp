@@ -173,6 +173,7 @@ TEST(HostileExec, AnUnreadableAnswerCostsOnlyItsCommand) {
     if (v["name"] == "bad") {
       EXPECT_EQ(v["exact_for_scene"], false) << v.dump();
       EXPECT_TRUE(v.contains("stopped")) << v.dump();
+      EXPECT_TRUE(v["ns_per_ray"].is_null()) << "a stopped variant answered nothing: no cost " << v.dump();
     } else {
       EXPECT_EQ(v["exact_for_scene"], true) << v.dump();
     }
