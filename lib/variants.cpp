@@ -3,6 +3,7 @@
 // that wants FMA says so with std::fma and is a variant of its own.
 #include "rayproof/core/variants.h"
 
+#include "rayproof/core/eft.h"
 #include "rayproof/core/fp.h"
 
 #include <algorithm>
@@ -197,12 +198,19 @@ template <class T> Hit moller_trumbore(const Ray& r, const Triangle& tri, HitRul
   return triangle_hit(t, det > 0, u == 0 || v == 0 || u + v == 1, rule);
 }
 
-// The wider type a zero edge function is recomputed in (Woop et al. §3.3): double for float
-// inputs, long double for double ones. For float inputs the recomputation is exact in sign: the
-// sheared coordinates are floats, a product of two floats (24 + 24 bits) is exact in double's 53,
-// and the difference of two exact products rounds once, which keeps its sign (fl(a − b) = 0 only
-// when a = b). For double inputs long double's 64 bits make it more often right, never certain.
-template <class T> using Wider = std::conditional_t<std::is_same_v<T, float>, double, long double>;
+// A zero edge function a·b − c·d recomputed so that its sign is exact (Woop et al. §3.3 use a
+// wider type). Float inputs: in double — a product of two floats (24 + 24 bits) is exact in
+// double's 53, and the difference of two exact products rounds once, keeping its sign (fl(x − y)
+// = 0 only when x = y). Double inputs: Kahan's FMA difference of products (core/eft.h), relative
+// error ≤ 2u, so exact in sign while the products are 0 or at least 2^-969 in magnitude. (Long
+// double, used before, has 64 bits where a product of doubles needs 106, and is double itself on
+// some platforms: it said 0 for 2^-70.)
+template <class T> T exact_sign_edge(T a, T b, T c, T d) {
+  if constexpr (std::is_same_v<T, float>)
+    return static_cast<float>(double(a) * double(b) - double(c) * double(d));
+  else
+    return difference_of_products(a, b, c, d);
+}
 
 // Woop, Benthin & Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1), 2013: shear the
 // vertices into the ray's frame, then 2D edge functions U, V, W; a zero edge function is
@@ -234,10 +242,9 @@ template <class T, bool top_left> Hit watertight(const Ray& r, const Triangle& t
   T v = ax * cy - ay * cx;
   T w = bx * ay - by * ax;
   if (u == 0 || v == 0 || w == 0) {
-    using L = Wider<T>;
-    u = static_cast<T>(L(cx) * L(by) - L(cy) * L(bx));
-    v = static_cast<T>(L(ax) * L(cy) - L(ay) * L(cx));
-    w = static_cast<T>(L(bx) * L(ay) - L(by) * L(ax));
+    u = exact_sign_edge(cx, by, cy, bx);
+    v = exact_sign_edge(ax, cy, ay, cx);
+    w = exact_sign_edge(bx, ay, by, ax);
   }
   if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return Hit::miss();
   const T det = u + v + w;

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "rayproof/core/casefile.h"
+#include "rayproof/core/eft.h"
 #include "rayproof/core/fp.h"
 #include "rayproof/core/variants.h"
 
@@ -29,6 +30,29 @@ TEST(Pinned, RobustSlabWideningTurnsANearMissIntoAnEntry) {
 
 // A ray in the plane z = 0 of the triangle crosses its edges: exactly a tangent at t = 1 (where
 // it enters the closed triangle); Möller–Trumbore's determinant is 0 and it reports a miss.
+// Watertight's fallback for a zero edge function must be exact in sign (issue 23). Ray (0,0,0) +
+// t(0,0,1) against a = (1, −1, 1), b = (1 + 2^-34, 1 + 2^-35, 1), c = (−1 − 2^-35, −1, 1): the
+// sheared 2D coordinates are the vertices' x, y, and the edge function of b→c at the origin is
+// cx·by − cy·bx = −(1 + 2^-35)² + (1 + 2^-34) = −2^-70, while v = −2 − 2^-35 and w = −2 − 2^-34 −
+// 2^-35: all negative, so the point (0, 0, 1) is strictly inside. (b − a) × (c − a) has z =
+// (2 + 2^-35)² > 0 and the ray runs along it: the back face, `exit` at t = 1. In double cx·by
+// rounds to −(1 + 2^-34) and U is 0; long double (64 bits) rounds the same way, so the old
+// fallback called it an edge (`boundary`), and the top-left rule could drop it as a hole.
+TEST(Pinned, WatertightRecomputesAZeroEdgeFunctionExactly) {
+  const double p34 = 1 + 0x1p-34, p35 = 1 + 0x1p-35;
+  const double rounded_product = p35 * p35;  // alone: no compiler may fuse it into an FMA
+  EXPECT_EQ(rounded_product, p34) << "so the double edge function p34 − fl(p35²) is 0";
+  EXPECT_EQ(difference_of_products(-p35, p35, -1.0, p34), -0x1p-70);
+  EXPECT_EQ(difference_of_products(3.0, 5.0, 5.0, 3.0), 0.0);
+  const Ray ray{Vec3(0, 0, 0), Vec3(0, 0, 1)};
+  const Shape tri = Triangle{{Vec3(1, -1, 1), Vec3(p34, p35, 1), Vec3(-p35, -1, 1)}};
+  for (const char* variant : {"watertight", "watertight-top-left"}) {
+    const Hit h = run(variant, ray, tri);
+    EXPECT_EQ(h.cls, HitClass::exit) << variant;
+    EXPECT_EQ(h.t, 1.0) << variant;
+  }
+}
+
 TEST(Pinned, MollerTrumboreMissesACoplanarRay) {
   const Ray ray{Vec3(-1, 1, 0), Vec3(1, 0, 0)};
   const Shape tri = Triangle{{Vec3(0, 0, 0), Vec3(4, 0, 0), Vec3(0, 4, 0)}};

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "rayproof/core/eft.h"
 #include "rayproof/core/fp.h"
 
 namespace rayproof {
@@ -67,12 +68,6 @@ class Expansion {
   friend int sgn(const Expansion& e) { return e.sign(); }
 
  private:
-  // a + b = s + e exactly (Knuth's TwoSum).
-  static void two_sum(double a, double b, double& s, double& e) {
-    s = a + b;
-    const double bv = s - a, av = s - bv;
-    e = (a - av) + (b - bv);
-  }
   void push(double x) {
     if (x == 0) return;
     if (n_ == kCapacity) valid_ = false;

@@ -32,6 +32,7 @@
 #include <cmath>
 #include <optional>
 
+#include "rayproof/core/eft.h"
 #include "rayproof/core/fp.h"
 
 namespace rayproof {
@@ -120,7 +121,7 @@ class FilteredDD {
   [[gnu::always_inline]] friend FilteredDD operator*(const FilteredDD& a, const FilteredDD& b) {
     FilteredDD r;
     double ch, cl1;
-    two_prod(a.hi_, b.hi_, ch, cl1);
+    two_product_dekker(a.hi_, b.hi_, ch, cl1);
     const double cl2 = a.hi_ * b.lo_ + a.lo_ * b.hi_;  // RN(RN(xh·yl) + RN(xl·yh))
     fast_two_sum(ch, cl1 + cl2, r.hi_, r.lo_);
     r.m_ = a.m_ * b.m_;
@@ -143,29 +144,6 @@ class FilteredDD {
   }
 
  private:
-  [[gnu::always_inline]] static void two_sum(double a, double b, double& s, double& e) {
-    s = a + b;
-    const double bb = s - a;
-    e = (a - (s - bb)) + (b - bb);
-  }
-  [[gnu::always_inline]] static void fast_two_sum(double a, double b, double& s, double& e) {
-    const double t = a + b;
-    e = b - (t - a);
-    s = t;
-  }
-  // Dekker's TwoProduct: a·b = p + e exactly (Veltkamp's split into 26-bit halves).
-  [[gnu::always_inline]] static void split(double a, double& high, double& low) {
-    const double c = 134217729.0 * a;  // 2^27 + 1
-    high = c - (c - a);
-    low = a - high;
-  }
-  [[gnu::always_inline]] static void two_prod(double a, double b, double& p, double& e) {
-    p = a * b;
-    double ah, al, bh, bl;
-    split(a, ah, al);
-    split(b, bh, bl);
-    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
-  }
   // a + (bh + bl), with b's magnitude and round count.
   [[gnu::always_inline]] static FilteredDD sum(const FilteredDD& a, double bh, double bl, const FilteredDD& b) {
     FilteredDD r;
