@@ -157,9 +157,16 @@ json fingerprint(const CampaignOptions& o) {
   for (ShapeKind x : o.shapes) s.push_back(std::string(to_string(x)));
   json v = json::array();
   for (const Variant* x : o.variants) v.push_back(std::string(x->name));
+  // The variants judged, with where their code comes from: loading another plugin (or the same
+  // name from another file) changes the findings as surely as an option does.
+  json judged = json::array();
+  for (const Variant& x : all_variants())
+    if (std::any_of(o.shapes.begin(), o.shapes.end(), [&](ShapeKind k) { return x.handles(k); }) &&
+        (o.variants.empty() ? !x.is_oracle : std::find(o.variants.begin(), o.variants.end(), &x) != o.variants.end()))
+      judged.push_back(std::string(x.name) + " " + std::string(x.origin));
   return {{"families", f}, {"constructions", c}, {"shapes", s}, {"variants", v}, {"count", o.count}, {"seed", o.seed}, {"shard", o.shard},
           {"shards", o.shards}, {"rule", std::string(to_string(o.rule))}, {"shrink", o.shrink},
-          {"max_findings", o.max_findings}, {"max_shrunk", o.max_shrunk}, {"batch", o.batch}};
+          {"max_findings", o.max_findings}, {"max_shrunk", o.max_shrunk}, {"batch", o.batch}, {"judged", judged}};
 }
 
 // Where the campaign stands after the last completed batch.

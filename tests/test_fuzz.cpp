@@ -367,6 +367,14 @@ TEST(Campaign, ResumeMatrixLosesNoFindingAndDuplicatesNone) {
   EXPECT_EQ(run("fuzz" + args + " -o " + dir + "/c.jsonl --resume"), 2);
   EXPECT_EQ(run("fuzz" + args + " -o " + dir + "/d.jsonl --crash-after-batches 2"), 3);
   EXPECT_EQ(run("fuzz" + args + " --seed 6 -o " + dir + "/d.jsonl --resume"), 2);
+  // Every option that changes what a campaign writes is in its fingerprint: a resume that changes
+  // one is refused (and the unchanged resume still works).
+  for (const std::string changed : {" --no-shrink", " --max-findings 41", " --max-shrunk 3", " --construction exact",
+                                    " --rule enter-only", " --variants stable,moller-trumbore",
+                                    " --exec py=" RAYPROOF_SOURCE_DIR "/examples/exec/textbook_sphere.py"}) {
+    EXPECT_EQ(run("fuzz" + args + changed + " -o " + dir + "/d.jsonl --resume"), 2) << changed;
+  }
+  EXPECT_EQ(run("fuzz" + args + " -o " + dir + "/d.jsonl --resume"), 0);
   EXPECT_NE(run("fuzz --families nonsense -o " + dir + "/x.jsonl"), 0);
   EXPECT_NE(run("fuzz --shard 3/2 -o " + dir + "/x.jsonl"), 0);
 }

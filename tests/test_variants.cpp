@@ -274,6 +274,8 @@ namespace {
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
+std::string isa_name(BatchIsa isa) { return isa == BatchIsa::sse2 ? "sse2" : isa == BatchIsa::avx2 ? "avx2" : "avx512"; }
+
 // One run per instruction-set version of the batched kernels (SSE2, AVX2, AVX-512); a version
 // this CPU cannot run is reported as skipped in ctest's summary, never as passed.
 class Batched : public ::testing::TestWithParam<BatchIsa> {
@@ -456,9 +458,7 @@ TEST_P(Batched, FloatBatchesAreBitIdenticalToTheirScalarFloatTwins) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Isa, Batched, ::testing::Values(BatchIsa::sse2, BatchIsa::avx2, BatchIsa::avx512),
-                         [](const ::testing::TestParamInfo<BatchIsa>& info) {
-                           return info.param == BatchIsa::sse2 ? "sse2" : info.param == BatchIsa::avx2 ? "avx2" : "avx512";
-                         });
+                         [](const ::testing::TestParamInfo<BatchIsa>& info) { return isa_name(info.param); });
 
 }  // namespace
 }  // namespace rayproof
