@@ -508,7 +508,17 @@ TEST(ExecProtocol, AnswerLinesMeanTheSameWhicheverReaderReadsThem) {
       {R"({"id":"a","class":"enter","colour":1})", ""},
       {R"({"id":"a","id":"b","class":"miss"})", "id"},
       {R"({"class":"miss"})", ""},
-      {R"([1, 2])", ""}};
+      {R"([1, 2])", ""},
+      // Issue 23: trailing text after the answer, a repeated key, a malformed number word, raw
+      // control characters, on both readers (the \u0061 lines take the full JSON reader).
+      {R"({"id":"a","class":"miss"} trailing)", ""},
+      {R"({"id":"\u0061","class":"miss"}})", ""},
+      {R"({"id":"a","class":"enter","class":"exit","t":3})", "class"},
+      {R"({"id":"\u0061","class":"enter","t":3,"t":4})", "t"},
+      {R"({"id":"a","class":"enter","t":"3e"})", "t"},
+      {R"({"id":"\u0061","class":"enter","t":"0x1p"})", "t"},
+      {"{\"id\":\"a\x01\",\"class\":\"miss\"}", ""},
+      {"{\"id\":\"a\",\"class\":\"miss\x07\"}", ""}};
   for (const auto& [text, field] : bad) {
     try {
       peers::parse_answer_line(text);
