@@ -103,6 +103,35 @@ TEST(Plugins, SegfaultIsReportedWithItsCaseAndCostsNothingElse) {
   EXPECT_NE(twice.err.find("(crash 2, --max-crashes 2)"), std::string::npos) << twice.err;
 }
 
+// Issue 23: what a plugin prints cannot corrupt rayproof's result lines (its standard output is
+// sent to standard error); --case-timeout is per case, not per batch (eight cases of 0.15 s each
+// under a 0.4 s timeout all answer); more cases than one batch holds (4,096) are split, all judged.
+TEST(Plugins, PrintingSlowAndManyCasesAreIsolatedPerCase) {
+  std::string lines;
+  for (int i = 0; i < 5000; ++i) lines += sphere_case("c" + std::to_string(i), 1 + (i % 7) * 0.25) + "\n";
+  const std::string many = write("many.jsonl", lines);
+  const CliRun chatty = run("check " + many + kPlugin + "--variants test-chatty --summary " + test_dir() + "/s.json");
+  ASSERT_EQ(chatty.status, 0) << chatty.err.substr(0, 2000);
+  const auto out = lines_of(chatty.out);  // every stdout line is a result line: none is the plugin's
+  ASSERT_EQ(out.size(), 5000u);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    ASSERT_EQ(out[i]["id"], "c" + std::to_string(i));
+    ASSERT_EQ(out[i]["variants"]["test-chatty"]["agrees"], true) << out[i].dump();
+  }
+  EXPECT_NE(chatty.err.find("chatty plugin: called"), std::string::npos);
+  EXPECT_NE(chatty.err.find("\"id\": \"fake\""), std::string::npos) << "its stdout went to stderr";
+  const json summary = json::parse(std::ifstream(test_dir() + "/s.json"));
+  EXPECT_EQ(summary["variants"]["test-chatty"]["cases"], 5000);
+
+  std::string eight;
+  for (int i = 0; i < 8; ++i) eight += sphere_case("slow" + std::to_string(i), 1) + "\n";
+  const CliRun slow = run("check " + write("slow.jsonl", eight) + kPlugin + "--variants test-slow --case-timeout 0.4");
+  EXPECT_EQ(slow.status, 0) << slow.err;
+  const auto answered = lines_of(slow.out);
+  ASSERT_EQ(answered.size(), 8u);
+  for (const json& l : answered) EXPECT_EQ(l["variants"]["test-slow"]["agrees"], true) << l.dump();
+}
+
 TEST(Plugins, AbortAndHangAreCrashAndTimeout) {
   const std::string cases = write("cases.jsonl", sphere_case("abort", 17) + "\n");
   const CliRun aborted = run("check " + cases + kPlugin + "--variants test-crashing");

@@ -2,6 +2,7 @@
    rayproof must report each and never go down. The sphere's radius picks the misbehaviour. */
 #include <math.h>
 #include <signal.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <unistd.h>
 
@@ -47,6 +48,22 @@ static int crash_often(const double r[6], const double s[], double* t) {
   return sphere_hit(r, s, t);
 }
 
+/* Writes to standard output and standard error on every call (a debugging printf left in), a
+   line that looks like an answer included; answers honestly. */
+static int chatty(const double r[6], const double s[], double* t) {
+  printf("{\"id\": \"fake\", \"class\": \"miss\"}\n");
+  fflush(stdout);
+  fprintf(stderr, "chatty plugin: called\n");
+  return sphere_hit(r, s, t);
+}
+
+/* Takes 0.15 s on every case: a batch of several takes longer than a short --case-timeout, each
+   case does not. */
+static int slow(const double r[6], const double s[], double* t) {
+  usleep(150000);
+  return sphere_hit(r, s, t);
+}
+
 /* The same quadratic in float. */
 static int sphere_float(const float r[6], const float s[], float* t) {
   const float oc[3] = {r[0] - s[0], r[1] - s[1], r[2] - s[2]};
@@ -66,10 +83,12 @@ static const struct rayproof_variant variants[] = {
     {"test-garbage", "sphere", "nearest", "tests: plugin errors on radius 3, 5, 7", garbage, 0},
     {"test-float", "sphere", "nearest", "tests: the textbook quadratic in float", 0, sphere_float},
     {"test-crash-often", "sphere", "nearest", "tests: segfaults when origin.x > 0.5", crash_often, 0},
+    {"test-chatty", "sphere", "nearest", "tests: prints to stdout and stderr on every call", chatty, 0},
+    {"test-slow", "sphere", "nearest", "tests: 0.15 s per case", slow, 0},
 };
 
 const struct rayproof_variant* rayproof_plugin(int abi, int* count) {
   if (abi != RAYPROOF_PLUGIN_ABI) return 0;
-  *count = 4;
+  *count = sizeof variants / sizeof variants[0];
   return variants;
 }
