@@ -1,5 +1,6 @@
 // rayproof merge: the shards of one campaign combined into what the unsharded campaign tallies.
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <optional>
 #include <fstream>
@@ -23,8 +24,10 @@ struct MergeOptions {
   std::string output, summary, format = "table";
 };
 
-// A finding's place in its campaign: family and shape as the id names them, the seed, the index.
+// A finding's place in its campaign: its family × construction × shape pair's place in the
+// campaign's order (CampaignOrder), family and shape as the id names them, the seed, the index.
 struct FindingKey {
+  std::array<std::size_t, 2> pair_rank{0, 0};
   std::string family, shape;
   std::uint64_t seed = 0, index = 0;
   std::string tracer;  // mesh findings (tracer.md): "family[-any]/seed/index/tracer"
@@ -53,7 +56,7 @@ FindingKey key_of(const Case& c, const std::string& path, long line) {
   if (parts.size() != 4)
     throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": id '" + printable_prefix(c.id, 80) +
                              "' is not a campaign finding's");
-  return {parts[0], parts[1], id_number(parts[2], c.id, path, line), id_number(parts[3], c.id, path, line)};
+  return {{0, 0}, parts[0], parts[1], id_number(parts[2], c.id, path, line), id_number(parts[3], c.id, path, line)};
 }
 
 FindingKey mesh_key_of(const std::string& id, const std::string& path, long line) {
@@ -61,8 +64,36 @@ FindingKey mesh_key_of(const std::string& id, const std::string& path, long line
   if (parts.size() != 4)
     throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": id '" + printable_prefix(id, 80) +
                              "' is not a tracer campaign finding's");
-  return {parts[0], "", id_number(parts[1], id, path, line), id_number(parts[2], id, path, line), parts[3]};
+  return {{0, 0}, parts[0], "", id_number(parts[1], id, path, line), id_number(parts[2], id, path, line), parts[3]};
 }
+
+// The order a campaign writes its pairs in (fuzz/campaign.cpp): each family as listed, its exact
+// construction then its full one, and within it each shape as listed. From the summaries'
+// campaign when given, else rayproof's own order of families and shapes. Unknown names go last.
+struct CampaignOrder {
+  std::vector<std::string> families, constructions, shapes;
+  CampaignOrder() {
+    for (fuzz::Family f : fuzz::kAllFamilies) families.emplace_back(to_string(f));
+    constructions = {"exact", "full"};
+    for (ShapeKind k : kAllShapeKinds) shapes.emplace_back(to_string(k));
+  }
+  explicit CampaignOrder(const json& campaign) : CampaignOrder() {
+    auto list = [&](const char* key, std::vector<std::string>& into) {
+      if (campaign.contains(key) && campaign.at(key).is_array() && !campaign.at(key).empty())
+        into = campaign.at(key).get<std::vector<std::string>>();
+    };
+    list("families", families), list("constructions", constructions), list("shapes", shapes);
+  }
+  static std::size_t rank(const std::vector<std::string>& list, const std::string& name) {
+    return static_cast<std::size_t>(std::find(list.begin(), list.end(), name) - list.begin());
+  }
+  std::array<std::size_t, 2> of(const std::string& family_label, const std::string& shape) const {
+    const bool full = family_label.ends_with("-full");
+    const std::string family = full ? family_label.substr(0, family_label.size() - 5) : family_label;
+    const std::size_t construction = rank(constructions, full ? "full" : "exact");
+    return {rank(families, family) * (constructions.size() + 1) + construction, rank(shapes, shape)};
+  }
+};
 
 json read_summary_json(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -129,10 +160,12 @@ int run_merge(const MergeOptions& o) {
   std::optional<std::uint64_t> seed;
   if (!shards.empty() && shards.front().second.campaign.contains("seed"))
     seed = read_count(shards.front().second.campaign.at("seed"), "campaign.seed");
-  auto of_campaign = [&](const FindingKey& k, const std::string& path, long line) {
+  const CampaignOrder order = shards.empty() || tracers ? CampaignOrder() : CampaignOrder(shards.front().second.campaign);
+  auto of_campaign = [&](FindingKey k, const std::string& path, long line) {
     if (seed && k.seed != *seed)
       throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": a finding of seed " + std::to_string(k.seed) +
                                ", but the summaries are of seed " + std::to_string(*seed));
+    if (k.tracer.empty()) k.pair_rank = order.of(k.family, k.shape);
     return k;
   };
   std::map<FindingKey, std::string> findings;  // deduplicated, in campaign order

@@ -629,12 +629,37 @@ TEST(Cluster, FourShardsMergeIntoTheUnshardedCampaign) {
     const auto merged_lines = sorted_lines(merged + ".jsonl"), whole_lines = sorted_lines(dir + "/whole.jsonl");
     EXPECT_GT(whole_lines.size(), 100u);
     EXPECT_TRUE(merged_lines == whole_lines) << engine << ": " << merged_lines.size() << " vs " << whole_lines.size() << " findings";
+    // In campaign order, as README says: the merged file is the unsharded one, byte for byte.
+    EXPECT_TRUE(read(merged + ".jsonl") == read(dir + "/whole.jsonl")) << engine;
     // Each shard did a quarter of the work.
     const json shard0 = json::parse(read(dir + "/" + engine + "-0.json"));
     EXPECT_EQ(shard0["cases"]["tangent\tsphere"], 1000) << engine;
   }
   // Without the environment, auto is a usage error.
   EXPECT_EQ(run("fuzz --shard auto -o '" + dir + "/x.jsonl'"), 2);
+}
+
+// Odd counts and shard counts (3,003 in 3: a third is 1,001): shard bounds are even, so no grazing triangle pair (cases 2k,
+// 2k + 1) is split and the merged shared-edge holes equal the unsharded ones; a findings file
+// given twice is deduplicated; a bad line is named and exits 1 with everything else merged.
+TEST(Cluster, OddShardBoundsKeepPairsAndMergeDeduplicates) {
+  const std::string dir = rayproof::testing_support::test_dir();
+  const std::string campaign = " fuzz --families grazing,tangent --shapes triangle,sphere --count 3003 --seed 4 --threads 1"
+                               " --max-findings 100000 --no-shrink --variants moller-trumbore,watertight,stable";
+  ASSERT_EQ(run(campaign + " -o '" + dir + "/whole.jsonl' --summary '" + dir + "/whole.json'"), 0);
+  std::string findings, summaries;
+  for (int i = 0; i < 3; ++i) {
+    const std::string out = dir + "/s" + std::to_string(i);
+    ASSERT_EQ(run(campaign + " --shard " + std::to_string(i) + "/3 -o '" + out + ".jsonl' --summary '" + out + ".json'"), 0);
+    findings += " '" + out + ".jsonl'", summaries += " '" + out + ".json'";
+  }
+  const json whole = json::parse(read(dir + "/whole.json"));
+  ASSERT_GT(whole["tallies"]["grazing\tmoller-trumbore"]["shared_edge_holes"].get<int>(), 0) << "the test needs holes";
+  std::ofstream(dir + "/bad.jsonl") << "{not json\n";
+  const std::string merge = " merge --findings" + findings + findings + " '" + dir + "/bad.jsonl' --summaries" + summaries;
+  EXPECT_EQ(run(merge + " -o '" + dir + "/m.jsonl' --summary '" + dir + "/m.json'"), 1) << "a bad line exits 1";
+  EXPECT_TRUE(tallies_of(dir + "/m.json") == tallies_of(dir + "/whole.json"));
+  EXPECT_TRUE(read(dir + "/m.jsonl") == read(dir + "/whole.jsonl")) << "deduplicated, in campaign order";
 }
 
 }  // namespace
