@@ -112,6 +112,49 @@ TEST(Meshes, BinaryPlyInBothByteOrders) {
   }
 }
 
+// Which vertices make each face (issue 23): a reader that mixed up indices but kept the vertex
+// set would pass FourFormatsReadToTheSameDoubles. OBJ's negative indices count back from the last
+// vertex read *so far* (vertices interleaved with faces); OFF variants (COFF's colours, counts on
+// the header line, comments); binary STL, whose float corners widen exactly and whose shared
+// corners are one vertex.
+void expect_faces(const Mesh& m, const std::vector<std::array<std::uint32_t, 3>>& corners, const std::vector<Vec3>& points,
+                  const std::string& format) {
+  ASSERT_EQ(m.corners, corners) << format;
+  ASSERT_EQ(m.triangles.size(), corners.size()) << format;
+  for (std::size_t f = 0; f < corners.size(); ++f)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(m.triangles[f].v[k], points[corners[f][k]]) << format << " face " << f << " corner " << k;
+}
+
+TEST(Meshes, FaceConnectivityIsTheFilesInEveryFormat) {
+  const std::vector<Vec3> p = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
+  expect_faces(load_mesh(write("c.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 1\nf 1 -3 -1\nf -1/1/1 -4//2 3\n")),
+               {{0, 1, 2}, {0, 1, 3}, {3, 0, 2}}, p, "OBJ");
+  expect_faces(load_mesh(write("c.off", "# a comment\nCOFF\n4 3 0\n0 0 0 255 0 0 255\n1 0 0 255 0 0 255\n\n"
+                                        "0 1 0 255 0 0 255\n0 0 1 255 0 0 255\n3 0 1 2 255 0 0\n3 0 3 1\n3 3 0 2\n")),
+               {{0, 1, 2}, {0, 3, 1}, {3, 0, 2}}, p, "COFF");
+  expect_faces(load_mesh(write("h.off", "OFF 4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n4 0 1 2 3\n")), {{0, 1, 2}, {0, 2, 3}}, p,
+               "OFF with counts on the header line, a quad fanned");
+  // Binary STL: 80-byte header, a count, 50-byte facets (normal, three corners, attribute).
+  std::string stl(80, ' ');
+  stl.replace(0, 12, "binary test.");
+  auto put = [&](const auto& x) { stl.append(reinterpret_cast<const char*>(&x), sizeof x); };
+  put(std::uint32_t{2});
+  const float corner[2][3][3] = {{{0, 0, 0}, {1, 0, 0}, {0, 1, 0.1f}}, {{1, 0, 0}, {0, 0, 0}, {0, 0, 1}}};
+  for (const auto& facet : corner) {
+    for (int k = 0; k < 3; ++k) put(0.0f);
+    for (const auto& v : facet)
+      for (float x : v) put(x);
+    put(std::uint16_t{0});
+  }
+  const Mesh m = load_mesh(write("b.stl", stl));
+  ASSERT_EQ(m.triangles.size(), 2u);
+  EXPECT_EQ(m.triangles[0].v[2], Vec3(0, 1, static_cast<double>(0.1f))) << "a float corner widened exactly";
+  EXPECT_EQ(m.triangles[1].v[2], Vec3(0, 0, 1));
+  EXPECT_EQ(m.corners[0][0], m.corners[1][1]) << "the corner the two facets share is one vertex";
+  EXPECT_EQ(m.corners[0][1], m.corners[1][0]);
+  EXPECT_EQ(m.vertex_count, 4u);
+}
+
 TEST(Meshes, QuadsAreFannedAndPlacementIsInDouble) {
   const Mesh m = load_mesh(write("q.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n"), 0.1, Vec3(3, 0, 0));
   ASSERT_EQ(m.triangles.size(), 2u);
