@@ -12,6 +12,7 @@
 
 #include "cli_run.h"
 #include "rayproof/core/casefile.h"
+#include "rayproof/core/eft.h"
 #include "rayproof/core/render.h"
 #include "rayproof/core/scene_index.h"
 #include "rayproof/studies/scene_audit.h"
@@ -84,6 +85,98 @@ TEST(Bvh, NeverSkipsAPrimitiveTheExactRayMeets) {
     }
   }
   EXPECT_GT(contacts, 1500);
+}
+
+// Every primitive of `kind` the exact oracle says `ray` touches is visited by the BVH.
+long expect_visits_every_contact(const SceneIndex& index, ShapeKind kind, const Ray& ray, Oracle& oracle,
+                                 const std::string& what) {
+  std::set<std::int32_t> visited;
+  double t_limit = std::numeric_limits<double>::infinity();
+  index.traverse(kind, ray, t_limit, [&](std::int32_t id, const Shape&) {
+    visited.insert(id);
+    return false;
+  });
+  long contacts = 0;
+  for (std::int32_t id = 0; id < static_cast<std::int32_t>(index.primitives().size()); ++id) {
+    const Shape& shape = index.primitive(id).shape;
+    if (kind_of(shape) != kind || oracle.judge(ray, shape).cls == HitClass::miss) continue;
+    ++contacts;
+    EXPECT_TRUE(visited.count(id)) << what << ": the ray meets primitive " << id << " exactly but the BVH skipped it";
+  }
+  return contacts;
+}
+
+// The BVH at the edges of what its widening is proved for (issue 23): directions with components
+// just inside and just outside [2^-1000, 2^1000] (inside: the widening; outside: the exotic
+// fallback visits everything), origins just below and beyond 2^1000, rays aimed exactly at
+// vertices and edge midpoints, so their decisions sit on box boundaries.
+TEST(Bvh, NeverSkipsAContactAtTheLimitsOfItsWidening) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const std::vector<Triangle> tris = random_triangles(300, 0.1, rng);
+  const Scene scene = scene_of_triangles(tris);
+  const SceneIndex index(scene);
+  Oracle oracle;
+  long contacts = 0;
+  for (int e : {-999, -1000, -1001, -1070, 999, 1000}) {
+    for (int i = 0; i < 200; ++i) {
+      const Triangle& t = tris[rng() % tris.size()];
+      const Vec3 target = i % 2 ? t.v[i % 3] : 0.5 * (t.v[0] + t.v[1]);
+      const Vec3 origin(3 * u(rng), 3 * u(rng), 3 * u(rng));
+      // Scaling the direction by a power of two keeps the ray's points; only the arithmetic changes.
+      Ray ray{origin, std::ldexp(1.0, e) * (target - origin)};
+      if (!all_finite(ray.direction) || ray.direction == Vec3::Zero()) continue;
+      contacts += expect_visits_every_contact(index, ShapeKind::triangle, ray, oracle, "direction 2^" + std::to_string(e));
+    }
+  }
+  EXPECT_GT(contacts, 500);  // 664 when written (tiny scales lose some rays to underflow)
+  // Far away: the same triangles moved to 2^999 and beyond 2^1000, rays from beside them.
+  for (double far : {0x1p999, 0x1.8p1000}) {
+    std::vector<Triangle> moved = tris;
+    for (Triangle& t : moved)
+      for (Vec3& v : t.v) v = Vec3(far, far, far) + std::ldexp(1.0, 990) * v;
+    const Scene far_scene = scene_of_triangles(moved);
+    const SceneIndex far_index(far_scene);
+    long far_contacts = 0;
+    for (int i = 0; i < 200; ++i) {
+      const Triangle& t = moved[rng() % moved.size()];
+      const Vec3 origin = Vec3(far, far, far) + std::ldexp(1.0, 992) * Vec3(u(rng), u(rng), u(rng));
+      const Ray ray{origin, t.v[i % 3] - origin};
+      if (!all_finite(ray.direction) || ray.direction == Vec3::Zero()) continue;
+      far_contacts += expect_visits_every_contact(far_index, ShapeKind::triangle, ray, oracle, "origin near " + std::to_string(far));
+    }
+    EXPECT_GT(far_contacts, 100) << far;
+  }
+}
+
+// A sphere's box is c ± r rounded outward: a ray that dips into the sphere between fl(c + r) and
+// the exact c + r (beyond a box built without the outward step) is still visited.
+TEST(Bvh, SphereBoxesAreRoundedOutward) {
+  Scene scene;
+  int chosen = 0;
+  std::vector<Sphere> spheres;
+  for (double x = 0.1; chosen < 20; x += 0.0137) {
+    const Sphere s{Vec3(x, 0.2, 0.3), 0.7 + x / 3};
+    double sum, error;
+    two_sum(s.center.x(), s.radius, sum, error);
+    if (error <= 0) continue;  // fl(c + r) below the exact extent: the case the outward step is for
+    scene.objects.push_back({s});
+    spheres.push_back(s);
+    ++chosen;
+  }
+  const SceneIndex index(scene);
+  Oracle oracle;
+  long contacts = 0;
+  for (const Sphere& s : spheres) {
+    double sum, error;
+    two_sum(s.center.x(), s.radius, sum, error);
+    // x(t) = fl(c + r) + (error / 2)·t: at t = 1 (z = c.z) it lies inside the sphere's extent.
+    const Ray ray{Vec3(sum, s.center.y(), s.center.z() - 1), Vec3(error / 2, 0, 1)};
+    const long n = expect_visits_every_contact(index, ShapeKind::sphere, ray, oracle, "sphere at x " + std::to_string(s.center.x()));
+    EXPECT_GE(n, 1);
+    contacts += n;
+  }
+  EXPECT_GE(contacts, 20);
 }
 
 // A ray parallel to a slab it lies outside of meets nothing there (the infinite reciprocal's
