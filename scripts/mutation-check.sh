@@ -65,9 +65,11 @@ mutate "batched-mt-nan-semantics" lib/batch.cpp \
   "(det != 0) & !(u < 0) & !(u > 1) & !(v < 0) & !(uv > 1) & (t > 0)" \
   "(det != 0) & (u >= 0) & (u <= 1) & (v >= 0) & (uv <= 1) & (t > 0)"
 # Issue 23: a mutant in every layer the suite must hold.
-mutate "filter-bound-one-rounding-short" verify/rayproof/verify/filtered.h \
-  "for (int k = 0; k < 64; ++k) g[k] = ((k + 2) * eps) / (1 - (k + 2) * eps);" \
-  "for (int k = 0; k < 64; ++k) g[k] = ((k + 1) * eps) / (1 - (k + 1) * eps);"
+# (A bound "one rounding short", γ(k + 1) for γ(k + 2), is an equivalent mutant: filtered.h's
+# derivation keeps one rounding of slack, and γ(k + 1)·m still exceeds γ(k)/(1 − γ(k))·M.)
+mutate "filter-magnitude-of-the-result" verify/rayproof/verify/filtered.h \
+  "return {a.v_ - b.v_, a.m_ + b.m_, (a.k_ > b.k_ ? a.k_ : b.k_) + 1};" \
+  "return {a.v_ - b.v_, std::abs(a.v_ - b.v_), (a.k_ > b.k_ ? a.k_ : b.k_) + 1};"
 mutate "watertight-fallback-dropped" lib/variants.cpp \
   "if (u == 0 || v == 0 || w == 0) {" "if (false) {"
 mutate "bvh-exotic-fallback-dropped" lib/rayproof/core/bvh.h \

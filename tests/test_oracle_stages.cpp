@@ -186,3 +186,61 @@ TEST(OracleVersusRationals, SpheresAndPlanesOnEveryFamily) {
 
 }  // namespace
 }  // namespace rayproof
+
+#include <random>
+
+#include "rayproof/verify/filtered.h"
+
+namespace rayproof {
+namespace {
+
+// The filters' bounds on directed cases (issue 23): 3×3 determinants whose third row is a
+// combination of the first two plus a perturbation swept from 2^-80 to 2^-20 of the rows' size,
+// so the exact value sits anywhere from far inside the bound to far outside, with the rows scaled
+// by 2^±500 and into subnormal products. Every sign a filter certifies must be the exact sign;
+// and many must be certified close to the bound (|v| within 8 bounds), or the test saw only easy
+// cases.
+template <class Filtered>
+std::optional<int> filtered_det3(const std::array<double, 9>& m) {
+  const Filtered a(m[0]), b(m[1]), c(m[2]), d(m[3]), e(m[4]), f(m[5]), g(m[6]), h(m[7]), i(m[8]);
+  return (a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)).sign();
+}
+int exact_det3(const std::array<double, 9>& m) {
+  std::array<Q, 9> q;
+  for (int k = 0; k < 9; ++k) q[k] = m[k];
+  return sgn(q[0] * (q[4] * q[8] - q[5] * q[7]) - q[1] * (q[3] * q[8] - q[5] * q[6]) + q[2] * (q[3] * q[7] - q[4] * q[6]));
+}
+
+TEST(FilterBounds, NearSingularDeterminantsNeverGetAWrongSign) {
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::uniform_int_distribution<int> sweep(-80, -20);
+  long certified = 0, near_the_bound = 0, wrong = 0, dd_certified = 0;
+  for (int n = 0; n < 60000; ++n) {
+    const int scale = std::array{0, 0, 500, -500, -300}[n % 5];
+    std::array<double, 9> m;
+    for (int k = 0; k < 6; ++k) m[k] = u(rng);
+    const double alpha = u(rng), beta = u(rng), tiny = std::ldexp(1.0, sweep(rng));
+    for (int k = 0; k < 3; ++k) m[6 + k] = alpha * m[k] + beta * m[3 + k] + tiny * u(rng);
+    for (double& x : m) x = std::ldexp(x, scale / 3);  // each product of three scales by 2^scale
+    const int truth = exact_det3(m);
+    if (const auto s = filtered_det3<FilteredDouble>(m)) {
+      ++certified;
+      if (*s != truth && ++wrong <= 5) ADD_FAILURE() << "FilteredDouble certified " << *s << ", exact " << truth;
+    }
+    if (const auto s = filtered_det3<FilteredDD>(m)) {
+      ++dd_certified;
+      if (*s != truth && ++wrong <= 5) ADD_FAILURE() << "FilteredDD certified " << *s << ", exact " << truth;
+    }
+    // How close the certified cases come: the same determinant with the perturbation at the
+    // double filter's edge, 2^-50..2^-46 of the rows' size.
+    if (n % 5 < 2 && tiny < 0x1p-44 && tiny > 0x1p-54 && filtered_det3<FilteredDouble>(m)) ++near_the_bound;
+  }
+  EXPECT_EQ(wrong, 0);
+  EXPECT_GT(certified, 20000);
+  EXPECT_GT(dd_certified, certified);
+  EXPECT_GT(near_the_bound, 50) << "certified cases within a few bits of the filter's bound";
+}
+
+}  // namespace
+}  // namespace rayproof
