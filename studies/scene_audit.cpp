@@ -553,6 +553,23 @@ class Auditor {
 
 }  // namespace
 
+std::vector<SceneAudit::Recommendation> recommend(const std::vector<VariantAudit>& rows, const std::vector<ShapeKind>& shapes) {
+  std::vector<SceneAudit::Recommendation> out;
+  for (ShapeKind kind : shapes) {
+    SceneAudit::Recommendation r{kind};
+    for (const VariantAudit& va : rows) {
+      if (va.shape != kind) continue;
+      r.audited = true;
+      if (va.exact_for_scene() && (!r.best || va.ns_per_ray < r.best->ns_per_ray)) r.best = &va;
+    }
+    for (const VariantAudit& va : rows)
+      if (r.best && &va != r.best && va.shape == kind && va.exact_for_scene() && va.ns_per_ray <= 1.1 * r.best->ns_per_ray)
+        r.close.push_back(&va);
+    out.push_back(r);
+  }
+  return out;
+}
+
 namespace {
 
 // Headroom: the scene translated by each 2^k·(1, 0.75, 0.5) in turn (added to its own
@@ -651,21 +668,7 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
       va.ns_per_ray = va.round_trip_ns_per_ray = std::numeric_limits<double>::quiet_NaN();
     audit.variants.push_back(std::move(va));
   }
-  for (ShapeKind kind : audit.shapes) {
-    SceneAudit::Recommendation r{kind};
-    for (const VariantAudit& va : audit.variants) {
-      if (va.shape != kind) continue;
-      r.audited = true;
-      if (!va.exact_for_scene()) continue;
-      if (!r.best || va.ns_per_ray < r.best->ns_per_ray) r.best = &va;
-    }
-    for (const VariantAudit& va : audit.variants)
-      if (r.best && &va != r.best && va.shape == kind && va.exact_for_scene() &&
-          va.ns_per_ray <= 1.1 * r.best->ns_per_ray)
-        r.close.push_back(&va);
-    audit.recommendation.push_back(r);
-  }
-
+  audit.recommendation = recommend(audit.variants, audit.shapes);
   if (options.headroom) audit_headroom(scene, options, chosen, auditor.exact_objects(), audit);
   return audit;
 }

@@ -3,7 +3,9 @@
 // match the images, and a report a real browser opens.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -289,6 +291,19 @@ TEST(Audit, EdgeGridIsAllMeshExactlyAndWatertightHasNoHoles) {
 TEST(Audit, TiltedEdgeGridCatchesMollerTrumboreHolesAndRecommendsWatertight) {
   const auto a = audit_of(kScenes + "/audit/edge-grid-tilted.json", {"moller-trumbore", "watertight", "certified-triangle"});
   EXPECT_GT(row(a, "moller-trumbore").counts.holes, 100);
+  // An independent count (issue 23), from the variant's own render rather than the branch that
+  // colours the diff: the exact image is all mesh with nothing behind it, so every hole shows the
+  // background, and only a hole does.
+  const Scene scene = load_scene(kScenes + "/audit/edge-grid-tilted.json");
+  std::array<std::uint8_t, 3> background{};
+  for (int k = 0; k < 3; ++k) background[k] = static_cast<std::uint8_t>(std::lround(std::clamp(scene.background[k], 0.0, 1.0) * 255));
+  for (const char* name : {"moller-trumbore", "watertight"}) {
+    const Image& render = row(a, name).render;
+    long background_pixels = 0;
+    for (int y = 0; y < render.height; ++y)
+      for (int x = 0; x < render.width; ++x) background_pixels += render.at(x, y) == background;
+    EXPECT_EQ(background_pixels, row(a, name).counts.holes) << name;
+  }
   EXPECT_EQ(row(a, "moller-trumbore").counts.false_hits, 0);
   EXPECT_EQ(row(a, "watertight").counts.wrong, 0);
   EXPECT_EQ(row(a, "certified-triangle").counts.wrong, 0);
@@ -557,6 +572,34 @@ TEST(Audit, HeadroomIsTheLastCleanExponentBeforeTheFirstWrongOne) {
   // The textbook formula is already wrong at this distance; Hearn & Baker's is not.
   EXPECT_EQ(row(a, "textbook").first_wrong_log2_translate, 0);
   EXPECT_GT(row(a, "hearn-baker").exact_up_to_log2_translate.value_or(-1), 0);
+}
+
+// The recommendation, pinned without timing noise (issue 23): per shape the cheapest row exact for
+// the scene; exact rows costing at most 10% more named beside it; rows with any wrong pixel, any
+// shadow error or a stop never recommended; a shape with rows but none exact has none.
+TEST(Audit, RecommendationIsTheCheapestExactRowAndThoseWithinTenPercent) {
+  auto row_of = [](std::string name, ShapeKind shape, double ns, long wrong, long shadow, std::string stopped = "") {
+    studies::VariantAudit va;
+    va.name = va.label = std::move(name);
+    va.shape = shape, va.ns_per_ray = ns, va.counts.wrong = wrong, va.counts.shadow_wrong = shadow;
+    va.stopped = std::move(stopped);
+    return va;
+  };
+  const std::vector<studies::VariantAudit> rows = {
+      row_of("fast-but-wrong", ShapeKind::sphere, 5, 3, 0),        row_of("fast-but-shadowed", ShapeKind::sphere, 6, 0, 1),
+      row_of("stopped-cheap", ShapeKind::sphere, 7, 0, 0, "crash"), row_of("best", ShapeKind::sphere, 10, 0, 0),
+      row_of("within", ShapeKind::sphere, 11, 0, 0),                row_of("beyond", ShapeKind::sphere, 11.01, 0, 0),
+      row_of("plane-wrong", ShapeKind::plane, 1, 1, 0)};
+  const auto r = studies::recommend(rows, {ShapeKind::sphere, ShapeKind::plane, ShapeKind::box});
+  ASSERT_EQ(r.size(), 3u);
+  ASSERT_NE(r[0].best, nullptr);
+  EXPECT_EQ(r[0].best->name, "best");
+  ASSERT_EQ(r[0].close.size(), 1u);
+  EXPECT_EQ(r[0].close[0]->name, "within");
+  EXPECT_EQ(r[1].best, nullptr);
+  EXPECT_TRUE(r[1].audited);
+  EXPECT_EQ(r[2].best, nullptr);
+  EXPECT_FALSE(r[2].audited);
 }
 
 TEST(Audit, CommandLineWritesTheSpecsFilesAndKeys) {

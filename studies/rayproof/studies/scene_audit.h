@@ -127,6 +127,10 @@ struct SceneAudit {
   std::vector<std::string> warnings;
 };
 
+// Per shape: the cheapest row exact for the scene, and the other exact rows within 10% of its
+// cost (pointers into `rows`).
+std::vector<SceneAudit::Recommendation> recommend(const std::vector<VariantAudit>& rows, const std::vector<ShapeKind>& shapes);
+
 // Throws std::runtime_error for a scene the audit cannot take (more than 64 lights).
 SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options);
 
