@@ -8,9 +8,13 @@ deps:
 
 build: deps
 	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release > /dev/null
-	@cmake --build $(BUILD) -j$(JOBS)
+	@cmake --build $(BUILD) -j$(JOBS) -- --no-print-directory
 
-demo: build
+# The demo's build is quiet: its log is kept, and shown (its end) only when the build fails.
+demo: deps
+	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release > /dev/null
+	@echo "rayproof demo: building (log: $(BUILD)/build.log) ..."
+	@cmake --build $(BUILD) -j$(JOBS) -- --no-print-directory > $(BUILD)/build.log 2>&1 || { tail -60 $(BUILD)/build.log; exit 1; }
 	@bash scripts/demo.sh $(BUILD)
 
 test: build
@@ -23,7 +27,7 @@ test-sanitize:
 	@bash scripts/install-deps.sh sanitize
 	@cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
 	  -DRAYPROOF_SANITIZE=ON -DRAYPROOF_BUILD_BENCH=OFF > /dev/null
-	@cmake --build build-sanitize -j$(JOBS)
+	@cmake --build build-sanitize -j$(JOBS) -- --no-print-directory
 	@cd build-sanitize && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j$(JOBS)
 
 # A short run of every benchmark (one binary, so ratios come from one run), then the goals.
