@@ -46,6 +46,25 @@ std::vector<Triangle> random_triangles(size_t n, double size, std::mt19937_64& r
   return tris;
 }
 
+// Every primitive of `kind` the exact oracle says `ray` touches is visited by the BVH.
+long expect_visits_every_contact(const SceneIndex& index, ShapeKind kind, const Ray& ray, Oracle& oracle,
+                                 const std::string& what) {
+  std::set<std::int32_t> visited;
+  double t_limit = std::numeric_limits<double>::infinity();
+  index.traverse(kind, ray, t_limit, [&](std::int32_t id, const Shape&) {
+    visited.insert(id);
+    return false;
+  });
+  long contacts = 0;
+  for (std::int32_t id = 0; id < static_cast<std::int32_t>(index.primitives().size()); ++id) {
+    const Shape& shape = index.primitive(id).shape;
+    if (kind_of(shape) != kind || oracle.judge(ray, shape).cls == HitClass::miss) continue;
+    ++contacts;
+    EXPECT_TRUE(visited.count(id)) << what << ": the ray meets primitive " << id << " exactly but the BVH skipped it";
+  }
+  return contacts;
+}
+
 // Random small triangles in [-1, 1]³ and rays aimed exactly at their vertices, edge midpoints
 // and centroids (the decisions that sit on a box's boundary), plus axis-parallel rays whose
 // origin lies on a triangle's bounding plane.
@@ -72,40 +91,9 @@ TEST(Bvh, NeverSkipsAPrimitiveTheExactRayMeets) {
       ray.origin = t.v[0] - Vec3(0, 0, 2);
       ray.direction = Vec3(0, 0, 1);
     }
-    std::set<std::int32_t> visited;
-    double t_limit = std::numeric_limits<double>::infinity();
-    index.traverse(ShapeKind::triangle, ray, t_limit, [&](std::int32_t id, const Shape&) {
-      visited.insert(id);
-      return false;
-    });
-    for (size_t k = 0; k < tris.size(); ++k) {
-      const Verdict v = oracle.judge(ray, tris[k]);
-      if (v.cls == HitClass::miss) continue;
-      ++contacts;
-      EXPECT_TRUE(visited.count(static_cast<std::int32_t>(k))) << "ray " << i << " meets triangle " << k << " exactly ("
-                                                              << to_string(v.cls) << ") but the BVH skipped it";
-    }
+    contacts += expect_visits_every_contact(index, ShapeKind::triangle, ray, oracle, "ray " + std::to_string(i));
   }
   EXPECT_GT(contacts, 1500);
-}
-
-// Every primitive of `kind` the exact oracle says `ray` touches is visited by the BVH.
-long expect_visits_every_contact(const SceneIndex& index, ShapeKind kind, const Ray& ray, Oracle& oracle,
-                                 const std::string& what) {
-  std::set<std::int32_t> visited;
-  double t_limit = std::numeric_limits<double>::infinity();
-  index.traverse(kind, ray, t_limit, [&](std::int32_t id, const Shape&) {
-    visited.insert(id);
-    return false;
-  });
-  long contacts = 0;
-  for (std::int32_t id = 0; id < static_cast<std::int32_t>(index.primitives().size()); ++id) {
-    const Shape& shape = index.primitive(id).shape;
-    if (kind_of(shape) != kind || oracle.judge(ray, shape).cls == HitClass::miss) continue;
-    ++contacts;
-    EXPECT_TRUE(visited.count(id)) << what << ": the ray meets primitive " << id << " exactly but the BVH skipped it";
-  }
-  return contacts;
 }
 
 // The BVH at the edges of what its widening is proved for (issue 23): directions with components
