@@ -517,7 +517,9 @@ std::vector<std::string> shrink_and_format(const Batch& b, const std::vector<Fin
 
 CampaignReport run_campaign(const CampaignOptions& o) {
   if (o.families.empty() || o.shapes.empty()) throw std::runtime_error("no family or shape chosen");
-  if (o.shards == 0 || o.shard >= o.shards) throw std::runtime_error("shard " + std::to_string(o.shard) + " of " + std::to_string(o.shards) + ": the index must be below the count");
+  if (o.shards == 0 || o.shard >= o.shards)
+    throw std::runtime_error("shard " + std::to_string(o.shard) + " of " + std::to_string(o.shards) +
+                             ": the index must be below the count");
   const std::string checkpoint_path = o.output + ".checkpoint";
   struct Pair {
     Family family;

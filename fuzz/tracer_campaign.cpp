@@ -505,7 +505,9 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
 TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
   if (o.families.empty()) throw std::runtime_error("no tracer family chosen");
   if (o.tracers.empty()) throw std::runtime_error("no tracer chosen");
-  if (o.shards == 0 || o.shard >= o.shards) throw std::runtime_error("shard " + std::to_string(o.shard) + " of " + std::to_string(o.shards) + ": the index must be below the count");
+  if (o.shards == 0 || o.shard >= o.shards)
+    throw std::runtime_error("shard " + std::to_string(o.shard) + " of " + std::to_string(o.shards) +
+                             ": the index must be below the count");
   const std::string checkpoint_path = o.output + ".checkpoint";
   const std::uint64_t meshes = (o.count + kRaysPerMesh - 1) / kRaysPerMesh;
   const std::uint64_t lo = meshes * o.shard / o.shards, hi = meshes * (o.shard + 1) / o.shards;
