@@ -272,6 +272,7 @@ class ExecVariant final : public ExternalIntersector {
       give_back(std::move(process));
       return qs.size();
     }
+    if (i == qs.size()) return i;  // every case answered before it ended: its answers stand, the process goes
     // The command is gone (or spoke wrongly): blame the case it was on; after a crash or a hang a
     // fresh command goes on with the next case while the crash budget lasts. A protocol error
     // stops it now: a fresh command would answer the same way.
