@@ -137,6 +137,24 @@ TEST(Bvh, NeverSkipsAContactAtTheLimitsOfItsWidening) {
     }
     EXPECT_GT(far_contacts, 100) << far;
   }
+  // Origins beyond 2^1000 whose distance to the boxes overflows: origin near +1.5·2^1023, triangles
+  // near −1.5·2^1023, so box − origin is −∞ in double and the exact contact lies at t beyond the
+  // double range; only the exotic fallback (origins past 2^1000) keeps them visited.
+  std::vector<Triangle> opposite = tris;
+  for (Triangle& t : opposite)
+    for (Vec3& v : t.v) v = Vec3(-0x1.8p1023, 0, 0) + std::ldexp(1.0, 1000) * v;
+  const Scene opposite_scene = scene_of_triangles(opposite);
+  const SceneIndex opposite_index(opposite_scene);
+  long overflowing = 0;
+  for (int i = 0; i < 100; ++i) {
+    const Triangle& t = opposite[rng() % opposite.size()];
+    const Vec3 origin = Vec3(0x1.8p1023, 0, 0) + std::ldexp(1.0, 1000) * Vec3(0, u(rng), u(rng));
+    const Vec3 target = t.v[i % 3];
+    const Ray ray{origin, 0.25 * target - 0.25 * origin};  // target − origin itself overflows
+    if (!all_finite(ray.direction)) continue;
+    overflowing += expect_visits_every_contact(opposite_index, ShapeKind::triangle, ray, oracle, "overflowing distance");
+  }
+  EXPECT_GT(overflowing, 20);
 }
 
 // A sphere's box is c ± r rounded outward: a ray that dips into the sphere between fl(c + r) and
