@@ -81,6 +81,15 @@ struct FuzzOptions {
   long crash_after = -1;
 };
 
+// Counts given on the command line: digits only ("-1" would otherwise wrap to 2^64 − 1).
+const CLI::Validator kWholeNumber(
+    [](std::string& text) {
+      return text.empty() || text.find_first_not_of("0123456789") != std::string::npos
+                 ? "expected a whole number >= 0, got '" + text + "'"
+                 : std::string();
+    },
+    "N");
+
 fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
   fuzz::CampaignOptions o;
   o.families = parse_families(opts.families);
@@ -213,11 +222,13 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->add_flag("--no-shrink", opts->no_shrink, "write findings as found, without shrinking");
   cmd->add_option("--max-shrunk", opts->max_shrunk,
                   "findings shrunk per family, shape and kind (default " + std::to_string(opts->max_shrunk) +
-                      "); the rest are written as found");
+                      "); the rest are written as found")
+      ->check(kWholeNumber);
   cmd->add_option("--spawn-csv", opts->spawn_csv,
                   "also run the spawn (shadow-acne) study on the chosen shapes and write its CSV here");
   add_format_flag(cmd, opts->format);
-  cmd->add_option("--max-findings", opts->max_findings, "findings written per family and shape (default 1000), or per family, tracer and mode (default 20); all are counted");
+  cmd->add_option("--max-findings", opts->max_findings, "findings written per family and shape (default 1000), or per family, tracer and mode (default 20); all are counted")
+      ->check(kWholeNumber);
   cmd->add_option("--batch", opts->batch, "cases per batch (the unit of checkpointing)")->check(CLI::Range(2, 1 << 24));
   cmd->add_option("--summary", opts->summary, "also write the report as JSON");
   cmd->add_option("--crash-after-batches", opts->crash_after, "testing: exit abruptly after writing that many batches")

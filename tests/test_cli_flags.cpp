@@ -32,6 +32,16 @@ std::string read(const std::string& path) {
   return ss.str();
 }
 
+// A negative count is an error naming the flag, not 2^64 − 1 findings (issue 25's new flag too).
+TEST(Flags, CountsRefuseNegativeNumbers) {
+  const std::string dir = test_dir();
+  for (const char* flag : {"--max-shrunk", "--max-findings"}) {
+    EXPECT_EQ(run(std::string("fuzz --count 10 ") + flag + " -1 -o '" + dir + "/x.jsonl'", dir), 2) << flag;
+    EXPECT_NE(read(dir + "/stderr").find(std::string(flag) + ": expected a whole number >= 0, got '-1'"), std::string::npos)
+        << read(dir + "/stderr");
+  }
+}
+
 TEST(Flags, SingularSpellingsAreAliasesOfTheLists) {
   const std::string d = test_dir();
   ASSERT_EQ(run("fuzz --family tangent,grazing --shape sphere --count 600 --seed 4 --threads 1 -o '" + d + "/a.jsonl'", d), 0);
