@@ -11,16 +11,11 @@
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/json_fields.h"
 #include "rayproof/studies/scene_audit.h"
+#include "rayproof/studies/svg.h"
 
 namespace rayproof::cli {
 
 namespace {
-std::string one_decimal(double x) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.1f", x);
-  return text;
-}
-
 // An audit keeps per pixel the exact hit, each contender's hit, shadows and images: measured at
 // 115-133 bytes per pixel for 1-4 variants on a diffuse 1024x1024 scene, so 128 + 16 per
 // contender, times the samples per pixel. A scene that needs more than the machine has free is
@@ -108,7 +103,7 @@ void add_audit_command(CLI::App& app, int& exit_code) {
       std::string headroom;
       if (audit.headroom)
         headroom = va.exact_up_to_log2_translate ? "  " + std::to_string(*va.exact_up_to_log2_translate) : "  none";
-      const std::string cost = std::isnan(va.ns_per_ray) ? "-" : one_decimal(va.ns_per_ray);
+      const std::string cost = std::isnan(va.ns_per_ray) ? "-" : studies::svg::format("%.1f", va.ns_per_ray);
       std::fprintf(stderr, "%-24s %-9s %9s %7ld %7ld %7ld %7ld %6ld %s%s\n", va.label.c_str(),
                    std::string(to_string(va.shape)).c_str(), cost.c_str(), va.counts.wrong, va.counts.holes,
                    va.counts.false_hits, va.counts.shadow_wrong, va.counts.acne, va.exact_for_scene() ? "yes" : "no ",
