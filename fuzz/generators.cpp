@@ -39,8 +39,8 @@ namespace {
 struct Rng : SplitMix64 {
   double uniform(double lo, double hi) { return lo + (hi - lo) * unit(); }
   long integer(long lo, long hi) { return lo + static_cast<long>(next() % std::uint64_t(hi - lo + 1)); }
-  Vec3 ivec(long r) { return Vec3(integer(-r, r), integer(-r, r), integer(-r, r)); }
-  Vec3 uvec(double r) { return Vec3(uniform(-r, r), uniform(-r, r), uniform(-r, r)); }
+  Vec3 ivec(long r) { return vec_z_first([&] { return double(integer(-r, r)); }); }
+  Vec3 uvec(double r) { return vec_z_first([&] { return uniform(-r, r); }); }
   Vec3 direction() {  // a random unit-ish vector (not exactly unit; any non-zero vector will do)
     Vec3 v;
     do v = uvec(1); while (dot(v, v) > 1 || dot(v, v) < 1e-4);
@@ -63,7 +63,7 @@ struct Builder {
     const double m = 1 + rng.unit();  // [1, 2): every mantissa bit random
     return std::ldexp(rng.integer(0, 1) ? m : -m, k - 1);
   }
-  Vec3 full_vec(int k) { return Vec3(full_number(k - static_cast<int>(rng.integer(0, 3))), full_number(k - static_cast<int>(rng.integer(0, 3))), full_number(k - static_cast<int>(rng.integer(0, 3)))); }
+  Vec3 full_vec(int k) { return vec_z_first([&] { return full_number(k - static_cast<int>(rng.integer(0, 3))); }); }
   Vec3 full_direction() {  // full mantissas, no component much smaller than the others
     Vec3 d;
     do d = full_vec(0); while (dot(d, d) < 0.1);
@@ -79,7 +79,9 @@ struct Builder {
   // mantissa. A far origin makes every product the variant forms larger than the feature's own
   // rounding, which is where formulas differ.
   Ray full_ray_through(const Vec3& at, const Vec3& d) {
-    return Ray{at - std::ldexp(1 + rng.unit(), static_cast<int>(rng.integer(0, 11))) * d, d};
+    const int e = static_cast<int>(rng.integer(0, 11));
+    const double s = std::ldexp(1 + rng.unit(), e);
+    return Ray{at - s * d, d};
   }
 
   GeneratedCase tangent_full(ShapeKind kind, int k) {
@@ -101,14 +103,16 @@ struct Builder {
         const Triangle t = full_triangle(m, k);
         const Vec3 e1 = t.v[1] - t.v[0], e2 = t.v[2] - t.v[0];
         const double a = rng.uniform(-0.25, 1.25), b = rng.uniform(-0.25, 1.25);
-        const Vec3 along = rng.uniform(-1, 1) * e1 + rng.uniform(0.25, 1) * e2;
+        const double along2 = rng.uniform(0.25, 1);
+        const double along1 = rng.uniform(-1, 1);
+        const Vec3 along = along1 * e1 + along2 * e2;
         return {full_ray_through(t.v[0] + a * e1 + b * e2, along), t, "coplanar-full/2^" + std::to_string(k)};
       }
       case ShapeKind::box: break;
     }
     const Box b = full_box(m, k);  // along a face, along an edge, touching an edge or a corner
     const long mode = rng.integer(0, 3);
-    Vec3 at(rng.uniform(b.min.x(), b.max.x()), rng.uniform(b.min.y(), b.max.y()), rng.uniform(b.min.z(), b.max.z()));
+    Vec3 at = point_in(b);
     Vec3 dir = full_direction() * s;
     at.x() = b.min.x();
     if (mode == 0) dir.x() = 0;                       // along the face x = min
@@ -127,7 +131,13 @@ struct Builder {
   }
   Box full_box(const Vec3& centre, int k) {
     const Vec3 lo = centre + full_vec(k);
-    return Box{lo, lo + Vec3(std::fabs(full_number(k)), std::fabs(full_number(k)), std::fabs(full_number(k)))};
+    return Box{lo, lo + vec_z_first([&] { return std::fabs(full_number(k)); })};
+  }
+  Vec3 point_in(const Box& b) {
+    const double z = rng.uniform(b.min.z(), b.max.z());
+    const double y = rng.uniform(b.min.y(), b.max.y());
+    const double x = rng.uniform(b.min.x(), b.max.x());
+    return Vec3(x, y, z);
   }
 
   GeneratedCase grazing_full(ShapeKind kind, std::uint64_t index, std::uint64_t seed) {
@@ -140,7 +150,10 @@ struct Builder {
         const Box b = full_box(m, k);
         const bool corner = rng.integer(0, 1) == 1;
         Vec3 at(b.min.x(), b.min.y(), corner ? b.min.z() : rng.uniform(b.min.z(), b.max.z()));
-        const Vec3 d(std::fabs(full_number(k)), -std::fabs(full_number(k)), corner ? -std::fabs(full_number(k)) : full_number(k));
+        const double dz = corner ? -std::fabs(full_number(k)) : full_number(k);
+        const double dy = -std::fabs(full_number(k));
+        const double dx = std::fabs(full_number(k));
+        const Vec3 d(dx, dy, dz);
         return {full_ray_through(at, d), b, std::string(corner ? "through-corner-full" : "through-edge-full") + "/2^" + std::to_string(k)};
       }
       case ShapeKind::sphere: {  // a chord at angle 2^-j to the tangent plane at P
@@ -196,7 +209,7 @@ struct Builder {
       case ShapeKind::box: {  // origin inside, on a face, an edge or a corner (exact copies of the bounds)
         const Box b = full_box(m, k);
         const long mode = rng.integer(0, 3);
-        Vec3 o(rng.uniform(b.min.x(), b.max.x()), rng.uniform(b.min.y(), b.max.y()), rng.uniform(b.min.z(), b.max.z()));
+        Vec3 o = point_in(b);
         if (mode >= 1) o.x() = b.min.x();
         if (mode >= 2) o.y() = b.min.y();
         if (mode == 3) o.z() = b.min.z();
@@ -253,7 +266,7 @@ struct Builder {
 
   Box integer_box(long r) {
     const Vec3 lo = rng.ivec(r);
-    return Box{lo, lo + Vec3(rng.integer(1, r), rng.integer(1, r), rng.integer(1, r))};
+    return Box{lo, lo + vec_z_first([&] { return double(rng.integer(1, r)); })};
   }
 
   // ------------------------------------------------------------------------------- families
@@ -271,7 +284,7 @@ struct Builder {
         break;
       }
       case ShapeKind::box: {
-        const Vec3 c = rng.uvec(s), h(rng.uniform(0.1, 1) * s, rng.uniform(0.1, 1) * s, rng.uniform(0.1, 1) * s);
+        const Vec3 c = rng.uvec(s), h = vec_z_first([&] { return rng.uniform(0.1, 1) * s; });
         shape = Box{c - h, c + h};
         break;
       }
@@ -321,7 +334,9 @@ struct Builder {
     const Vec3 e1 = tri.v[1] - tri.v[0], e2 = tri.v[2] - tri.v[0];
     const double a = rng.integer(-4, 8) / 4.0, b = rng.integer(-4, 8) / 4.0;
     const Vec3 through = tri.v[0] + a * e1 + b * e2;
-    const Vec3 d = double(rng.integer(-3, 3)) * e1 + double(rng.integer(1, 3)) * e2;
+    const double along2 = double(rng.integer(1, 3));
+    const double along1 = double(rng.integer(-3, 3));
+    const Vec3 d = along1 * e1 + along2 * e2;
     return {Ray{through - double(rng.integer(1, 4)) * d, d}, tri, "coplanar"};
   }
 
@@ -333,7 +348,8 @@ struct Builder {
     std::string what;
     if (mode == 0) {  // along the face x = min
       at.x() = b.min.x();
-      d = Vec3(0, rng.integer(1, 3), rng.integer(-3, 3));
+      const double dz = double(rng.integer(-3, 3));
+      d = Vec3(0, double(rng.integer(1, 3)), dz);
       what = "along-face";
     } else if (mode == 1) {  // along the edge x = min, y = min
       at.x() = b.min.x(), at.y() = b.min.y();
@@ -341,11 +357,14 @@ struct Builder {
       what = "along-edge";
     } else if (mode == 2) {  // touches the edge x = min, y = min at one point
       at.x() = b.min.x(), at.y() = b.min.y();
-      d = Vec3(rng.integer(1, 3), -rng.integer(1, 3), rng.integer(-3, 3));
+      const double dz = double(rng.integer(-3, 3));
+      const double dy = -double(rng.integer(1, 3));
+      d = Vec3(double(rng.integer(1, 3)), dy, dz);
       what = "touch-edge";
     } else {  // touches the corner min
       at = b.min;
-      d = Vec3(rng.integer(1, 3), -rng.integer(1, 3), -rng.integer(1, 3));
+      d = vec_z_first([&] { return double(rng.integer(1, 3)); });
+      d.y() = -d.y(), d.z() = -d.z();
       what = "touch-corner";
     }
     return {Ray{at - double(rng.integer(1, 4)) * d, d}, b, what};
@@ -392,7 +411,9 @@ struct Builder {
     Vec3 at = 0.5 * (b.min + b.max);
     at.x() = b.min.x(), at.y() = b.min.y();
     if (corner) at.z() = b.min.z();
-    const Vec3 d(rng.integer(1, 5), rng.integer(1, 5), corner ? rng.integer(1, 5) : rng.integer(-5, 5));
+    const double dz = double(corner ? rng.integer(1, 5) : rng.integer(-5, 5));
+    const double dy = double(rng.integer(1, 5));
+    const Vec3 d(double(rng.integer(1, 5)), dy, dz);
     return {Ray{at - double(rng.integer(1, 4)) * d, d}, b, corner ? "through-corner" : "through-edge"};
   }
 
@@ -535,15 +556,21 @@ struct Builder {
       if (rng.integer(0, 1) == 0) {  // a tiny sphere far away (Ray Tracing Gems ch. 7)
         const double dist = std::ldexp(1.0, static_cast<int>(rng.integer(20, 60)));
         const double r = std::ldexp(1.0, static_cast<int>(rng.integer(-4, 4)));
-        const Vec3 m(dist, rng.uniform(-1.5, 1.5) * r, rng.uniform(-1.5, 1.5) * r);
+        const double mz = rng.uniform(-1.5, 1.5) * r;
+        const Vec3 m(dist, rng.uniform(-1.5, 1.5) * r, mz);
         return {Ray{Vec3::Zero(), Vec3(1, 0, 0)}, Sphere{m, r}, "tiny-far-sphere"};
       }
       // a huge sphere used as a ground plane
       // radius 2^20…2^40 (1e6…1e12); no libm call, so every machine builds the same case
-      const double big = std::ldexp(rng.uniform(1, 2), static_cast<int>(rng.integer(20, 39)));
-      const Vec3 o(rng.uniform(-10, 10), rng.uniform(0.5, 10), rng.uniform(-10, 10));
-      return {Ray{o, Vec3(rng.uniform(-1, 1), -rng.uniform(0.01, 1), rng.uniform(-1, 1))}, Sphere{Vec3(0, -big, 0), big},
-              "huge-ground-sphere"};
+      const int big_exponent = static_cast<int>(rng.integer(20, 39));
+      const double big = std::ldexp(rng.uniform(1, 2), big_exponent);
+      const double oz = rng.uniform(-10, 10);
+      const double oy = rng.uniform(0.5, 10);
+      const Vec3 o(rng.uniform(-10, 10), oy, oz);
+      const double dz = rng.uniform(-1, 1);
+      const double dy = -rng.uniform(0.01, 1);
+      const Vec3 d(rng.uniform(-1, 1), dy, dz);
+      return {Ray{o, d}, Sphere{Vec3(0, -big, 0), big}, "huge-ground-sphere"};
     }
     // b² and |o − m|² beyond the double range
     GeneratedCase c = random(kind);

@@ -66,7 +66,7 @@ struct Builder {
 
 Vec3 random_direction(Rng& r, int range) {
   Vec3 d;
-  do d = Vec3(r.between(-range, range), r.between(-range, range), r.between(-range, range));
+  do d = vec_z_first([&] { return double(r.between(-range, range)); });
   while (d == Vec3::Zero());
   return d;
 }
@@ -162,11 +162,14 @@ MeshWork shared_edges(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, T
   const bool closed = r.between(0, 2) == 0;
   const bool full_precision = !closed && r.coin();
   if (closed) cube_surface(b, r, grid_size(r, 73));
-  else height_field(b, r, grid_size(r, 181), r.coin(), 0, seed ^ m);
+  else {
+    const bool flat = r.coin();
+    height_field(b, r, grid_size(r, 181), flat, 0, seed ^ m);
+  }
   if (full_precision) {
     // 53-bit scales per axis: every column of vertices still shares one x (and every row one y),
     // so node bounds of a BVH coincide with edges, but the arithmetic rounds everywhere.
-    const Vec3 scale(1 + r.unit(), 1 + r.unit(), 1 + r.unit());
+    const Vec3 scale = vec_z_first([&] { return 1 + r.unit(); });
     for (std::size_t i = 0; i < b.mesh.vertices.size(); ++i) b.mesh.vertices[i] *= scale[i % 3];
   }
   MeshWork w{std::make_shared<TriangleMesh>(std::move(b.mesh)), {}, {}, 0};
@@ -181,7 +184,9 @@ MeshWork fans(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, TracerFam
   Builder b;
   const int k = r.between(3, 16);
   const bool flat = r.coin();
-  const Vec3 centre(r.between(-64, 64), r.between(-64, 64), r.between(-8, 8));
+  const double cz = r.between(-8, 8);
+  const double cy = r.between(-64, 64);
+  const Vec3 centre(r.between(-64, 64), cy, cz);
   const std::uint32_t c = b.vertex(centre);
   std::vector<std::uint32_t> ring;
   for (int i = 0; i < k; ++i) {
@@ -227,8 +232,16 @@ MeshWork axis_planes(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, Tr
           p[axis] = positive ? hi[axis] : lo[axis], p[u] = i2 ? hi[u] : lo[u], p[v] = j2 ? hi[v] : lo[v];
           return b.vertex(p);
         };
-        if (positive) b.quad(at(0, 0), at(1, 0), at(1, 1), at(0, 1), r.coin());
-        else b.quad(at(0, 0), at(0, 1), at(1, 1), at(1, 0), r.coin());
+        // Vertices are numbered as first met: the corners are met in a fixed order, the one GCC
+        // gave the arguments of one call (right to left; see vec_z_first).
+        const bool other_diagonal = r.coin();
+        if (positive) {
+          const std::uint32_t c01 = at(0, 1), c11 = at(1, 1), c10 = at(1, 0), c00 = at(0, 0);
+          b.quad(c00, c10, c11, c01, other_diagonal);
+        } else {
+          const std::uint32_t c10 = at(1, 0), c11 = at(1, 1), c01 = at(0, 1), c00 = at(0, 0);
+          b.quad(c00, c01, c11, c10, other_diagonal);
+        }
       }
   }
   MeshWork w{std::make_shared<TriangleMesh>(std::move(b.mesh)), {}, {}, 0};
@@ -240,7 +253,12 @@ MeshWork axis_planes(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, Tr
     for (int k = 0; k < 3; ++k) {
       // Origins on box-face planes (and so on the BVH's split planes), half-integers between.
       const auto& ps = planes[k];
-      o[k] = rr.between(0, 2) ? ps[rr.g.next() % ps.size()] : rr.between(-2, 18) + 0.5 * rr.coin();
+      if (rr.between(0, 2)) {
+        o[k] = ps[rr.g.next() % ps.size()];
+      } else {
+        const double whole = rr.between(-2, 18);
+        o[k] = whole + 0.5 * rr.coin();
+      }
       d[k] = rr.coin() ? -0.0 : 0.0;  // exactly zero, either sign: 1/d is ±inf
     }
     d[along] = rr.coin() ? 1 : -1;
@@ -272,8 +290,10 @@ MeshWork needles(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, Tracer
     std::string detail;
     const Vec3 p = feature_point(*w.mesh, t, rr, detail);
     // Nearly along the needles (x), nearly in their plane: 2^-a off in y and z.
-    const Vec3 d(rr.coin() ? 1 : -1, (rr.coin() ? 1 : -1) * std::ldexp(1.0, -rr.between(4, 30)),
-                 (rr.coin() ? 1 : -1) * std::ldexp(1.0, -rr.between(4, 30)));
+    const Vec3 d = vec_z_first([&, axis = 0]() mutable {
+      const double sign = rr.coin() ? 1 : -1;
+      return axis++ == 2 ? sign : sign * std::ldexp(1.0, -rr.between(4, 30));
+    });
     w.rays.push_back(through(p, d, rr));
     w.details.push_back("needle " + detail);
   }
@@ -325,8 +345,15 @@ MeshWork shells(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, TracerF
   MeshWork w{std::make_shared<TriangleMesh>(std::move(b.mesh)), {}, {}, 0};
   for (std::uint64_t i = 0; i < rays; ++i) {
     Rng rr(seed, static_cast<std::uint64_t>(f), m, i);
-    const Vec3 target(rr.between(0, 8 * n) * 0.5 + 0.25 * rr.coin(), rr.between(0, 8 * n) * 0.5 + 0.25 * rr.coin(), 0);
-    Vec3 d(rr.between(-3, 3), rr.between(-3, 3), rr.coin() ? -8 : 8);
+    auto grid_point = [&] {
+      const double whole = rr.between(0, 8 * n) * 0.5;
+      return whole + 0.25 * rr.coin();
+    };
+    const double ty = grid_point();
+    const Vec3 target(grid_point(), ty, 0);
+    const double dz = rr.coin() ? -8 : 8;
+    const double dy = rr.between(-3, 3);
+    Vec3 d(rr.between(-3, 3), dy, dz);
     w.rays.push_back(through(target, d, rr));
     w.details.push_back(d.z() < 0 ? "from above" : "from below");
   }
@@ -359,8 +386,8 @@ MeshWork random_at_bundled(std::shared_ptr<const TriangleMesh> mesh, std::uint64
   MeshWork w{std::move(mesh), {}, {}, 0};
   for (std::uint64_t i = 0; i < rays; ++i) {
     Rng rr(seed, static_cast<std::uint64_t>(f), m, i);
-    const Vec3 from = centre + 3 * half.norm() * Vec3(rr.unit() - 0.5, rr.unit() - 0.5, rr.unit() - 0.5).normalized();
-    const Vec3 to = centre + Vec3(rr.unit() - 0.5, rr.unit() - 0.5, rr.unit() - 0.5).cwiseProduct(2 * half);
+    const Vec3 from = centre + 3 * half.norm() * vec_z_first([&] { return rr.unit() - 0.5; }).normalized();
+    const Vec3 to = centre + vec_z_first([&] { return rr.unit() - 0.5; }).cwiseProduct(2 * half);
     Vec3 d = to - from;
     if (d == Vec3::Zero()) d = Vec3(1, 0, 0);
     w.rays.push_back({Ray{from, d}, 0, std::numeric_limits<double>::infinity()});
@@ -377,8 +404,9 @@ MeshWork random_rays(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, Tr
   Builder b;
   // A UV sphere (poles shared by their fans), in double from cos and sin: whatever they round to.
   const int stacks = r.between(3, 48), slices = r.between(3, 64);
-  const double radius = std::ldexp(1.0 + r.unit(), r.between(-4, 12));
-  const Vec3 centre = Vec3(r.unit() - 0.5, r.unit() - 0.5, r.unit() - 0.5) * radius * 4;
+  const int radius_exponent = r.between(-4, 12);
+  const double radius = std::ldexp(1.0 + r.unit(), radius_exponent);
+  const Vec3 centre = vec_z_first([&] { return r.unit() - 0.5; }) * radius * 4;
   auto at = [&](int i, int j) {
     if (i == 0) return b.vertex(centre + Vec3(0, 0, radius));
     if (i == stacks) return b.vertex(centre - Vec3(0, 0, radius));
@@ -395,8 +423,8 @@ MeshWork random_rays(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, Tr
   MeshWork w{std::make_shared<TriangleMesh>(std::move(b.mesh)), {}, {}, 0};
   for (std::uint64_t i = 0; i < rays; ++i) {
     Rng rr(seed, static_cast<std::uint64_t>(f), m, i);
-    const Vec3 from = centre + radius * 3 * Vec3(rr.unit() - 0.5, rr.unit() - 0.5, rr.unit() - 0.5).normalized();
-    const Vec3 to = centre + radius * 1.2 * Vec3(rr.unit() - 0.5, rr.unit() - 0.5, rr.unit() - 0.5);
+    const Vec3 from = centre + radius * 3 * vec_z_first([&] { return rr.unit() - 0.5; }).normalized();
+    const Vec3 to = centre + radius * 1.2 * vec_z_first([&] { return rr.unit() - 0.5; });
     Vec3 d = to - from;
     if (d == Vec3::Zero()) d = Vec3(1, 0, 0);
     w.rays.push_back({Ray{from, d}, 0, std::numeric_limits<double>::infinity()});

@@ -17,7 +17,7 @@ struct CellRng : fuzz::SplitMix64 {  // seeded per (seed, cell, case): independe
   double sym() { return 2 * unit() - 1; }
   Vec3 direction() {
     Vec3 v;
-    do v = Vec3(sym(), sym(), sym()); while (dot(v, v) > 1 || dot(v, v) < 1e-3);
+    do v = fuzz::vec_z_first([&] { return sym(); }); while (dot(v, v) > 1 || dot(v, v) < 1e-3);
     return normalized(v);
   }
 };
@@ -31,7 +31,8 @@ Query cell_query(ShapeKind kind, int a, int b, CellRng& rng) {
   switch (kind) {
     case ShapeKind::sphere: {
       const double r = size * (1 + rng.unit());
-      const Vec3 target = centre + (1.1 * std::sqrt(rng.unit()) * r) * rng.direction();
+      const Vec3 towards = rng.direction();
+      const Vec3 target = centre + (1.1 * std::sqrt(rng.unit()) * r) * towards;
       return {Ray{Vec3::Zero(), target}, Sphere{centre, r}};
     }
     case ShapeKind::plane: {
@@ -47,8 +48,8 @@ Query cell_query(ShapeKind kind, int a, int b, CellRng& rng) {
       return {Ray{Vec3::Zero(), target}, t};
     }
     case ShapeKind::box: {
-      const Vec3 half = size * Vec3(0.5 + 0.5 * rng.unit(), 0.5 + 0.5 * rng.unit(), 0.5 + 0.5 * rng.unit());
-      const Vec3 target = centre + Vec3(1.1 * rng.sym() * half.x(), 1.1 * rng.sym() * half.y(), 1.1 * rng.sym() * half.z());
+      const Vec3 half = size * fuzz::vec_z_first([&] { return 0.5 + 0.5 * rng.unit(); });
+      const Vec3 target = centre + fuzz::vec_z_first([&] { return 1.1 * rng.sym(); }).cwiseProduct(half);
       return {Ray{Vec3::Zero(), target}, Box{centre - half, centre + half}};
     }
   }
@@ -56,6 +57,12 @@ Query cell_query(ShapeKind kind, int a, int b, CellRng& rng) {
 }
 
 }  // namespace
+
+Query stability_query(ShapeKind shape, int log2_scale, int log2_size, std::uint64_t seed, std::uint64_t i) {
+  CellRng rng{seed * 0x9E3779B97F4A7C15ull ^ (std::uint64_t(log2_scale + 4096) << 40) ^
+              (std::uint64_t(log2_size + 4096) << 20) ^ i};
+  return cell_query(shape, log2_scale, log2_size, rng);
+}
 
 std::map<std::string, std::vector<StabilityCell>> stability_study(ShapeKind shape,
                                                                   const std::vector<const Variant*>& variants,
@@ -73,8 +80,7 @@ std::map<std::string, std::vector<StabilityCell>> stability_study(ShapeKind shap
       std::vector<Query> queries;  // the cell's cases, so each variant answers them in one call
       std::vector<Verdict> exact;
       for (std::uint64_t i = 0; i < grid.cases_per_cell; ++i) {
-        CellRng rng{grid.seed * 0x9E3779B97F4A7C15ull ^ (std::uint64_t(a + 4096) << 40) ^ (std::uint64_t(b + 4096) << 20) ^ i};
-        Query q = cell_query(shape, a, b, rng);
+        Query q = stability_query(shape, a, b, grid.seed, i);
         if (!is_valid_query(q.ray, q.shape)) continue;
         exact.push_back(oracle.judge(q.ray, q.shape, rule));
         queries.push_back(std::move(q));

@@ -25,6 +25,9 @@ struct StabilityGrid {
   std::uint64_t seed = 1;
 };
 
+// Case i of cell (2^log2_scale, 2^log2_size): a pure function of its arguments (on every compiler).
+Query stability_query(ShapeKind shape, int log2_scale, int log2_size, std::uint64_t seed, std::uint64_t i);
+
 // Cells per variant name, in row-major order (size outer, scale inner).
 std::map<std::string, std::vector<StabilityCell>> stability_study(ShapeKind shape,
                                                                   const std::vector<const Variant*>& variants,
