@@ -3,7 +3,9 @@
 its disagreement rates and one shrunk failing case, as the markdown README shows.
 
 Usage: scripts/copied-code.py [BUILD_DIR] [COUNT]   (default build, 20000 cases per family)
-Each row is reproducible with the command printed beside it.
+Each row is reproducible with the command printed beside it. One thread: where the crash budget
+(--max-crashes) stops an example, how many cases it answered first depends on how threads
+interleave; everything else is the same for any thread count.
 """
 import json
 import os
@@ -22,20 +24,23 @@ EXAMPLES = [  # (variant, shape, how it is loaded)
 FAMILIES = ["random", "tangent", "grazing", "near-origin", "exit-entry", "extremes"]
 
 
-def main(build, count):
+def markdown(build, count):
+    """README's block: the table, a blank line, one bullet per example (scripts/readme-numbers.py
+    --full compares README's with it line by line)."""
     rows, cases = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for name, shape, load in EXAMPLES:
             load = load.format(b=build)
             out = os.path.join(tmp, name + ".jsonl")
             command = (f"{build}/rayproof fuzz {load} --variants {name} --shapes {shape} --count {count} "
-                       f"--seed 1 --threads 2 -o {name}.jsonl --summary {name}.json")
+                       f"--seed 1 --threads 1 -o {name}.jsonl --summary {name}.json")
             run = command.replace(f"-o {name}.jsonl", f"-o {out}").replace(f"--summary {name}.json", f"--summary {out}.json")
             subprocess.run(run, shell=True, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             tallies = json.load(open(out + ".json"))["tallies"]
             cells = []
             for family in FAMILIES:
-                t = tallies.get(f"{family}\t{name}")
+                # An --exec command's tallies go by NAME@SHAPE (the shapes it answers), a plugin's by NAME.
+                t = tallies.get(f"{family}\t{name}", tallies.get(f"{family}\t{name}@{shape}"))
                 if t is None:
                     cells.append("-")
                     continue
@@ -47,6 +52,10 @@ def main(build, count):
                 cell = f"{rate:.2f}% ({100.0 * t['wrong'] / t['cases']:.2f}% wrong)"
                 if failures:
                     cell += "; " + ", ".join(failures)
+                answered = t["cases"] + sum(t.get(k, 0) for k in ("not_representable", "crashes", "timeouts",
+                                                                    "protocol_errors", "plugin_errors"))
+                if answered < count:  # the crash budget (--max-crashes) stopped the variant
+                    cell += f", stopped after {answered} cases"
                 cells.append(cell)
             rows.append(f"| `{name}` | {shape} | " + " | ".join(cells) + " |")
             # One shrunk failing case: the first finding with a wrong class (else the first at all).
@@ -62,11 +71,12 @@ def main(build, count):
                 cases.append(f"- `{name}` ({found['family']}, {'shrunk' if 'shrunk_for' in found else 'as found'}): "
                              f"exact `{pick['expect']['class']}`, {what}:\n  `{json.dumps(case)}`\n  "
                              f"reproduce: `{command}`")
-    print("| example | shape | " + " | ".join(FAMILIES) + " |")
-    print("|---|---|" + "---|" * len(FAMILIES))
-    print("\n".join(rows))
-    print()
-    print("\n".join(cases))
+    return "\n".join(["| example | shape | " + " | ".join(FAMILIES) + " |", "|---|---|" + "---|" * len(FAMILIES)] + rows +
+                     [""] + cases)
+
+
+def main(build, count):
+    print(markdown(build, count))
 
 
 if __name__ == "__main__":

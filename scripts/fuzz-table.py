@@ -30,8 +30,14 @@ def main(path, threads):
 
 
 def rates(tallies, families):
-    print("| variant | " + " | ".join(families) + " |")
-    print("|---|" + "---|" * len(families))
+    for line in rate_rows(tallies, families):
+        print(line)
+
+
+def rate_rows(tallies, families):
+    """The rate table's lines: a header, a rule and one row per variant (scripts/readme-numbers.py
+    compares README's rows with these)."""
+    rows = ["| variant | " + " | ".join(families) + " |", "|---|" + "---|" * len(families)]
     for v in VARIANTS:
         cells = []
         for f in families:
@@ -43,7 +49,8 @@ def rates(tallies, families):
             if f.startswith("grazing") and v in ("moller-trumbore", "watertight", "certified-triangle"):
                 cell += f" · {t['shared_edge_holes']} holes"
             cells.append(cell)
-        print(f"| `{v}` | " + " | ".join(cells) + " |")
+        rows.append(f"| `{v}` | " + " | ".join(cells) + " |")
+    return rows
 
 
 def throughput(s, threads, families):
