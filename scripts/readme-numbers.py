@@ -14,6 +14,7 @@ machine and are labelled in README with the run they come from.
     scripts/fuzz-table.py prints them, and the table of the code people copy with its shrunk cases
     (scripts/copied-code.py, about 30 s); the throughput tables are timings, labelled with their run.
     Given a SUMMARY.json of that command (`--summary`), its tallies are used instead of a new run
+  - the `check` table of the bundled suite (`rayproof check scenes/cases/*.jsonl --format markdown`)
   - the number of tests `make test` runs, and how many of them exist only with Embree 3 (not with
     --no-test-count: the sanitizer build leaves some out)
 """
@@ -83,6 +84,21 @@ def copied_code_claims(readme, build):
     return [(f"copied-code block, line {i + 1}", [a], b) for i, (a, b) in enumerate(zip(said, regenerated))]
 
 
+def check_table_claims(readme, build):
+    """README's `check` table of the bundled suite, row by row, against what that command prints."""
+    cases = sorted(os.path.join(ROOT, "scenes", "cases", f) for f in os.listdir(os.path.join(ROOT, "scenes", "cases"))
+                   if f.endswith(".jsonl"))
+    with tempfile.TemporaryDirectory() as tmp:
+        printed = subprocess.run([os.path.join(build, "rayproof"), "check", *cases, "-o", os.path.join(tmp, "c.jsonl"),
+                                  "--format", "markdown"], check=True, capture_output=True, text=True).stderr
+    rows = [line for line in printed.splitlines() if line.startswith("|")]
+    if not rows or readme.count(rows[0]) != 1:
+        sys.exit("README.md: expected one check table headed " + repr(rows[0] if rows else "") +
+                 ": the check itself is out of date")
+    said = readme[readme.index(rows[0]):].splitlines()[:len(rows)]
+    return [(f"check table, line {i + 1}", [a], b) for i, (a, b) in enumerate(zip(said, rows))]
+
+
 def grazing_holes(build, tallies=None):
     if tallies is not None:  # the whole campaign has them already
         return {(family, name): tallies[family + "\t" + name]["shared_edge_holes"]
@@ -118,6 +134,7 @@ def main():
         given = after[0] if after and not after[0].startswith("--") else None
         tallies = json.load(open(given))["tallies"] if given else whole_campaign(build)
     holes = grazing_holes(build, tallies)
+    claims.extend(check_table_claims(readme, build))
     if tallies is not None:
         claims.extend(table_row_claims(readme, tallies))
         claims.extend(copied_code_claims(readme, build))
