@@ -73,7 +73,8 @@ void BM_EmbreePacket8(benchmark::State& state, RTCScene scene) {
     for (int k = 0; k < 8; ++k) {
       const Ray& r = rs[i++ % rs.size()];
       p.ray.org_x[k] = float(r.origin.x()), p.ray.org_y[k] = float(r.origin.y()), p.ray.org_z[k] = float(r.origin.z());
-      p.ray.dir_x[k] = float(r.direction.x()), p.ray.dir_y[k] = float(r.direction.y()), p.ray.dir_z[k] = float(r.direction.z());
+      p.ray.dir_x[k] = float(r.direction.x()), p.ray.dir_y[k] = float(r.direction.y()),
+      p.ray.dir_z[k] = float(r.direction.z());
       p.ray.tnear[k] = 0, p.ray.tfar[k] = INFINITY, p.ray.mask[k] = ~0u, p.ray.flags[k] = 0;
       p.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
     }

@@ -30,7 +30,8 @@ void answer_batches(benchmark::State& state, const Variant& v) {
     benchmark::DoNotOptimize(out.data());
   }
   state.SetItemsProcessed(state.iterations() * qs.size());
-  state.counters["per_test"] = benchmark::Counter(qs.size(), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["per_test"] =
+      benchmark::Counter(qs.size(), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
 // The built-in textbook formula, the loop `trade` and the campaigns run for a built-in.

@@ -22,7 +22,8 @@ void BM_Oracle(benchmark::State& state, ShapeKind kind, std::string family, bool
   }
   const OracleStats& s = oracle.stats(kind);
   const double queries = std::max<std::uint64_t>(1, s.queries);
-  state.counters["per_test"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["per_test"] =
+      benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["class_interval_pct"] = 100.0 * s.class_interval / queries;
   state.counters["class_expansion_pct"] = 100.0 * s.class_expansion / queries;
   state.counters["class_rational_pct"] = 100.0 * s.class_exact / queries;
@@ -41,7 +42,8 @@ void BM_OracleClass(benchmark::State& state, ShapeKind kind, std::string family)
   }
   const OracleStats& s = oracle.stats(kind);
   const double queries = std::max<std::uint64_t>(1, s.queries);
-  state.counters["per_test"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["per_test"] =
+      benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["class_beyond_static_pct"] = 100.0 * (s.class_interval + s.class_expansion + s.class_exact) / queries;
 }
 
@@ -53,15 +55,17 @@ void BM_CgalEpickTriangle(benchmark::State& state, std::string family) {
   auto P = [](const Vec3& v) { return K::Point_3(v.x(), v.y(), v.z()); };
   for (const Query& q : inputs(ShapeKind::triangle, family)) {
     const Triangle& t = std::get<Triangle>(q.shape);
-    cgal.push_back({K::Ray_3(P(q.ray.origin), K::Vector_3(q.ray.direction.x(), q.ray.direction.y(), q.ray.direction.z())),
-                    K::Triangle_3(P(t.v[0]), P(t.v[1]), P(t.v[2]))});
+    cgal.push_back(
+        {K::Ray_3(P(q.ray.origin), K::Vector_3(q.ray.direction.x(), q.ray.direction.y(), q.ray.direction.z())),
+         K::Triangle_3(P(t.v[0]), P(t.v[1]), P(t.v[2]))});
   }
   size_t i = 0;
   for (auto _ : state) {
     const auto& [r, t] = cgal[i++ % cgal.size()];
     benchmark::DoNotOptimize(CGAL::do_intersect(r, t));
   }
-  state.counters["per_test"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["per_test"] =
+      benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 const bool registered = [] {

@@ -69,8 +69,8 @@ const MeshScene* ten_triangles() {
 
 void rays_counter(benchmark::State& state) {
   state.counters["rays_per_s"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
-  state.counters["per_test"] = benchmark::Counter(double(state.iterations()),
-                                                  benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["per_test"] =
+      benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 void BM_BvhPrimary(benchmark::State& state, const MeshScene* (*scene)(), const char* variant) {
@@ -79,7 +79,8 @@ void BM_BvhPrimary(benchmark::State& state, const MeshScene* (*scene)(), const c
   const Variant& v = *find_variant(variant);
   size_t i = 0;
   for (auto _ : state) {
-    const SceneHit h = trace_kind(*s->index, ShapeKind::triangle, v, HitRule::nearest_contact, s->rays[i++ % s->rays.size()]);
+    const SceneHit h =
+        trace_kind(*s->index, ShapeKind::triangle, v, HitRule::nearest_contact, s->rays[i++ % s->rays.size()]);
     benchmark::DoNotOptimize(h.primitive);
   }
   rays_counter(state);
@@ -109,7 +110,8 @@ void BM_EmbreePrimary(benchmark::State& state, const MeshScene* (*scene)()) {
 const bool registered = [] {
   for (const char* v : {"moller-trumbore", "watertight"}) {
     benchmark::RegisterBenchmark(("scene/bunny/bvh/" + std::string(v)).c_str(), BM_BvhPrimary, bunny, v);
-    benchmark::RegisterBenchmark(("scene/ten-triangles/bvh/" + std::string(v)).c_str(), BM_BvhPrimary, ten_triangles, v);
+    benchmark::RegisterBenchmark(("scene/ten-triangles/bvh/" + std::string(v)).c_str(), BM_BvhPrimary, ten_triangles,
+                                 v);
   }
 #ifdef RAYPROOF_BENCH_EMBREE
   benchmark::RegisterBenchmark("scene/bunny/embree/single", BM_EmbreePrimary, bunny);

@@ -90,7 +90,8 @@ void BM_TracerNearestDirect(benchmark::State& state) {
   const rayproof_tracer* t = example_tracer();
   if (!b || !t) return state.SkipWithError("no bunny scene or example tracer");
   const auto mesh = *mesh_rounded_to_float(*b->mesh);
-  const rayproof_mesh m{mesh.vertices.data(), uint32_t(mesh.vertex_count()), mesh.indices.data(), uint32_t(mesh.triangle_count())};
+  const rayproof_mesh m{mesh.vertices.data(), uint32_t(mesh.vertex_count()), mesh.indices.data(),
+                        uint32_t(mesh.triangle_count())};
   void* scene = t->build(&m);
   const std::vector<rayproof_ray> rays = wire_rays(b->rays);
   std::vector<rayproof_trace> out(kBatch);
@@ -134,7 +135,10 @@ void BM_TracerNearestThroughWorker(benchmark::State& state) {
     state.SetItemsProcessed(state.items_processed() + std::int64_t(n));
   }
 }
-BENCHMARK(BM_TracerNearestThroughWorker)->Name("tracers/plugin-nearest/worker")->MinTime(0.5)->UseRealTime();  // the work is in another process
+BENCHMARK(BM_TracerNearestThroughWorker)
+    ->Name("tracers/plugin-nearest/worker")
+    ->MinTime(0.5)
+    ->UseRealTime();  // the work is in another process
 
 // Through the worker and judged: truth over the float mesh plus the kind of each answer.
 void BM_TracerJudged(benchmark::State& state) {
@@ -152,7 +156,8 @@ void BM_TracerJudged(benchmark::State& state) {
     const std::size_t n = std::min(kBatch, rays.size() - at);
     built.scene->nearest(std::span(rays).subspan(at, n), std::span(out).subspan(0, n));
     for (std::size_t i = 0; i < n; ++i)
-      right += oracle.judge_nearest(rays[at + i], oracle.truth(rays[at + i], false), out[i], Precision::f32).kind == TraceKind::right;
+      right += oracle.judge_nearest(rays[at + i], oracle.truth(rays[at + i], false), out[i], Precision::f32).kind ==
+               TraceKind::right;
     at = at + n == rays.size() ? 0 : at + n;
     state.SetItemsProcessed(state.items_processed() + std::int64_t(n));
   }

@@ -18,7 +18,8 @@ void BM_Variant(benchmark::State& state, const Variant* v, std::string family) {
     benchmark::DoNotOptimize(v->intersect(q.ray, q.shape, HitRule::nearest_contact));
   }
   state.counters["tests_per_s"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
-  state.counters["per_test"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["per_test"] =
+      benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 // The whole ring per iteration, in the contender's own layout (structure of arrays).

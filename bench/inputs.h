@@ -16,7 +16,8 @@ namespace rayproof::bench {
 inline constexpr size_t kRing = 4096;  // queries per input set: cache-resident, like a hot loop
 
 inline const std::vector<std::string>& bench_families() {
-  static const std::vector<std::string> names = {"random-hit", "random-miss", "tangent", "grazing", "near-origin", "extremes"};
+  static const std::vector<std::string> names = {"random-hit", "random-miss", "tangent",
+                                                 "grazing",    "near-origin", "extremes"};
   return names;
 }
 

@@ -52,9 +52,11 @@ void add_audit_command(CLI::App& app, int& exit_code) {
     TracerFlags tracer_flags;
   };
   auto opts = std::make_shared<Options>();
-  auto* cmd = app.add_subcommand("audit", "Render a scene exactly and with every variant of its shapes: which variant does it require?");
+  auto* cmd = app.add_subcommand(
+      "audit", "Render a scene exactly and with every variant of its shapes: which variant does it require?");
   cmd->add_option("scene", opts->scene, "scene file (docs/spec/scene.md, meshes as docs/spec/audit.md)")->required();
-  cmd->add_option("-o,--output", opts->dir, "output directory: audit.json, exact.png, VARIANT.png, VARIANT-diff.png, report.html")
+  cmd->add_option("-o,--output", opts->dir,
+                  "output directory: audit.json, exact.png, VARIANT.png, VARIANT-diff.png, report.html")
       ->required();
   add_variants_flag(cmd, opts->variants);
   cmd->add_flag("--headroom", opts->headroom, "also translate the scene by 2^k·(1, 0.75, 0.5), k = 0, 2, …, 62");
@@ -94,9 +96,9 @@ void add_audit_command(CLI::App& app, int& exit_code) {
     if (progress) progress->finish();
     studies::write_scene_audit(audit, opts->scene, opts->dir);
 
-    std::cerr << "rayproof audit: " << printable(opts->scene) << ", " << audit.width << "x" << audit.height << ": exact render "
-              << audit.exact_seconds << " s, " << audit.rays_beyond_intervals << " of " << audit.primary_rays
-              << " pixels needed expansions or rationals\n";
+    std::cerr << "rayproof audit: " << printable(opts->scene) << ", " << audit.width << "x" << audit.height
+              << ": exact render " << audit.exact_seconds << " s, " << audit.rays_beyond_intervals << " of "
+              << audit.primary_rays << " pixels needed expansions or rationals\n";
     std::fprintf(stderr, "%-24s %-9s %9s %7s %7s %7s %7s %6s %s\n", "variant", "shape", "ns/ray", "wrong", "holes",
                  "false", "shadow", "acne", audit.headroom ? "exact  headroom k" : "exact");
     for (const studies::VariantAudit& va : audit.variants) {

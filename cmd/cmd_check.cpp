@@ -41,21 +41,7 @@ void print_summary_table(const CheckSummary& summary, TableFormat format, std::o
 json summary_json(const CheckSummary& summary) {
   json j = json::object();
   for (const auto& [name, entry] : summary) {
-    const auto& [shape, t] = entry;
-    j[name] = {{"shape", std::string(to_string(shape))},
-               {"cases", t.cases},
-               {"agree", t.agree},
-               {"wrong", t.wrong},
-               {"cannot_tell", t.cannot_tell},
-               {"disagreements", t.confusion},
-               {"ulp", {{"count", t.ulps.count()},
-                        {"median", t.ulps.quantile(0.5)},
-                        {"p99", t.ulps.quantile(0.99)},
-                        {"max", t.ulps.max()}}},
-               {"bits", bits_json(t)}};
-    const json full = t.to_json();  // failures of external code, where there were any
-    for (const char* key : {"crashes", "timeouts", "protocol_errors", "plugin_errors", "not_representable", "ulp_own"})
-      if (full.contains(key)) j[name][key] = full[key];
+    j[name] = check_summary_json(entry.first, entry.second);
   }
   return j;
 }
@@ -66,11 +52,7 @@ void print_oracle_stats(std::ostream& out, const Oracle& oracle) {
   for (ShapeKind k : kAllShapeKinds) {
     const OracleStats& s = oracle.stats(k);
     if (s.queries == 0) continue;
-    const std::uint64_t beyond_static = s.class_interval + s.class_expansion + s.class_exact;
-    out << (first ? "" : "\n        ") << to_string(k) << ": " << s.queries << " queries; class beyond the static filter "
-        << beyond_static << " (intervals " << s.class_interval << ", expansions " << s.class_expansion << ", rationals "
-        << s.class_exact << "); t rounded " << s.rounding.rounded << " (expansions " << s.rounding.expansion
-        << ", rationals " << s.rounding.rational << ", exact midpoint test " << s.rounding.exact_fallbacks << ")";
+    out << (first ? "" : "\n        ") << to_string(k) << ": " << s.describe();
     first = false;
   }
   out << "\n";
@@ -79,19 +61,10 @@ void print_oracle_stats(std::ostream& out, const Oracle& oracle) {
 json oracle_stats_json(const Oracle& oracle) {
   json j = json::object();
   for (ShapeKind k : kAllShapeKinds) {
-    const OracleStats& s = oracle.stats(k);
-    j[std::string(to_string(k))] = {{"queries", s.queries},
-                                    {"class_interval", s.class_interval},
-                                    {"class_expansion", s.class_expansion},
-                                    {"class_exact", s.class_exact},
-                                    {"t_rounded", s.rounding.rounded},
-                                    {"t_expansion", s.rounding.expansion},
-                                    {"t_rational", s.rounding.rational},
-                                    {"t_exact_fallbacks", s.rounding.exact_fallbacks}};
+    j[std::string(to_string(k))] = oracle.stats(k).to_json();
   }
   return j;
 }
-
 
 struct CheckOptions {
   std::vector<std::string> files, variants, shapes;
@@ -114,8 +87,8 @@ struct CheckRun {
   std::vector<const Tracer*> tracers;                // judged on mesh cases
   std::map<std::string, std::map<std::string, long>> tracer_kinds;  // tracer → kind → cases
   long mesh_cases = 0;
-  std::vector<ShapeKind> shapes;             // --shapes: an --exec command (every shape) gets only these
-  std::set<std::string> ids;                 // --id: only these cases are judged
+  std::vector<ShapeKind> shapes;  // --shapes: an --exec command (every shape) gets only these
+  std::set<std::string> ids;      // --id: only these cases are judged
   std::set<std::string> ids_seen;
   std::vector<Disagreement> disagreements;  // for the examples and hints after the table (bounded)
   static constexpr std::size_t kMaxKept = 50000;
@@ -148,8 +121,8 @@ void judge_mesh_case(const std::string& path, long line, const MeshCase& c, Chec
     ++run.tracer_kinds[t->name][std::string(to_string(o.kind))];
     if (o.kind == TraceKind::crash || o.kind == TraceKind::timeout) {
       ++run.stopped;
-      std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id) << "': tracer " << t->name
-                << " stopped: " << to_string(o.kind) << " (" << o.reason << ")\n";
+      std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id) << "': tracer "
+                << t->name << " stopped: " << to_string(o.kind) << " (" << o.reason << ")\n";
     }
   }
   result["tracers"] = tracers;
@@ -158,8 +131,9 @@ void judge_mesh_case(const std::string& path, long line, const MeshCase& c, Chec
   for (const char* key : {"touched", "nearest", "t"})
     if (c.expect.contains(key) && c.expect.at(key) != expect.at(key)) {
       ++run.contradicted;
-      std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id) << "': expect." << key
-                << " is " << c.expect.at(key).dump() << ", the exact oracle says " << expect.at(key).dump() << "\n";
+      std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id) << "': expect."
+                << key << " is " << c.expect.at(key).dump() << ", the exact oracle says " << expect.at(key).dump()
+                << "\n";
     }
 }
 
@@ -206,8 +180,10 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
       d.variant = std::string(o.variant->name), d.c = c, d.file = path;
       d.exact = o.own_exact ? o.own_exact->cls : exact[i].cls;
       d.exact_t = o.own_exact ? o.own_exact->t : exact[i].t;
-      if (failed) d.failure = is_plugin_error(o.hit.failure) ? "plugin_error" : std::string(to_string(o.hit.failure));
-      else d.answered = o.hit.cls, d.answered_t = o.hit.has_t() ? std::optional<double>(o.hit.t) : std::nullopt;
+      if (failed)
+        d.failure = is_plugin_error(o.hit.failure) ? "plugin_error" : std::string(to_string(o.hit.failure));
+      else
+        d.answered = o.hit.cls, d.answered_t = o.hit.has_t() ? std::optional<double>(o.hit.t) : std::nullopt;
       run.disagreements.push_back(std::move(d));
     }
     add_to_summary(run.summary, exact[i], outcomes[i]);
@@ -216,7 +192,8 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
       const std::string why = expectation_mismatch(*c.expect, exact[i]);
       if (!why.empty()) {
         ++run.contradicted;
-        std::cerr << "rayproof: " << printable(path) << ":" << pending[i].line << ": case '" << printable(c.id) << "': " << why << "\n";
+        std::cerr << "rayproof: " << printable(path) << ":" << pending[i].line << ": case '" << printable(c.id)
+                  << "': " << why << "\n";
       }
     }
   }
@@ -288,8 +265,10 @@ int run_check(const CheckOptions& opts) {
   Progress progress("check");
   for (const std::string& path : opts.files) check_file(path, run, out, progress);
   progress.finish();
-  if (file) file->commit();
-  else std::cout.flush();
+  if (file)
+    file->commit();
+  else
+    std::cout.flush();
   print_summary_table(run.summary, *table_format_from_string(opts.format), std::cerr);
   for (const auto& [name, kinds] : run.tracer_kinds) {  // mesh cases: one line per tracer
     std::cerr << "tracer " << name << ":";
@@ -299,7 +278,8 @@ int run_check(const CheckOptions& opts) {
   if (opts.format != "json") print_digest(std::cerr, run.disagreements, run.variants);
   print_oracle_stats(std::cerr, run.oracle);
   for (const std::string& id : run.ids)
-    if (!run.ids_seen.count(id)) ++run.unreadable, std::cerr << "rayproof: --id " << printable(id) << ": no case has this id\n";
+    if (!run.ids_seen.count(id))
+      ++run.unreadable, std::cerr << "rayproof: --id " << printable(id) << ": no case has this id\n";
   for (const Variant* v : run.variants)
     if (v->external && !v->external->stop_reason().empty())
       std::cerr << "rayproof check: variant " << v->name << " stopped (" << v->external->stop_reason()
@@ -309,19 +289,21 @@ int run_check(const CheckOptions& opts) {
   if (summary_file) {
     AtomicFile& s = *summary_file;
     s.stream() << json_text(json{{"cases", run.cases},
-                       {"unreadable", run.unreadable},
-                       {"expect_disagreements", run.contradicted},
-                       {"rule", opts.rule},
-                       {"variants", summary_json(run.summary)},
-                       {"mesh_cases", run.mesh_cases},
-                       {"tracers", run.tracer_kinds},
-                       {"oracle", oracle_stats_json(run.oracle)}}, 2)
+                                 {"unreadable", run.unreadable},
+                                 {"expect_disagreements", run.contradicted},
+                                 {"rule", opts.rule},
+                                 {"variants", summary_json(run.summary)},
+                                 {"mesh_cases", run.mesh_cases},
+                                 {"tracers", run.tracer_kinds},
+                                 {"oracle", oracle_stats_json(run.oracle)}},
+                            2)
                << "\n";
     s.commit();
   }
   long answer_problems = 0;  // after the summary, so they are the last thing a user reads
   for (const Variant* v : answers)
-    for (const std::string& problem : peers::answers_problems(*v)) ++answer_problems, std::cerr << "rayproof: " << problem << "\n";
+    for (const std::string& problem : peers::answers_problems(*v))
+      ++answer_problems, std::cerr << "rayproof: " << problem << "\n";
   if (run.unopened > 0) return 2;
   return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0 || run.stopped > 0) ? 1 : 0;
 }
@@ -337,12 +319,14 @@ void add_check_command(CLI::App& app, int& exit_code) {
   add_rule_flag(cmd, opts->rule);
   add_external_flags(cmd, opts->ext);
   add_tracer_flags(cmd, opts->tracer_flags);
-  cmd->add_option("--answers", opts->answers, "NAME=FILE: answers your own program wrote for the cases (plugin.md); repeatable");
+  cmd->add_option("--answers", opts->answers,
+                  "NAME=FILE: answers your own program wrote for the cases (plugin.md); repeatable");
   cmd->add_option("--summary", opts->summary, "also write the summary as JSON to this file");
   cmd->add_option("-o,--output", opts->output, "write the per-case lines here (atomically) instead of stdout");
   add_format_flag(cmd, opts->format);
   cmd->add_flag("--exact-only", opts->exact_only, "skip the interval filter (decide every class in rationals)");
-  cmd->add_option("--id", opts->ids, "judge only the case with this id (repeatable): how fuzz and check replay one example");
+  cmd->add_option("--id", opts->ids,
+                  "judge only the case with this id (repeatable): how fuzz and check replay one example");
   cmd->callback([opts, &exit_code] { exit_code = run_check(*opts); });
 }
 

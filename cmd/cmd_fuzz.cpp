@@ -45,13 +45,14 @@ std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
       if (const char* min_text = std::getenv("SLURM_ARRAY_TASK_MIN")) {
         const std::uint64_t min = number(min_text, "SLURM_ARRAY_TASK_MIN");
         if (i < min)
-          throw CLI::ValidationError("--shard", "SLURM_ARRAY_TASK_ID " + std::to_string(i) + " is below SLURM_ARRAY_TASK_MIN " +
-                                                    std::to_string(min));
+          throw CLI::ValidationError("--shard", "SLURM_ARRAY_TASK_ID " + std::to_string(i) +
+                                                    " is below SLURM_ARRAY_TASK_MIN " + std::to_string(min));
         i -= min;
       }
     } else if (std::getenv("JOB_COMPLETION_INDEX")) {
       i = number(std::getenv("JOB_COMPLETION_INDEX"), "JOB_COMPLETION_INDEX");
-      if (text == "auto") throw CLI::ValidationError("--shard", "on Kubernetes give the completion count: --shard auto/N");
+      if (text == "auto")
+        throw CLI::ValidationError("--shard", "on Kubernetes give the completion count: --shard auto/N");
       n = number(text.c_str() + 5, "the count in auto/N");
     } else {
       throw CLI::ValidationError("--shard", "auto: neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX is set");
@@ -64,7 +65,8 @@ std::pair<unsigned, unsigned> parse_shard(const std::string& text) {
     n = number(text.substr(slash + 1).c_str(), "the shard count n in i/n");
   }
   if (n == 0 || i >= n)
-    throw CLI::ValidationError("--shard", "shard " + std::to_string(i) + " of " + std::to_string(n) + ": need 0 <= i < n");
+    throw CLI::ValidationError("--shard",
+                               "shard " + std::to_string(i) + " of " + std::to_string(n) + ": need 0 <= i < n");
   return {static_cast<unsigned>(i), static_cast<unsigned>(n)};
 }
 
@@ -74,7 +76,8 @@ struct FuzzOptions {
   std::vector<std::string> families{"all"}, shapes{"all"}, variants;
   std::string shard = "0/1", output, rule = "nearest", summary, format = "table", spawn_csv, construction = "both";
   static constexpr std::uint64_t kModeDefault = std::numeric_limits<std::uint64_t>::max();
-  std::uint64_t count = 100000, seed = 1, max_findings = kModeDefault, batch = 8192;  // findings: 1000 (variants) or 20 (tracers)
+  std::uint64_t count = 100000, seed = 1, max_findings = kModeDefault,
+                batch = 8192;  // findings: 1000 (variants) or 20 (tracers)
   std::uint64_t max_shrunk = fuzz::CampaignOptions{}.max_shrunk;
   int threads = 0;
   bool resume = false, no_shrink = false, keep_checkpoint = false;
@@ -98,7 +101,8 @@ fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
   o.shapes = parse_shapes(opts.shapes);
   if (!opts.variants.empty()) o.variants = parse_variants(opts.variants, o.shapes);
   std::tie(o.shard, o.shards) = parse_shard(opts.shard);
-  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings == FuzzOptions::kModeDefault ? 1000 : opts.max_findings, o.batch = opts.batch;
+  o.count = opts.count, o.seed = opts.seed,
+  o.max_findings = opts.max_findings == FuzzOptions::kModeDefault ? 1000 : opts.max_findings, o.batch = opts.batch;
   o.threads = thread_count(opts.threads);
   o.rule = parse_rule(opts.rule);
   o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
@@ -113,7 +117,8 @@ void run_tracer_fuzz(const FuzzOptions& opts) {
   o.families = parse_tracer_families(opts.families);
   o.tracers = parse_tracers(opts.tracers.names);
   std::tie(o.shard, o.shards) = parse_shard(opts.shard);
-  o.count = opts.count, o.seed = opts.seed, o.max_findings = opts.max_findings == FuzzOptions::kModeDefault ? 20 : opts.max_findings;
+  o.count = opts.count, o.seed = opts.seed,
+  o.max_findings = opts.max_findings == FuzzOptions::kModeDefault ? 20 : opts.max_findings;
   o.threads = thread_count(opts.threads);
   o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
   o.crash_after_batches = opts.crash_after;
@@ -135,8 +140,8 @@ void run_tracer_fuzz(const FuzzOptions& opts) {
   double seconds = 0;
   std::uint64_t rays = 0;
   for (const auto& [family, s] : report.seconds) seconds += s, rays += report.rays.at(family);
-  std::cerr << "rayproof fuzz: " << rays << " rays per tracer in " << std::fixed << std::setprecision(1) << seconds << " s ("
-            << o.threads << " threads), " << report.findings_written << " findings in " << o.output << "\n"
+  std::cerr << "rayproof fuzz: " << rays << " rays per tracer in " << std::fixed << std::setprecision(1) << seconds
+            << " s (" << o.threads << " threads), " << report.findings_written << " findings in " << o.output << "\n"
             << std::defaultfloat;
   if (summary) {
     summary->stream() << json_text(report.to_json(), 2) << "\n";
@@ -160,24 +165,28 @@ void run_fuzz(const FuzzOptions& opts) {
   };
   o.shrink_progress = [&](std::uint64_t done, std::uint64_t total) {
     if (isatty(2) && current)  // on the pair's line, cleared to its end; the next batch writes over it
-      std::fprintf(stderr, "\rfuzz %s/%s: shrinking findings %llu/%llu\033[K", std::string(to_string(current->first)).c_str(),
-                   std::string(to_string(current->second)).c_str(), static_cast<unsigned long long>(done),
-                   static_cast<unsigned long long>(total));
+      std::fprintf(stderr, "\rfuzz %s/%s: shrinking findings %llu/%llu\033[K",
+                   std::string(to_string(current->first)).c_str(), std::string(to_string(current->second)).c_str(),
+                   static_cast<unsigned long long>(done), static_cast<unsigned long long>(total));
   };
   const fuzz::CampaignReport report = fuzz::run_campaign(o);
   progress.finish();
   fuzz::print_report(report, o.threads, *table_format_from_string(opts.format), std::cerr);
   if (opts.format != "json") {  // a few lines a user reads: one case per kind, its replay, the hints
     std::vector<Case> findings;
-    read_case_file(o.output, [&](const Case& c, long) { findings.push_back(c); }, [](const CaseError&) {}, [](const MeshCase&, long) {});
+    read_case_file(
+        o.output, [&](const Case& c, long) { findings.push_back(c); }, [](const CaseError&) {},
+        [](const MeshCase&, long) {});
     std::vector<const Variant*> judged;
     for (const auto& [key, tally] : report.tallies)
-      if (const Variant* v = fuzz::variant_of_tally(key.name).first; v && std::find(judged.begin(), judged.end(), v) == judged.end())
+      if (const Variant* v = fuzz::variant_of_tally(key.name).first;
+          v && std::find(judged.begin(), judged.end(), v) == judged.end())
         judged.push_back(v);
     print_digest(std::cerr, disagreements_in_findings(findings, o.output), judged, [&](const std::string& name) {
       std::uint64_t holes = 0;
       for (const auto& [key, tally] : report.tallies)
-        if (const Variant* v = fuzz::variant_of_tally(key.name).first; v && v->name == name) holes += tally.shared_edge_holes;
+        if (const Variant* v = fuzz::variant_of_tally(key.name).first; v && v->name == name)
+          holes += tally.shared_edge_holes;
       return holes;
     });
   }
@@ -227,7 +236,9 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--spawn-csv", opts->spawn_csv,
                   "also run the spawn (shadow-acne) study on the chosen shapes and write its CSV here");
   add_format_flag(cmd, opts->format);
-  cmd->add_option("--max-findings", opts->max_findings, "findings written per family and shape (default 1000), or per family, tracer and mode (default 20); all are counted")
+  cmd->add_option("--max-findings", opts->max_findings,
+                  "findings written per family and shape (default 1000), or per family, tracer and mode (default 20); "
+                  "all are counted")
       ->check(kWholeNumber);
   cmd->add_option("--batch", opts->batch, "cases per batch (the unit of checkpointing)")->check(CLI::Range(2, 1 << 24));
   cmd->add_option("--summary", opts->summary, "also write the report as JSON");
@@ -236,8 +247,10 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->callback([opts, &exit_code] {
     load_externals(opts->ext);
     load_tracers(opts->tracers, opts->ext.case_timeout);
-    if (opts->tracers.given()) run_tracer_fuzz(*opts);
-    else run_fuzz(*opts);
+    if (opts->tracers.given())
+      run_tracer_fuzz(*opts);
+    else
+      run_fuzz(*opts);
     exit_code = 0;
   });
 }

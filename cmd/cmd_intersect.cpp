@@ -38,9 +38,8 @@ void add_intersect_command(CLI::App& app, int& exit_code) {
                 out["variants"][std::string(v->name)] = {{"error", std::string(to_string(h.failure))}};
                 continue;
               }
-              out["variants"][std::string(v->name)] = {
-                  {"class", std::string(to_string(h.cls))},
-                  {"t", h.has_t() ? json(hex_double(h.t)) : json(nullptr)}};
+              out["variants"][std::string(v->name)] = {{"class", std::string(to_string(h.cls))},
+                                                       {"t", h.has_t() ? json(hex_double(h.t)) : json(nullptr)}};
             }
             std::cout << json_text(out) << "\n";
           },

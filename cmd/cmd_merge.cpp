@@ -38,8 +38,8 @@ std::uint64_t id_number(const std::string& text, const std::string& id, const st
   std::uint64_t n = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
   if (text.empty() || ec != std::errc() || end != text.data() + text.size())
-    throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": id '" + printable_prefix(id, 80) + "': '" +
-                             printable_prefix(text, 40) + "' is not a whole number below 2^64");
+    throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": id '" + printable_prefix(id, 80) +
+                             "': '" + printable_prefix(text, 40) + "' is not a whole number below 2^64");
   return n;
 }
 
@@ -113,7 +113,8 @@ Report report_of(const json& j, const std::string& path, const char* what) {
   try {
     return Report::from_json(j);
   } catch (const FieldError& e) {
-    throw std::runtime_error(printable(path) + ": not a " + what + " summary: field '" + e.field + "': " + printable(e.what()));
+    throw std::runtime_error(printable(path) + ": not a " + what + " summary: field '" + e.field +
+                             "': " + printable(e.what()));
   } catch (const std::exception& e) {
     throw std::runtime_error(printable(path) + ": not a " + what + " summary: " + printable(e.what()));
   }
@@ -154,17 +155,19 @@ int run_merge(const MergeOptions& o) {
     for (const auto& [k, n] : shard.cases) merged.cases[k] += n;
     merged.shard_of = {shard.shard_of.campaign, 0, 1};  // merged: the whole of that campaign
   }
-  if (tracers && variants) throw std::runtime_error("merge: tracer and variant campaign summaries cannot be merged together");
+  if (tracers && variants)
+    throw std::runtime_error("merge: tracer and variant campaign summaries cannot be merged together");
   fuzz::check_one_campaign(shards);  // one campaign, each shard once, none missing
   // With summaries, every finding must come from their campaign's seed.
   std::optional<std::uint64_t> seed;
   if (!shards.empty() && shards.front().second.campaign.contains("seed"))
     seed = read_count(shards.front().second.campaign.at("seed"), "campaign.seed");
-  const CampaignOrder order = shards.empty() || tracers ? CampaignOrder() : CampaignOrder(shards.front().second.campaign);
+  const CampaignOrder order =
+      shards.empty() || tracers ? CampaignOrder() : CampaignOrder(shards.front().second.campaign);
   auto of_campaign = [&](FindingKey k, const std::string& path, long line) {
     if (seed && k.seed != *seed)
-      throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": a finding of seed " + std::to_string(k.seed) +
-                               ", but the summaries are of seed " + std::to_string(*seed));
+      throw std::runtime_error(printable(path) + ":" + std::to_string(line) + ": a finding of seed " +
+                               std::to_string(k.seed) + ", but the summaries are of seed " + std::to_string(*seed));
     if (k.tracer.empty()) k.pair_rank = order.of(k.family, k.shape);
     return k;
   };
@@ -190,7 +193,8 @@ int run_merge(const MergeOptions& o) {
         findings.emplace(of_campaign(key_of(c, path, line), path, line), text);
       } catch (const json::parse_error& e) {
         ++bad;
-        std::cerr << "rayproof: " << CaseError{path, line, "", std::string("malformed JSON: ") + e.what()}.to_string() << "\n";
+        std::cerr << "rayproof: " << CaseError{path, line, "", std::string("malformed JSON: ") + e.what()}.to_string()
+                  << "\n";
       } catch (const FieldError& e) {
         ++bad;
         std::cerr << "rayproof: " << CaseError{path, line, e.field, e.what()}.to_string() << "\n";
@@ -202,8 +206,10 @@ int run_merge(const MergeOptions& o) {
     for (const auto& [k, text] : findings) out->stream() << text << "\n";
     out->commit();
   }
-  if (tracers) fuzz::print_tracer_report(merged_tracers, *table_format_from_string(o.format), std::cerr);
-  else fuzz::print_report(merged, 1, *table_format_from_string(o.format), std::cerr);
+  if (tracers)
+    fuzz::print_tracer_report(merged_tracers, *table_format_from_string(o.format), std::cerr);
+  else
+    fuzz::print_report(merged, 1, *table_format_from_string(o.format), std::cerr);
   if (summary_out) {
     summary_out->stream() << json_text(tracers ? merged_tracers.to_json() : merged.to_json(), 2) << "\n";
     summary_out->commit();
@@ -217,7 +223,8 @@ int run_merge(const MergeOptions& o) {
 
 void add_merge_command(CLI::App& app, int& exit_code) {
   auto opts = std::make_shared<MergeOptions>();
-  auto* cmd = app.add_subcommand("merge", "Combine the shards of a campaign: tallies summed, findings deduplicated in order");
+  auto* cmd =
+      app.add_subcommand("merge", "Combine the shards of a campaign: tallies summed, findings deduplicated in order");
   cmd->add_option("--findings", opts->findings, "the shards' findings files")->expected(1, -1);
   cmd->add_option("--summaries", opts->summaries, "the shards' --summary files")->expected(1, -1);
   cmd->add_option("-o,--output", opts->output, "merged findings (JSON Lines)");

@@ -19,15 +19,17 @@ void add_render_command(CLI::App& app, int& exit_code) {
   auto* cmd = app.add_subcommand("render", "Render a scene file to PNG or PPM");
   cmd->add_option("scene", opts->scene, "scene file (docs/spec/scene.md)")->required();
   cmd->add_option("-o,--output", opts->output, "output image, .png or .ppm")->required();
-  cmd->add_option("--variants,--variant", opts->variants,
-                  "one variant per shape, comma separated or repeated (default: stable, direct, watertight, robust-slab)");
+  cmd->add_option(
+      "--variants,--variant", opts->variants,
+      "one variant per shape, comma separated or repeated (default: stable, direct, watertight, robust-slab)");
   add_rule_flag(cmd, opts->rule);
   add_external_flags(cmd, opts->ext);
   add_threads_flag(cmd, opts->threads);
   cmd->callback([opts, &exit_code] {
     load_externals(opts->ext);
     if (!is_image_path(opts->output))
-      throw CLI::ValidationError("--output", "'" + opts->output + "': the image type comes from the extension, .png or .ppm");
+      throw CLI::ValidationError("--output",
+                                 "'" + opts->output + "': the image type comes from the extension, .png or .ppm");
     RenderOptions ro;
     std::array<const Variant*, 4> chosen{};
     if (!opts->variants.empty())
@@ -56,8 +58,8 @@ void add_render_command(CLI::App& app, int& exit_code) {
     progress.finish();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     write_image(image, output);
-    std::cerr << "rayproof render: " << opts->output << " (" << image.width << "x" << image.height << ", "
-              << seconds << " s)\n";
+    std::cerr << "rayproof render: " << opts->output << " (" << image.width << "x" << image.height << ", " << seconds
+              << " s)\n";
     exit_code = 0;
     for (const Variant* v : ro.intersectors.by_shape)  // external code that stopped drew misses from then on
       if (v && v->external && !v->external->stop_reason().empty()) {

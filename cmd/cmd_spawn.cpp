@@ -53,7 +53,8 @@ void add_spawn_command(CLI::App& app, int& exit_code) {
     ExternalFlags ext;
   };
   auto opts = std::make_shared<Options>();
-  auto* cmd = app.add_subcommand("spawn", "Shadow-acne study: self-intersection rate per variant, spawn strategy and scale");
+  auto* cmd =
+      app.add_subcommand("spawn", "Shadow-acne study: self-intersection rate per variant, spawn strategy and scale");
   add_variants_flag(cmd, opts->variants);
   add_external_flags(cmd, opts->ext);
   add_shapes_flag(cmd, opts->shapes);
@@ -61,11 +62,12 @@ void add_spawn_command(CLI::App& app, int& exit_code) {
   add_count_flag(cmd, opts->count, "primary rays per variant and scale", std::uint64_t(1) << 40);
   add_seed_flag(cmd, opts->seed);
   add_threads_flag(cmd, opts->threads);
-  cmd->add_option("-o,--output", opts->output, "CSV: variant,shape,strategy,log2_scale,rays,self_intersections,rate")->required();
+  cmd->add_option("-o,--output", opts->output, "CSV: variant,shape,strategy,log2_scale,rays,self_intersections,rate")
+      ->required();
   cmd->callback([opts, &exit_code] {
     load_externals(opts->ext);
-    run_spawn_report(parse_variants(opts->variants, parse_shapes(opts->shapes)), parse_scales(opts->scales), opts->count,
-                     opts->seed, thread_count(opts->threads), opts->output);
+    run_spawn_report(parse_variants(opts->variants, parse_shapes(opts->shapes)), parse_scales(opts->scales),
+                     opts->count, opts->seed, thread_count(opts->threads), opts->output);
     exit_code = 0;
   });
 }

@@ -19,9 +19,11 @@ struct StabilityOutputs {
   StabilityOutputs(const std::string& dir, const std::vector<const Variant*>& variants) {
     std::filesystem::create_directories(dir);
     csv = std::make_unique<AtomicFile>(dir + "/stability.csv");
-    for (const Variant* v : variants) svgs[std::string(v->name)] = std::make_unique<AtomicFile>(dir + "/" + std::string(v->name) + ".svg");
+    for (const Variant* v : variants)
+      svgs[std::string(v->name)] = std::make_unique<AtomicFile>(dir + "/" + std::string(v->name) + ".svg");
   }
-  void write(ShapeKind shape, const std::string& rule, const std::map<std::string, std::vector<studies::StabilityCell>>& cells,
+  void write(ShapeKind shape, const std::string& rule,
+             const std::map<std::string, std::vector<studies::StabilityCell>>& cells,
              const studies::StabilityGrid& grid) {
     studies::write_stability_csv(cells, csv->stream());
     csv->commit();
@@ -56,10 +58,12 @@ void add_stability_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--from", opts->lo, "smallest log2 scale")->check(CLI::Range(-1000, 1000));
   cmd->add_option("--to", opts->hi, "largest log2 scale")->check(CLI::Range(-1000, 1000));
   cmd->add_option("--step", opts->step, "log2 step")->check(CLI::Range(1, 1000));
-  cmd->add_option("--count,--cases", opts->cases, "cases per cell")->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 24));
+  cmd->add_option("--count,--cases", opts->cases, "cases per cell")
+      ->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 24));
   add_seed_flag(cmd, opts->seed);
   add_threads_flag(cmd, opts->threads);
-  cmd->add_option("-o,--output", opts->output, "directory for stability.csv and one SVG heatmap per variant")->required();
+  cmd->add_option("-o,--output", opts->output, "directory for stability.csv and one SVG heatmap per variant")
+      ->required();
   cmd->callback([opts, ext, &exit_code] {
     load_externals(*ext);
     if (opts->lo > opts->hi) throw CLI::ValidationError("--from", "must not exceed --to");

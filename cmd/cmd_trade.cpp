@@ -30,8 +30,11 @@ void add_trade_command(CLI::App& app, int& exit_code) {
   add_external_flags(cmd, opts->ext);
   add_count_flag(cmd, opts->count, "cases per shape and family", std::uint64_t(1) << 30);
   add_seed_flag(cmd, opts->seed);
-  cmd->add_option("--threads", opts->threads, "threads for the oracle (timing is single-threaded)")->check(CLI::Range(0, 256));
-  cmd->add_option("-o,--output", opts->output, "CSV: variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max")->required();
+  cmd->add_option("--threads", opts->threads, "threads for the oracle (timing is single-threaded)")
+      ->check(CLI::Range(0, 256));
+  cmd->add_option("-o,--output", opts->output,
+                  "CSV: variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max")
+      ->required();
   cmd->add_option("--plot", opts->plot, "SVG scatter plot: ns per test against disagreement rate");
   cmd->add_option("--format", opts->format, "stdout table: markdown (default, paste-ready), table or json")
       ->check(CLI::IsMember({"table", "markdown", "json"}));
@@ -46,19 +49,20 @@ void add_trade_command(CLI::App& app, int& exit_code) {
       for (const std::string& n : names)
         if (std::none_of(contenders.begin(), contenders.end(), [&](const auto& c) { return c.name == n; }))
           throw CLI::ValidationError("--variants", "unknown contender '" + n + "' (see rayproof variants)");
-      std::erase_if(contenders, [&](const auto& c) { return std::find(names.begin(), names.end(), c.name) == names.end(); });
+      std::erase_if(contenders,
+                    [&](const auto& c) { return std::find(names.begin(), names.end(), c.name) == names.end(); });
     }
     AtomicFile csv(opts->output);  // before the work: a path that cannot be written fails now
     std::unique_ptr<AtomicFile> svg;
     if (!opts->plot.empty()) svg = std::make_unique<AtomicFile>(opts->plot);
-    const auto rows = studies::measure_trade(contenders, shapes, families, opts->count, opts->seed,
-                                             thread_count(opts->threads));
+    const auto rows =
+        studies::measure_trade(contenders, shapes, families, opts->count, opts->seed, thread_count(opts->threads));
     studies::write_trade_table(rows, *table_format_from_string(opts->format), std::cout);
     for (const studies::TradeRow& r : rows)  // external code that stopped: its row times nothing
       if (r.tally.crashes + r.tally.timeouts + r.tally.protocol_errors > 0) {
         const Variant* v = find_variant(r.variant);
-        std::cerr << "rayproof trade: " << r.variant << " stopped on " << to_string(r.shape) << "/" << to_string(r.family)
-                  << (v && v->external ? ": " + v->external->stop_reason() : std::string())
+        std::cerr << "rayproof trade: " << r.variant << " stopped on " << to_string(r.shape) << "/"
+                  << to_string(r.family) << (v && v->external ? ": " + v->external->stop_reason() : std::string())
                   << "; its later rows are left out of the plot and the Pareto front\n";
         exit_code = 1;
       }
@@ -75,10 +79,11 @@ void add_trade_command(CLI::App& app, int& exit_code) {
       // Embree's watertightness, judged by the oracle on the grazing family's shared-edge pairs.
       for (bool robust : {false, true}) {
         const auto holes = peers::embree_shared_edge_holes(opts->count / 2, opts->seed, robust);
-        std::cout << "\n" << (robust ? "embree-robust" : "embree") << " shared-edge holes: "
-                  << holes.holes - holes.holes_large << " of " << holes.crossing - holes.crossing_large
-                  << " pairs whose exact ray crosses the shared edge, coordinates below 2^40; "
-                  << holes.holes_large << " of " << holes.crossing_large << " at 2^40 and beyond\n";
+        std::cout << "\n"
+                  << (robust ? "embree-robust" : "embree") << " shared-edge holes: " << holes.holes - holes.holes_large
+                  << " of " << holes.crossing - holes.crossing_large
+                  << " pairs whose exact ray crosses the shared edge, coordinates below 2^40; " << holes.holes_large
+                  << " of " << holes.crossing_large << " at 2^40 and beyond\n";
       }
     }
 #endif

@@ -22,10 +22,11 @@ void add_variants_command(CLI::App& app, int& exit_code) {
     // NAME<TAB>SHAPE<TAB>PRECISION<TAB>SOURCE: double, float, or exact (the oracle's own).
     for (const Variant& v : all_variants()) {
       if (!std::any_of(chosen.begin(), chosen.end(), [&](ShapeKind k) { return v.handles(k); })) continue;
-      std::cout << v.name << "\t" << shapes_answered(v) << "\t"
-                << (v.is_oracle ? "exact" : to_string(v.precision)) << "\t" << v.source;
-      if (v.origin != "built-in") std::cout << " [" << v.origin << ", " << to_string(v.precision)
-                                            << (v.fixed_rule ? ", " + std::string(to_string(*v.fixed_rule)) : std::string()) << "]";
+      std::cout << v.name << "\t" << shapes_answered(v) << "\t" << (v.is_oracle ? "exact" : to_string(v.precision))
+                << "\t" << v.source;
+      if (v.origin != "built-in")
+        std::cout << " [" << v.origin << ", " << to_string(v.precision)
+                  << (v.fixed_rule ? ", " + std::string(to_string(*v.fixed_rule)) : std::string()) << "]";
       std::cout << "\n";
     }
     for (const BatchedVariant& b : batched_variants())

@@ -36,7 +36,8 @@ int main(int argc, char** argv) {
   errno = 0;
   std::cout.flush();
   if (!std::cout) {
-    std::cerr << "rayproof: standard output: write failed" << (errno ? std::string(": ") + std::strerror(errno) : "") << "\n";
+    std::cerr << "rayproof: standard output: write failed" << (errno ? std::string(": ") + std::strerror(errno) : "")
+              << "\n";
     return 2;
   }
   return exit_code;

@@ -50,11 +50,13 @@ namespace {
 CLI::Validator whole_number(std::uint64_t most) {
   return CLI::Validator(
       [most](std::string& text) {
-        const std::string bad = "expected a whole number from 1 to " + std::to_string(most) + " (e.g. 100000 or 1e5), got '" + text + "'";
+        const std::string bad =
+            "expected a whole number from 1 to " + std::to_string(most) + " (e.g. 100000 or 1e5), got '" + text + "'";
         if (text.empty() || text.find_first_not_of("0123456789.eE+") != std::string::npos) return bad;
         char* end = nullptr;
         const double value = std::strtod(text.c_str(), &end);
-        if (*end != '\0' || !(value >= 1) || value > static_cast<double>(most) || value != std::floor(value)) return bad;
+        if (*end != '\0' || !(value >= 1) || value > static_cast<double>(most) || value != std::floor(value))
+          return bad;
         text = std::to_string(static_cast<std::uint64_t>(value));
         return std::string();
       },
@@ -70,9 +72,12 @@ void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what
 }
 
 void add_external_flags(CLI::App* cmd, ExternalFlags& flags) {
-  cmd->add_option("--plugin", flags.plugins, "a shared library exporting rayproof_plugin (rayproof/plugin.h); repeatable");
-  cmd->add_option("--exec", flags.execs, "NAME=COMMAND: a command that answers cases over pipes (docs/spec/plugin.md); repeatable");
-  cmd->add_option("--case-timeout", flags.case_timeout, "seconds a plugin or exec command may take on one case (default 10)")
+  cmd->add_option("--plugin", flags.plugins,
+                  "a shared library exporting rayproof_plugin (rayproof/plugin.h); repeatable");
+  cmd->add_option("--exec", flags.execs,
+                  "NAME=COMMAND: a command that answers cases over pipes (docs/spec/plugin.md); repeatable");
+  cmd->add_option("--case-timeout", flags.case_timeout,
+                  "seconds a plugin or exec command may take on one case (default 10)")
       ->check(CLI::Range(0.001, 86400.0));
   cmd->add_option("--max-crashes", flags.max_crashes,
                   "crashes or hangs of one plugin or exec variant before it is stopped; after each a fresh worker "
@@ -109,10 +114,14 @@ void load_externals(const ExternalFlags& flags) {
 }
 
 void add_tracer_flags(CLI::App* cmd, TracerFlags& flags) {
-  cmd->add_option("--tracer", flags.plugins, "a shared library exporting rayproof_tracers (rayproof/tracer.h); repeatable");
-  cmd->add_option("--tracer-exec", flags.execs, "NAME=COMMAND: a whole tracer over pipes (docs/spec/tracer.md); repeatable");
-  cmd->add_option("--tracers", flags.names, "tracers to judge, comma list or `all` (default: all; see `rayproof variants`)");
-  cmd->add_option("--tracer-precision", flags.precision, "double, or float: --tracer-exec commands get float-rounded meshes and rays")
+  cmd->add_option("--tracer", flags.plugins,
+                  "a shared library exporting rayproof_tracers (rayproof/tracer.h); repeatable");
+  cmd->add_option("--tracer-exec", flags.execs,
+                  "NAME=COMMAND: a whole tracer over pipes (docs/spec/tracer.md); repeatable");
+  cmd->add_option("--tracers", flags.names,
+                  "tracers to judge, comma list or `all` (default: all; see `rayproof variants`)");
+  cmd->add_option("--tracer-precision", flags.precision,
+                  "double, or float: --tracer-exec commands get float-rounded meshes and rays")
       ->check(CLI::IsMember({"double", "float"}));
 }
 
@@ -162,7 +171,8 @@ std::vector<T> parse_named(const std::vector<std::string>& names, const std::vec
     }
     const auto value = lookup(name);
     if (!value)
-      throw CLI::ValidationError(flag, "unknown " + what + " '" + name + "'" + (known.empty() ? "" : " (known: " + known + ")"));
+      throw CLI::ValidationError(
+          flag, "unknown " + what + " '" + name + "'" + (known.empty() ? "" : " (known: " + known + ")"));
     if (std::find(out.begin(), out.end(), *value) == out.end()) out.push_back(*value);
   }
   return items.empty() ? all_values : out;
@@ -175,18 +185,17 @@ std::vector<ShapeKind> parse_shapes(const std::vector<std::string>& names) {
 }
 
 std::vector<fuzz::Family> parse_families(const std::vector<std::string>& names) {
-  return parse_named<fuzz::Family>(names, {std::begin(fuzz::kAllFamilies), std::end(fuzz::kAllFamilies)},
-                                   "--families", "family", fuzz::family_from_string);
+  return parse_named<fuzz::Family>(names, {std::begin(fuzz::kAllFamilies), std::end(fuzz::kAllFamilies)}, "--families",
+                                   "family", fuzz::family_from_string);
 }
 
 namespace {
 // Variants named by --exec or --answers: always judged (plugin.md, Selection).
-bool given_by_name(const Variant& v) {
-  return v.origin.rfind("exec: ", 0) == 0 || v.origin.rfind("answers: ", 0) == 0;
-}
+bool given_by_name(const Variant& v) { return v.origin.rfind("exec: ", 0) == 0 || v.origin.rfind("answers: ", 0) == 0; }
 }  // namespace
 
-std::vector<const Variant*> parse_variants(const std::vector<std::string>& names, const std::vector<ShapeKind>& shapes) {
+std::vector<const Variant*> parse_variants(const std::vector<std::string>& names,
+                                           const std::vector<ShapeKind>& shapes) {
   std::vector<const Variant*> every;
   for (const Variant& v : all_variants()) every.push_back(&v);
   auto lookup = [](const std::string& name) -> std::optional<const Variant*> {
@@ -195,7 +204,8 @@ std::vector<const Variant*> parse_variants(const std::vector<std::string>& names
   };
   std::string known;
   for (const Variant* v : every) known += (known.empty() ? "" : ", ") + std::string(v->name);
-  std::vector<const Variant*> chosen = parse_named<const Variant*>(names, every, "--variants", "variant", lookup, known);
+  std::vector<const Variant*> chosen =
+      parse_named<const Variant*>(names, every, "--variants", "variant", lookup, known);
   for (const Variant* v : every)  // --exec and --answers variants are always judged (plugin.md, Selection)
     if (given_by_name(*v) && std::find(chosen.begin(), chosen.end(), v) == chosen.end()) chosen.push_back(v);
   std::erase_if(chosen, [&](const Variant* v) {
@@ -219,9 +229,9 @@ std::vector<const Tracer*> parse_tracers(const std::vector<std::string>& names) 
 }
 
 std::vector<fuzz::TracerFamily> parse_tracer_families(const std::vector<std::string>& names) {
-  return parse_named<fuzz::TracerFamily>(names, {std::begin(fuzz::kAllTracerFamilies), std::end(fuzz::kAllTracerFamilies)},
-                                         "--families", "tracer family", fuzz::tracer_family_from_string,
-                                         "shared-edges, fans, axis-planes, needles, spawned, shells, far, random");
+  return parse_named<fuzz::TracerFamily>(
+      names, {std::begin(fuzz::kAllTracerFamilies), std::end(fuzz::kAllTracerFamilies)}, "--families", "tracer family",
+      fuzz::tracer_family_from_string, "shared-edges, fans, axis-planes, needles, spawned, shells, far, random");
 }
 
 HitRule parse_rule(const std::string& rule) {
@@ -252,7 +262,8 @@ void Progress::update(long done, long total) {
   const long percent = done * 100 / total;
   if (percent == last_percent_) return;
   last_percent_ = percent;
-  std::fprintf(stderr, "\r%s: %ld/%ld (%ld%%)\033[K", label_.c_str(), done, total, percent);  // cleared to the line's end
+  std::fprintf(stderr, "\r%s: %ld/%ld (%ld%%)\033[K", label_.c_str(), done, total,
+               percent);  // cleared to the line's end
   std::fflush(stderr);
 }
 
@@ -268,8 +279,8 @@ void print_digest(std::ostream& out, const std::vector<Disagreement>& all, const
   const auto replay = [&](const Disagreement& d) {
     const Variant* v = find_variant(d.variant);
     const std::string flags = v ? loading_flags(*v) : "";
-    return "rayproof check " + shell_quoted(printable(d.file)) + " --id " + shell_quoted(printable(d.c.id)) + " --variants " + d.variant +
-           (flags.empty() ? "" : " " + flags);
+    return "rayproof check " + shell_quoted(printable(d.file)) + " --id " + shell_quoted(printable(d.c.id)) +
+           " --variants " + d.variant + (flags.empty() ? "" : " " + flags);
   };
   print_examples_and_hints(out, all, replay, 12, shown, shared_edge_holes);
 }

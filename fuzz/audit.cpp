@@ -43,7 +43,8 @@ struct Auditor {
       tally.add(exact[i].cls, outcomes[i]);
       const bool finding = outcomes[i].hit.failed() ? is_plugin_error(outcomes[i].hit.failure)
                                                     : outcomes[i].agreement != Agreement::agrees;
-      if (finding && report.findings.size() < options.keep && shrinks < 4 * options.keep) keep(chunk[i], group, outcomes[i]);
+      if (finding && report.findings.size() < options.keep && shrinks < 4 * options.keep)
+        keep(chunk[i], group, outcomes[i]);
     }
     chunk.clear();
   }
@@ -95,9 +96,12 @@ AuditReport audit_function(const UserIntersector& fn, ShapeKind shape, const Aud
   std::vector<fuzz::Family> families;
   std::stringstream list(options.families);
   for (std::string name; std::getline(list, name, ',');) {
-    if (name == "all") families.assign(std::begin(fuzz::kAllFamilies), std::end(fuzz::kAllFamilies));
-    else if (auto f = fuzz::family_from_string(name)) families.push_back(*f);
-    else if (!name.empty()) throw std::invalid_argument("rayproof::audit: unknown family '" + name + "'");
+    if (name == "all")
+      families.assign(std::begin(fuzz::kAllFamilies), std::end(fuzz::kAllFamilies));
+    else if (auto f = fuzz::family_from_string(name))
+      families.push_back(*f);
+    else if (!name.empty())
+      throw std::invalid_argument("rayproof::audit: unknown family '" + name + "'");
   }
   for (fuzz::Family family : families) {
     const std::string group(to_string(family));

@@ -102,34 +102,36 @@ json CampaignReport::coverage() const {
 
 json CampaignReport::to_json() const {
   auto plain = [](const auto& v) { return json(v); };
-  json j = {{"tallies", keyed_to_json(tallies, [](const Tally& t) {
-             json j = t.to_json();
-             j["bits"] = bits_json(t);  // t error in bits beside the ULP histogram
-             return j;
-           })},
-          {"seconds", keyed_to_json(seconds, plain)},
-          {"shrink_seconds", keyed_to_json(shrink_seconds, plain)},
-          {"cases", keyed_to_json(cases, plain)},
-          {"findings_written", findings_written},
-          {"findings_unshrunk", findings_unshrunk},
-          {"coverage", coverage()}};
+  json j = {{"tallies", keyed_to_json(tallies,
+                                      [](const Tally& t) {
+                                        json j = t.to_json();
+                                        j["bits"] = bits_json(t);  // t error in bits beside the ULP histogram
+                                        return j;
+                                      })},
+            {"seconds", keyed_to_json(seconds, plain)},
+            {"shrink_seconds", keyed_to_json(shrink_seconds, plain)},
+            {"cases", keyed_to_json(cases, plain)},
+            {"findings_written", findings_written},
+            {"findings_unshrunk", findings_unshrunk},
+            {"coverage", coverage()}};
   shard_of.write_to(j);
   return j;
 }
 
 CampaignReport CampaignReport::from_json(const json& j) {
   CampaignReport r;
-  r.tallies = keyed_from_json<Tally>(j.at("tallies"), "tallies", [](const json& v, const std::string&) { return Tally::from_json(v); });
+  r.tallies = keyed_from_json<Tally>(j.at("tallies"), "tallies",
+                                     [](const json& v, const std::string&) { return Tally::from_json(v); });
   const auto seconds = [](const json& v, const std::string& field) {
     if (!v.is_number() || !(v.get<double>() >= 0)) throw FieldError(field, "expected seconds >= 0");
     return v.get<double>();
   };
   r.seconds = keyed_from_json<double>(j.at("seconds"), "seconds", seconds);
   // Summaries written before shrink times and unshrunk counts were kept have neither.
-  if (j.contains("shrink_seconds")) r.shrink_seconds = keyed_from_json<double>(j.at("shrink_seconds"), "shrink_seconds", seconds);
-  r.cases = keyed_from_json<std::uint64_t>(j.at("cases"), "cases", [](const json& v, const std::string& field) {
-    return read_count(v, field);
-  });
+  if (j.contains("shrink_seconds"))
+    r.shrink_seconds = keyed_from_json<double>(j.at("shrink_seconds"), "shrink_seconds", seconds);
+  r.cases = keyed_from_json<std::uint64_t>(
+      j.at("cases"), "cases", [](const json& v, const std::string& field) { return read_count(v, field); });
   r.findings_written = read_count(j.at("findings_written"), "findings_written");
   if (j.contains("findings_unshrunk")) r.findings_unshrunk = read_count(j.at("findings_unshrunk"), "findings_unshrunk");
   r.shard_of = ShardOf::read_from(j);
@@ -142,8 +144,15 @@ json campaign_identity(const CampaignOptions& o) {
   for (Construction x : o.constructions) c.push_back(std::string(to_string(x)));
   for (ShapeKind x : o.shapes) s.push_back(std::string(to_string(x)));
   for (const Variant* x : o.variants) v.push_back(std::string(x->name));
-  return {{"kind", "variants"}, {"families", f}, {"constructions", c}, {"shapes", s}, {"variants", v}, {"count", o.count},
-          {"seed", o.seed}, {"rule", std::string(to_string(o.rule))}, {"version", RAYPROOF_VERSION}};
+  return {{"kind", "variants"},
+          {"families", f},
+          {"constructions", c},
+          {"shapes", s},
+          {"variants", v},
+          {"count", o.count},
+          {"seed", o.seed},
+          {"rule", std::string(to_string(o.rule))},
+          {"version", RAYPROOF_VERSION}};
 }
 
 namespace {
@@ -164,9 +173,20 @@ json fingerprint(const CampaignOptions& o) {
     if (std::any_of(o.shapes.begin(), o.shapes.end(), [&](ShapeKind k) { return x.handles(k); }) &&
         (o.variants.empty() ? !x.is_oracle : std::find(o.variants.begin(), o.variants.end(), &x) != o.variants.end()))
       judged.push_back(std::string(x.name) + " " + std::string(x.origin));
-  return {{"families", f}, {"constructions", c}, {"shapes", s}, {"variants", v}, {"count", o.count}, {"seed", o.seed}, {"shard", o.shard},
-          {"shards", o.shards}, {"rule", std::string(to_string(o.rule))}, {"shrink", o.shrink},
-          {"max_findings", o.max_findings}, {"max_shrunk", o.max_shrunk}, {"batch", o.batch}, {"judged", judged}};
+  return {{"families", f},
+          {"constructions", c},
+          {"shapes", s},
+          {"variants", v},
+          {"count", o.count},
+          {"seed", o.seed},
+          {"shard", o.shard},
+          {"shards", o.shards},
+          {"rule", std::string(to_string(o.rule))},
+          {"shrink", o.shrink},
+          {"max_findings", o.max_findings},
+          {"max_shrunk", o.max_shrunk},
+          {"batch", o.batch},
+          {"judged", judged}};
 }
 
 // Where the campaign stands after the last completed batch.
@@ -183,11 +203,15 @@ struct Checkpoint {
 
 void save(const std::string& path, const CampaignOptions& o, const Checkpoint& c) {
   AtomicFile f(path);
-  f.stream() << json_text(json{{"fingerprint", fingerprint(o)}, {"pair", c.pair}, {"next", c.next},
-                     {"pair_started", c.pair_started}, {"findings_in_pair", c.findings_in_pair},
-                     {"shrunk_in_pair", c.shrunk_in_pair},
-                     {"findings_bytes", c.findings_bytes}, {"findings_hash", c.findings_hash.value},
-                     {"report", c.report.to_json()}})
+  f.stream() << json_text(json{{"fingerprint", fingerprint(o)},
+                               {"pair", c.pair},
+                               {"next", c.next},
+                               {"pair_started", c.pair_started},
+                               {"findings_in_pair", c.findings_in_pair},
+                               {"shrunk_in_pair", c.shrunk_in_pair},
+                               {"findings_bytes", c.findings_bytes},
+                               {"findings_hash", c.findings_hash.value},
+                               {"report", c.report.to_json()}})
              << "\n";
   f.commit();
 }
@@ -199,7 +223,8 @@ Checkpoint load(const std::string& path, const CampaignOptions& o) {
   try {
     const json j = parse_json_text(text.str());
     if (j.at("fingerprint") != fingerprint(o))
-      throw std::runtime_error(path + ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
+      throw std::runtime_error(path +
+                               ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
     Checkpoint c;
     c.pair = j.at("pair"), c.next = j.at("next"), c.pair_started = j.at("pair_started");
     c.findings_in_pair = j.at("findings_in_pair"), c.findings_bytes = j.at("findings_bytes");
@@ -268,7 +293,7 @@ struct Finding {
   GeneratedCase generated;
   const Variant* first_disagreeing;  // or the first that failed on it (plugin.md: crash, timeout, ...)
   HitFailure failure = HitFailure::none;
-  std::string kind;  // "VARIANT exact->reported" or "VARIANT failure": what max_shrunk counts
+  std::string kind;    // "VARIANT exact->reported" or "VARIANT failure": what max_shrunk counts
   bool shrink = true;  // false: written as found (beyond max_shrunk)
 };
 
@@ -296,7 +321,7 @@ struct Worker {
 };
 
 struct Judged {
-  std::vector<Finding> findings;  // in index order
+  std::vector<Finding> findings;    // in index order
   std::vector<EdgeEvidence> edges;  // by case, for grazing triangles only
 };
 
@@ -343,7 +368,8 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
       first.assign(n, nullptr), failure.assign(n, HitFailure::none), reported.assign(n, HitClass::miss);
       for (size_t k = 0; k < n && pairs_of_triangles; ++k) {
         EdgeEvidence& edge = judged.edges[chunk + k - b.start];
-        edge.shared_edge = is_shared_edge_pair(cases[k]), edge.exact = exact[k], edge.variant_hit.resize(variants.size());
+        edge.shared_edge = is_shared_edge_pair(cases[k]), edge.exact = exact[k],
+        edge.variant_hit.resize(variants.size());
         edge.own.assign(variants.size(), std::nullopt);
       }
       for (size_t vi = 0; vi < variants.size(); ++vi) {
@@ -354,7 +380,8 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         if (direct) {
           for (size_t k = 0; k < n; ++k) {
             const Hit h = v.kernel(cases[k].ray, cases[k].shape, o.rule);
-            if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k]) first[k] = &v, reported[k] = h.cls;
+            if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k])
+              first[k] = &v, reported[k] = h.cls;
             if (pairs_of_triangles) judged.edges[chunk + k - b.start].variant_hit[vi] = h.cls != HitClass::miss;
           }
           continue;
@@ -367,11 +394,13 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
             const Hit& h = me.hits[k];
             if (h.failed()) {
               me.tallies[vi].add(exact[k].cls, VariantOutcome{&v, h});
-              if ((stops_variant(h.failure) || is_plugin_error(h.failure)) && !first[k]) first[k] = &v, failure[k] = h.failure;
+              if ((stops_variant(h.failure) || is_plugin_error(h.failure)) && !first[k])
+                first[k] = &v, failure[k] = h.failure;
             } else if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k]) {
               first[k] = &v, reported[k] = h.cls;
             }
-            if (pairs_of_triangles) judged.edges[chunk + k - b.start].variant_hit[vi] = !h.failed() && h.cls != HitClass::miss;
+            if (pairs_of_triangles)
+              judged.edges[chunk + k - b.start].variant_hit[vi] = !h.failed() && h.cls != HitClass::miss;
           }
           continue;
         }
@@ -385,8 +414,10 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           if (pairs_of_triangles) {
             EdgeEvidence& edge = judged.edges[chunk + k - b.start];
             edge.variant_hit[vi] = !r.hit.failed() && r.hit.cls != HitClass::miss;
-            if (r.own_exact) edge.own[vi] = Verdict{r.own_exact->cls, r.own_exact->t, std::nullopt, r.own_exact->front};
-            else if (r.hit.failure == HitFailure::not_representable) edge.own[vi] = Verdict{};  // not asked: no hole
+            if (r.own_exact)
+              edge.own[vi] = Verdict{r.own_exact->cls, r.own_exact->t, std::nullopt, r.own_exact->front};
+            else if (r.hit.failure == HitFailure::not_representable)
+              edge.own[vi] = Verdict{};  // not asked: no hole
           }
         }
       }
@@ -420,7 +451,8 @@ void count_shared_edge_holes(const Batch& b, const Judged& judged, const std::ve
       const Verdict& a = first.own[vi] ? *first.own[vi] : first.exact;
       const Verdict& c = second.own[vi] ? *second.own[vi] : second.exact;
       if (crosses_shared_edge(a, c) && !first.variant_hit[vi] && !second.variant_hit[vi])
-        ++report.tallies[{family_label(b.family, b.construction), tally_name(*variants[vi], b.shape)}].shared_edge_holes;
+        ++report.tallies[{family_label(b.family, b.construction), tally_name(*variants[vi], b.shape)}]
+              .shared_edge_holes;
     }
   }
 }
@@ -450,8 +482,8 @@ json disagreeing_answers(const std::vector<const Variant*>& variants, Oracle& or
 std::string finding_line(const Batch& b, const Finding& f, const std::vector<const Variant*>& variants,
                          const CampaignOptions& o, Oracle& oracle) {
   Case c;
-  c.id = family_label(b.family, b.construction) + "/" + std::string(to_string(b.shape)) + "/" + std::to_string(o.seed) + "/" +
-         std::to_string(f.index);
+  c.id = family_label(b.family, b.construction) + "/" + std::string(to_string(b.shape)) + "/" + std::to_string(o.seed) +
+         "/" + std::to_string(f.index);
   c.ray = f.generated.ray;
   c.shape = f.generated.shape;
   const Case original = c;
@@ -462,28 +494,33 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
   // (found.rule says which): the finding replays green under `check`.
   const Verdict exact = oracle.judge(c.ray, c.shape, HitRule::nearest_contact);
   c.expect = Expectation{exact.cls, exact.t};
-  c.found = {{"family", std::string(to_string(b.family))},
-             {"construction", std::string(to_string(has_full_construction(b.family) ? b.construction : Construction::full))},
-             {"seed", o.seed},
-             {"index", f.index},
-             {"detail", f.generated.detail},
-             {"rule", std::string(to_string(o.rule))},
-             {"disagreeing", disagreeing_answers(variants, oracle, c, o.rule)}};
+  c.found = {
+      {"family", std::string(to_string(b.family))},
+      {"construction", std::string(to_string(has_full_construction(b.family) ? b.construction : Construction::full))},
+      {"seed", o.seed},
+      {"index", f.index},
+      {"detail", f.generated.detail},
+      {"rule", std::string(to_string(o.rule))},
+      {"disagreeing", disagreeing_answers(variants, oracle, c, o.rule)}};
   // Asked again, external code may answer otherwise (a plugin error that comes and goes): the
   // finding still names the variant it was found for, never an empty disagreeing.
   if (c.found["disagreeing"].empty())
     c.found["disagreeing"][std::string(f.first_disagreeing->name)] = {
-        {"error", f.failure != HitFailure::none ? std::string(to_string(f.failure)) : std::string("not reproduced when asked again")}};
+        {"error", f.failure != HitFailure::none ? std::string(to_string(f.failure))
+                                                : std::string("not reproduced when asked again")}};
   if (f.failure != HitFailure::none) {
     c.found["kind"] = is_plugin_error(f.failure) ? "plugin_error" : std::string(to_string(f.failure));
     c.found["variant"] = std::string(f.first_disagreeing->name);
     if (f.first_disagreeing->external) c.found["reason"] = f.first_disagreeing->external->last_failure();
     if (is_plugin_error(f.failure)) c.found["reason"] = std::string(to_string(f.failure));
-    if (stops_variant(f.failure)) c.found["disagreeing"][std::string(f.first_disagreeing->name)] = {{"error", c.found["kind"]}};
+    if (stops_variant(f.failure))
+      c.found["disagreeing"][std::string(f.first_disagreeing->name)] = {{"error", c.found["kind"]}};
   }
-  if (o.shrink && stops_variant(f.failure)) c.found["not_shrunk"] = "code that stopped cannot be asked again";
+  if (o.shrink && stops_variant(f.failure))
+    c.found["not_shrunk"] = "code that stopped cannot be asked again";
   else if (o.shrink && !f.shrink)
-    c.found["not_shrunk"] = "beyond the " + std::to_string(o.max_shrunk) + " shrunk for " + f.kind + " in this family and shape";
+    c.found["not_shrunk"] =
+        "beyond the " + std::to_string(o.max_shrunk) + " shrunk for " + f.kind + " in this family and shape";
   if (shrinkable) {
     c.found["shrunk_for"] = std::string(f.first_disagreeing->name);
     const json now = case_to_json(c), before = case_to_json(original);
@@ -500,9 +537,10 @@ std::vector<std::string> shrink_and_format(const Batch& b, const std::vector<Fin
   std::vector<std::string> lines(findings.size());
   const int threads = static_cast<int>(workers.size());
   std::atomic<std::uint64_t> done{0};
-  const std::uint64_t to_shrink = o.shrink ? static_cast<std::uint64_t>(std::count_if(
-                                                 findings.begin(), findings.end(), [](const Finding& f) { return f.shrink; }))
-                                           : 0;
+  const std::uint64_t to_shrink =
+      o.shrink ? static_cast<std::uint64_t>(
+                     std::count_if(findings.begin(), findings.end(), [](const Finding& f) { return f.shrink; }))
+               : 0;
   run_workers(threads, [&](int w) {
     for (size_t k = w; k < findings.size(); k += threads) {
       lines[k] = finding_line(b, findings[k], variants, o, workers[w].oracle);
@@ -539,7 +577,8 @@ CampaignReport run_campaign(const CampaignOptions& o) {
   Checkpoint cp = open_findings(o, checkpoint_path, out);
   std::vector<Worker> workers(std::max(1, o.threads));
   long batches_done = 0;
-  for (; cp.pair < pairs.size(); ++cp.pair, cp.pair_started = false, cp.findings_in_pair = 0, cp.shrunk_in_pair.clear()) {
+  for (; cp.pair < pairs.size();
+       ++cp.pair, cp.pair_started = false, cp.findings_in_pair = 0, cp.shrunk_in_pair.clear()) {
     const auto [family, construction, shape] = pairs[cp.pair];
     std::vector<const Variant*> variants = variants_for(shape);
     std::erase_if(variants, [&](const Variant* v) {
@@ -584,15 +623,18 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       if (o.crash_after_batches >= 0 && ++batches_done > o.crash_after_batches) std::_Exit(3);  // testing hook
       cp.report.cases[pair_key] += b.size();
       cp.report.seconds[pair_key] += check_seconds;
-      cp.report.shrink_seconds[pair_key] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+      cp.report.shrink_seconds[pair_key] +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
       cp.next = b.end;
       cp.findings_bytes = std::filesystem::file_size(o.output);
       save(checkpoint_path, o, cp);
       if (o.progress) o.progress(family, shape, b.end - lo, hi - lo);
     }
   }
-  if (o.keep_checkpoint) save(checkpoint_path, o, cp);
-  else std::filesystem::remove(checkpoint_path);  // complete: nothing to resume
+  if (o.keep_checkpoint)
+    save(checkpoint_path, o, cp);
+  else
+    std::filesystem::remove(checkpoint_path);  // complete: nothing to resume
   cp.report.shard_of = {campaign_identity(o), o.shard, o.shards};
   return cp.report;
 }
@@ -620,9 +662,9 @@ void print_report(const CampaignReport& r, int threads, TableFormat format, std:
     const auto shrinking = r.shrink_seconds.find(k);
     const double shrink = shrinking != r.shrink_seconds.end() ? shrinking->second : 0;
     out << "throughput " << k.family << "/" << k.name << ": " << n << " cases checked in " << std::fixed
-        << std::setprecision(2) << seconds << " s, " << std::setprecision(0) << (seconds > 0 ? n / seconds / threads : 0)
-        << " cases/s per core (" << threads << " threads); findings shrunk and written in " << std::setprecision(2)
-        << shrink << " s\n"
+        << std::setprecision(2) << seconds << " s, " << std::setprecision(0)
+        << (seconds > 0 ? n / seconds / threads : 0) << " cases/s per core (" << threads
+        << " threads); findings shrunk and written in " << std::setprecision(2) << shrink << " s\n"
         << std::defaultfloat;
   }
   if (r.findings_unshrunk > 0)

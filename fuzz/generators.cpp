@@ -24,8 +24,6 @@ std::optional<Family> family_from_string(std::string_view s) {
   return std::nullopt;
 }
 
-bool is_shared_edge_pair(const GeneratedCase& c) { return c.detail.rfind("shared-edge", 0) == 0; }
-
 std::string_view to_string(Construction c) { return c == Construction::full ? "full" : "exact"; }
 
 bool has_full_construction(Family f) { return f != Family::random && f != Family::near_origin; }
@@ -39,11 +37,16 @@ namespace {
 struct Rng : SplitMix64 {
   double uniform(double lo, double hi) { return lo + (hi - lo) * unit(); }
   long integer(long lo, long hi) { return lo + static_cast<long>(next() % std::uint64_t(hi - lo + 1)); }
-  Vec3 ivec(long r) { return vec_z_first([&] { return double(integer(-r, r)); }); }
-  Vec3 uvec(double r) { return vec_z_first([&] { return uniform(-r, r); }); }
+  Vec3 ivec(long r) {
+    return vec_z_first([&] { return double(integer(-r, r)); });
+  }
+  Vec3 uvec(double r) {
+    return vec_z_first([&] { return uniform(-r, r); });
+  }
   Vec3 direction() {  // a random unit-ish vector (not exactly unit; any non-zero vector will do)
     Vec3 v;
-    do v = uvec(1); while (dot(v, v) > 1 || dot(v, v) < 1e-4);
+    do v = uvec(1);
+    while (dot(v, v) > 1 || dot(v, v) < 1e-4);
     return v;
   }
 };
@@ -63,16 +66,20 @@ struct Builder {
     const double m = 1 + rng.unit();  // [1, 2): every mantissa bit random
     return std::ldexp(rng.integer(0, 1) ? m : -m, k - 1);
   }
-  Vec3 full_vec(int k) { return vec_z_first([&] { return full_number(k - static_cast<int>(rng.integer(0, 3))); }); }
+  Vec3 full_vec(int k) {
+    return vec_z_first([&] { return full_number(k - static_cast<int>(rng.integer(0, 3))); });
+  }
   Vec3 full_direction() {  // full mantissas, no component much smaller than the others
     Vec3 d;
-    do d = full_vec(0); while (dot(d, d) < 0.1);
+    do d = full_vec(0);
+    while (dot(d, d) < 0.1);
     return d;
   }
   // A unit-ish vector perpendicular to d, computed in double (so only nearly perpendicular).
   Vec3 full_perpendicular(const Vec3& d) {
     Vec3 p;
-    do p = cross(d, full_direction()); while (dot(p, p) < 1e-3 * dot(d, d));
+    do p = cross(d, full_direction());
+    while (dot(p, p) < 1e-3 * dot(d, d));
     return p / std::sqrt(dot(p, p));
   }
   // A ray through `at` (computed in double) along d: o = at − s·d, s ∈ [1, 2^12) with a full
@@ -115,9 +122,9 @@ struct Builder {
     Vec3 at = point_in(b);
     Vec3 dir = full_direction() * s;
     at.x() = b.min.x();
-    if (mode == 0) dir.x() = 0;                       // along the face x = min
-    if (mode >= 1) at.y() = b.min.y();                // at the edge x = min, y = min
-    if (mode == 1) dir.x() = 0, dir.y() = 0;          // along it
+    if (mode == 0) dir.x() = 0;                                                  // along the face x = min
+    if (mode >= 1) at.y() = b.min.y();                                           // at the edge x = min, y = min
+    if (mode == 1) dir.x() = 0, dir.y() = 0;                                     // along it
     if (mode == 2) dir.x() = std::fabs(dir.x()), dir.y() = -std::fabs(dir.y());  // touching it
     if (mode == 3) at.z() = b.min.z(), dir = Vec3(std::fabs(dir.x()), -std::fabs(dir.y()), -std::fabs(dir.z()));
     static const char* what[] = {"along-face-full", "along-edge-full", "touch-edge-full", "touch-corner-full"};
@@ -126,7 +133,8 @@ struct Builder {
 
   Triangle full_triangle(const Vec3& centre, int k) {
     Triangle t;
-    do t = Triangle{{centre + full_vec(k), centre + full_vec(k), centre + full_vec(k)}}; while (degenerate_reason(t));
+    do t = Triangle{{centre + full_vec(k), centre + full_vec(k), centre + full_vec(k)}};
+    while (degenerate_reason(t));
     return t;
   }
   Box full_box(const Vec3& centre, int k) {
@@ -154,21 +162,24 @@ struct Builder {
         const double dy = -std::fabs(full_number(k));
         const double dx = std::fabs(full_number(k));
         const Vec3 d(dx, dy, dz);
-        return {full_ray_through(at, d), b, std::string(corner ? "through-corner-full" : "through-edge-full") + "/2^" + std::to_string(k)};
+        return {full_ray_through(at, d), b,
+                std::string(corner ? "through-corner-full" : "through-edge-full") + "/2^" + std::to_string(k)};
       }
       case ShapeKind::sphere: {  // a chord at angle 2^-j to the tangent plane at P
         const double r = std::fabs(full_number(k));
         const Vec3 t = full_direction() * s, n = full_perpendicular(t);
         const int j = static_cast<int>(rng.integer(10, 40));
         const Vec3 d = t - std::ldexp(r, -j) * n;
-        return {full_ray_through(m + r * n, d), Sphere{m, r}, "chord-full-2^-" + std::to_string(j) + "/2^" + std::to_string(k)};
+        return {full_ray_through(m + r * n, d), Sphere{m, r},
+                "chord-full-2^-" + std::to_string(j) + "/2^" + std::to_string(k)};
       }
       case ShapeKind::plane: break;
     }
     const Vec3 n = full_direction();
     const int j = static_cast<int>(rng.integer(10, 40));
     const Vec3 d = full_perpendicular(n) * s - std::ldexp(s, -j) * n;
-    return {full_ray_through(m, d), Plane{n, dot(n, m)}, "glancing-full-2^-" + std::to_string(j) + "/2^" + std::to_string(k)};
+    return {full_ray_through(m, d), Plane{n, dot(n, m)},
+            "glancing-full-2^-" + std::to_string(j) + "/2^" + std::to_string(k)};
   }
 
   // Pair p = index/2: two triangles sharing the edge v0 v1 (full mantissas), the ray through a
@@ -189,8 +200,11 @@ struct Builder {
     Vec3 d = pair.full_direction() * std::ldexp(1.0, k);
     if (dot(d, n) > 0) d = -d;  // towards the front of the first triangle
     const Triangle t = index % 2 == 0 ? Triangle{{v0, v1, v2}} : Triangle{{v1, v0, v3}};
-    const std::string what = std::string(w16 == 0 || w16 == 16 ? "vertex" : "shared-edge") + (index % 2 ? "/B" : "/A");
-    return {pair.full_ray_through(target, d), t, what + "/full/2^" + std::to_string(k)};
+    const bool at_vertex = w16 == 0 || w16 == 16;
+    const std::string what = std::string(at_vertex ? "vertex" : "shared-edge") + (index % 2 ? "/B" : "/A");
+    GeneratedCase c{pair.full_ray_through(target, d), t, what + "/full/2^" + std::to_string(k)};
+    c.shared_edge = !at_vertex;
+    return c;
   }
 
   GeneratedCase exit_entry_full(ShapeKind kind) {
@@ -254,13 +268,15 @@ struct Builder {
   // A non-zero integer vector perpendicular to n.
   Vec3 perpendicular(const Vec3& n) {
     Vec3 t;
-    do t = cross(n, rng.ivec(5)); while (t == Vec3::Zero());
+    do t = cross(n, rng.ivec(5));
+    while (t == Vec3::Zero());
     return t;
   }
 
   Triangle integer_triangle(long r) {
     Triangle t;
-    do t = Triangle{{rng.ivec(r), rng.ivec(r), rng.ivec(r)}}; while (degenerate_reason(t));
+    do t = Triangle{{rng.ivec(r), rng.ivec(r), rng.ivec(r)}};
+    while (degenerate_reason(t));
     return t;
   }
 
@@ -279,7 +295,8 @@ struct Builder {
       case ShapeKind::plane: shape = Plane{rng.direction(), rng.uniform(-s, s)}; break;
       case ShapeKind::triangle: {
         Triangle t;
-        do t = Triangle{{rng.uvec(s), rng.uvec(s), rng.uvec(s)}}; while (degenerate_reason(t));
+        do t = Triangle{{rng.uvec(s), rng.uvec(s), rng.uvec(s)}};
+        while (degenerate_reason(t));
         shape = t;
         break;
       }
@@ -393,16 +410,20 @@ struct Builder {
     Vec3 v2, v3;
     do {
       v2 = pair.rng.ivec(1 << 10);
-      v3 = v0 + v1 - v2 + (pair.rng.integer(0, 1) ? Vec3(pair.rng.ivec(64)) : Vec3::Zero());  // opposite v2: a flat quad or a fold
+      v3 = v0 + v1 - v2 +
+           (pair.rng.integer(0, 1) ? Vec3(pair.rng.ivec(64)) : Vec3::Zero());  // opposite v2: a flat quad or a fold
     } while (degenerate_reason(Triangle{{v0, v1, v2}}) || degenerate_reason(Triangle{{v1, v0, v3}}));
     const double w = pair.rng.integer(0, 16) / 16.0;  // 0 or 1: a vertex
     const Vec3 target = 16 * v0 + w * 16 * (v1 - v0);
     const Vec3 d = pair.rng.ivec(7) + Vec3(0, 0, 8);
     const Ray ray{target - double(pair.rng.integer(1, 4)) * d, d};
     const Triangle t = index % 2 == 0 ? Triangle{{16 * v0, 16 * v1, 16 * v2}} : Triangle{{16 * v1, 16 * v0, 16 * v3}};
-    const std::string what = std::string(w == 0 || w == 1 ? "vertex" : "shared-edge") + (index % 2 ? "/B" : "/A");
+    const bool at_vertex = w == 0 || w == 1;
+    const std::string what = std::string(at_vertex ? "vertex" : "shared-edge") + (index % 2 ? "/B" : "/A");
     const int pair_k = static_cast<int>(pair.rng.integer(-40, 40));  // shared by both triangles
-    return pair.scaled_and_nudged({ray, t, what}, pair_k);
+    GeneratedCase c = pair.scaled_and_nudged({ray, t, what}, pair_k);
+    c.shared_edge = !at_vertex;
+    return c;
   }
 
   GeneratedCase through_box_edge() {
@@ -476,7 +497,8 @@ struct Builder {
   }
 
   static GeneratedCase scaled_by(const GeneratedCase& c, int k) {
-    return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k), c.detail + "/2^" + std::to_string(k)};
+    return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k),
+            c.detail + "/2^" + std::to_string(k)};
   }
 
   GeneratedCase origin_at_sphere(int k) {
@@ -535,12 +557,14 @@ struct Builder {
     if (mode == 0) {  // the tangent family at 2^±500
       GeneratedCase c = tangent(kind);
       const int k = static_cast<int>(rng.integer(-460, 460));
-      return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k), c.detail + "/x2^" + std::to_string(k)};
+      return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k),
+              c.detail + "/x2^" + std::to_string(k)};
     }
     if (mode == 1) {  // the random family at 2^±500
       GeneratedCase c = random(kind);
       const int k = static_cast<int>(rng.integer(-500, 500));
-      return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k), "random/2^" + std::to_string(k)};
+      return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k),
+              "random/2^" + std::to_string(k)};
     }
     if (mode == 2) {  // subnormal and −0.0 direction components
       GeneratedCase c = random(kind);
@@ -575,7 +599,8 @@ struct Builder {
     // b² and |o − m|² beyond the double range
     GeneratedCase c = random(kind);
     const int k = static_cast<int>(rng.integer(560, 1000));
-    return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k - 200)}, scaled(c.shape, k), "overflow/2^" + std::to_string(k)};
+    return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k - 200)}, scaled(c.shape, k),
+            "overflow/2^" + std::to_string(k)};
   }
 };
 
@@ -604,7 +629,8 @@ GeneratedCase build(Family family, ShapeKind shape, std::uint64_t seed, std::uin
 
 }  // namespace
 
-GeneratedCase generate(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index, Construction construction) {
+GeneratedCase generate(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index,
+                       Construction construction) {
   GeneratedCase c = build(family, shape, seed, index, true, construction);
   // Rounding can, rarely, make a full-precision construction degenerate: draw again, deterministically.
   for (std::uint64_t retry = 1; !is_valid_query(c.ray, c.shape) && retry < 16; ++retry)

@@ -30,7 +30,8 @@ void check_one_campaign(const std::vector<std::pair<std::string, ShardOf>>& shar
   std::map<std::uint64_t, std::string> seen;  // shard index → the file that had it
   for (const auto& [path, s] : shards) {
     if (s.campaign.is_null())
-      throw std::runtime_error(printable(path) + ": the summary names no campaign (written before merge checked them?): "
+      throw std::runtime_error(printable(path) +
+                               ": the summary names no campaign (written before merge checked them?): "
                                "merge cannot tell what it belongs to; rerun the shard");
     if (s.campaign != first.campaign) {
       std::string differs;
@@ -42,12 +43,13 @@ void check_one_campaign(const std::vector<std::pair<std::string, ShardOf>>& shar
                                printable_prefix(differs.empty() ? "a key is missing" : differs, 300) + ")");
     }
     if (s.shards != first.shards)
-      throw std::runtime_error(printable(path) + ": shard " + std::to_string(s.shard) + " of " + std::to_string(s.shards) +
-                               ", but " + printable(first_path) + " is one of " + std::to_string(first.shards));
+      throw std::runtime_error(printable(path) + ": shard " + std::to_string(s.shard) + " of " +
+                               std::to_string(s.shards) + ", but " + printable(first_path) + " is one of " +
+                               std::to_string(first.shards));
     const auto [it, fresh] = seen.emplace(s.shard, path);
     if (!fresh)
-      throw std::runtime_error(printable(path) + ": shard " + std::to_string(s.shard) + " of " + std::to_string(s.shards) +
-                               " again (also " + printable(it->second) + ")");
+      throw std::runtime_error(printable(path) + ": shard " + std::to_string(s.shard) + " of " +
+                               std::to_string(s.shards) + " again (also " + printable(it->second) + ")");
   }
   if (seen.size() != first.shards) {
     std::string missing;

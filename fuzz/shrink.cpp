@@ -40,22 +40,24 @@ std::vector<double*> numbers_of(Case& c) {
   std::vector<double*> out;
   for (int i = 0; i < 3; ++i) out.push_back(&c.ray.origin[i]);
   for (int i = 0; i < 3; ++i) out.push_back(&c.ray.direction[i]);
-  std::visit([&](auto& s) {
-    using S = std::decay_t<decltype(s)>;
-    if constexpr (std::is_same_v<S, Sphere>) {
-      for (int i = 0; i < 3; ++i) out.push_back(&s.center[i]);
-      out.push_back(&s.radius);
-    } else if constexpr (std::is_same_v<S, Plane>) {
-      for (int i = 0; i < 3; ++i) out.push_back(&s.normal[i]);
-      out.push_back(&s.offset);
-    } else if constexpr (std::is_same_v<S, Triangle>) {
-      for (auto& v : s.v)
-        for (int i = 0; i < 3; ++i) out.push_back(&v[i]);
-    } else {
-      for (int i = 0; i < 3; ++i) out.push_back(&s.min[i]);
-      for (int i = 0; i < 3; ++i) out.push_back(&s.max[i]);
-    }
-  }, c.shape);
+  std::visit(
+      [&](auto& s) {
+        using S = std::decay_t<decltype(s)>;
+        if constexpr (std::is_same_v<S, Sphere>) {
+          for (int i = 0; i < 3; ++i) out.push_back(&s.center[i]);
+          out.push_back(&s.radius);
+        } else if constexpr (std::is_same_v<S, Plane>) {
+          for (int i = 0; i < 3; ++i) out.push_back(&s.normal[i]);
+          out.push_back(&s.offset);
+        } else if constexpr (std::is_same_v<S, Triangle>) {
+          for (auto& v : s.v)
+            for (int i = 0; i < 3; ++i) out.push_back(&v[i]);
+        } else {
+          for (int i = 0; i < 3; ++i) out.push_back(&s.min[i]);
+          for (int i = 0; i < 3; ++i) out.push_back(&s.max[i]);
+        }
+      },
+      c.shape);
   return out;
 }
 
@@ -90,7 +92,8 @@ Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget, 
         const double before = *x;
         *x = candidate;
         --budget;
-        if (is_valid_query(trial.ray, trial.shape) && fails_the_same_way(v, oracle, trial.ray, trial.shape, rule, failure)) {
+        if (is_valid_query(trial.ray, trial.shape) &&
+            fails_the_same_way(v, oracle, trial.ray, trial.shape, rule, failure)) {
           changed = true;
           break;  // keep the simplest candidate that still disagrees
         }

@@ -26,7 +26,7 @@ json TracerCampaignReport::to_json() const {
   std::set<std::string> names;
   for (const auto& [k, v] : tallies) names.insert(k.name);
   for (const std::string& n : names) rule[n] = one_hit_rule_line(*this, n);
-  json j = {{"kind", "tracers"}, {"tallies", t}, {"seconds", s}, {"rays", r}, {"findings_written", findings_written},
+  json j = {{"kind", "tracers"},   {"tallies", t}, {"seconds", s}, {"rays", r}, {"findings_written", findings_written},
             {"one_hit_rule", rule}};
   shard_of.write_to(j);
   return j;
@@ -45,10 +45,12 @@ TracerCampaignReport TracerCampaignReport::from_json(const json& j) {
     }
   }
   for (auto it = j.at("seconds").begin(); it != j.at("seconds").end(); ++it) {
-    if (!it.value().is_number() || !(it.value().get<double>() >= 0)) throw FieldError("seconds." + it.key(), "expected seconds >= 0");
+    if (!it.value().is_number() || !(it.value().get<double>() >= 0))
+      throw FieldError("seconds." + it.key(), "expected seconds >= 0");
     r.seconds[it.key()] = it.value().get<double>();
   }
-  for (auto it = j.at("rays").begin(); it != j.at("rays").end(); ++it) r.rays[it.key()] = read_count(it.value(), "rays." + it.key());
+  for (auto it = j.at("rays").begin(); it != j.at("rays").end(); ++it)
+    r.rays[it.key()] = read_count(it.value(), "rays." + it.key());
   r.findings_written = read_count(j.at("findings_written"), "findings_written");
   r.shard_of = ShardOf::read_from(j);
   return r;
@@ -67,8 +69,8 @@ std::string one_hit_rule_line(const TracerCampaignReport& r, const std::string& 
   for (const auto& [k, t] : r.tallies)
     if (k.name == tracer) holes += t.edge_holes, doubles += t.edge_double_hits, edge_rays += t.edge_rays;
   std::ostringstream out;
-  out << "one hit per shared edge and vertex: " << (holes + doubles == 0 ? "holds" : "fails") << " (" << holes << " holes, "
-      << doubles << " double hits in " << edge_rays << " edge rays)";
+  out << "one hit per shared edge and vertex: " << (holes + doubles == 0 ? "holds" : "fails") << " (" << holes
+      << " holes, " << doubles << " double hits in " << edge_rays << " edge rays)";
   return out.str();
 }
 
@@ -77,8 +79,9 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
     out << json_text(r.to_json(), 2) << "\n";
     return;
   }
-  const char* columns[] = {"cases", "right", "hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit",
-                           "in_plane", "unsupported", "tracer_errors", "crash", "timeout"};
+  const char* columns[] = {
+      "cases",    "right",       "hole",          "false_hit", "not_nearest", "double_hit", "missed_in_any_hit",
+      "in_plane", "unsupported", "tracer_errors", "crash",     "timeout"};
   const bool md = format == TableFormat::markdown;
   auto cell = [&](const std::string& text, int width, bool left) {
     if (md) return "| " + text + " ";
@@ -102,13 +105,15 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
       std::string line = cell(name, 22, true) + cell(family, 18, true);
       line += cell(std::to_string(t->cases), 6, false);
       for (size_t i = 1; i < std::size(columns); ++i)
-        line += cell(std::to_string(t->count(columns[i])), static_cast<int>(std::max<size_t>(6, std::strlen(columns[i]))), false);
+        line += cell(std::to_string(t->count(columns[i])),
+                     static_cast<int>(std::max<size_t>(6, std::strlen(columns[i]))), false);
       char buf[3][32];
       const json bits = bits_json(t->ulps);
       std::snprintf(buf[0], 32, "%.1f", bits["p50"].get<double>());
       std::snprintf(buf[1], 32, "%.1f", bits["max"].get<double>());
       std::snprintf(buf[2], 32, "%.0f", t->ns_per_ray());
-      line += cell(t->ulps.count() ? buf[0] : "-", 8, false) + cell(t->ulps.count() ? buf[1] : "-", 8, false) + cell(buf[2], 9, false);
+      line += cell(t->ulps.count() ? buf[0] : "-", 8, false) + cell(t->ulps.count() ? buf[1] : "-", 8, false) +
+              cell(buf[2], 9, false);
       out << line << (md ? "|" : "") << "\n";
     }
   }
@@ -130,7 +135,9 @@ std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c) {
 
 namespace {
 TraceKind kind_of_failure(HitFailure f) {
-  return f == HitFailure::timeout ? TraceKind::timeout : f == HitFailure::crash ? TraceKind::crash : TraceKind::tracer_error;
+  return f == HitFailure::timeout ? TraceKind::timeout
+         : f == HitFailure::crash ? TraceKind::crash
+                                  : TraceKind::tracer_error;
 }
 }  // namespace
 
@@ -194,7 +201,8 @@ std::shared_ptr<TriangleMesh> subset(const TriangleMesh& m, const std::vector<st
   for (std::uint32_t t : keep)
     for (std::uint32_t v : m.corners(t)) {
       const auto [it, fresh] = renumber.try_emplace(v, static_cast<std::uint32_t>(out->vertex_count()));
-      if (fresh) out->vertices.insert(out->vertices.end(), {m.vertices[3 * v], m.vertices[3 * v + 1], m.vertices[3 * v + 2]});
+      if (fresh)
+        out->vertices.insert(out->vertices.end(), {m.vertices[3 * v], m.vertices[3 * v + 1], m.vertices[3 * v + 2]});
       out->indices.push_back(it->second);
     }
   return out;
@@ -231,7 +239,8 @@ MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind,
     std::vector<std::uint32_t> keep;
     for (std::uint32_t x : all) {
       const auto c = best.mesh->corners(x);
-      if (core.contains(x) || vertices.contains(c[0]) || vertices.contains(c[1]) || vertices.contains(c[2])) keep.push_back(x);
+      if (core.contains(x) || vertices.contains(c[0]) || vertices.contains(c[1]) || vertices.contains(c[2]))
+        keep.push_back(x);
     }
     if (keep.size() < all.size()) shows(keep);
   }
@@ -255,8 +264,15 @@ json fingerprint(const TracerCampaignOptions& o) {
   json f = json::array(), t = json::array();
   for (TracerFamily x : o.families) f.push_back(std::string(to_string(x)));
   for (const Tracer* x : o.tracers) t.push_back(x->name);
-  return {{"families", f}, {"tracers", t}, {"count", o.count}, {"seed", o.seed}, {"shard", o.shard}, {"shards", o.shards},
-          {"shrink", o.shrink}, {"max_findings", o.max_findings}, {"batch_meshes", o.batch_meshes}};
+  return {{"families", f},
+          {"tracers", t},
+          {"count", o.count},
+          {"seed", o.seed},
+          {"shard", o.shard},
+          {"shards", o.shards},
+          {"shrink", o.shrink},
+          {"max_findings", o.max_findings},
+          {"batch_meshes", o.batch_meshes}};
 }
 
 struct Checkpoint {
@@ -271,9 +287,14 @@ struct Checkpoint {
 
 void save(const std::string& path, const TracerCampaignOptions& o, const Checkpoint& c) {
   AtomicFile f(path);
-  f.stream() << json_text(json{{"fingerprint", fingerprint(o)}, {"family", c.family}, {"next_mesh", c.next_mesh},
-                     {"family_started", c.family_started}, {"findings_in", c.findings_in},
-                     {"findings_bytes", c.findings_bytes}, {"findings_hash", c.hash.value}, {"report", c.report.to_json()}})
+  f.stream() << json_text(json{{"fingerprint", fingerprint(o)},
+                               {"family", c.family},
+                               {"next_mesh", c.next_mesh},
+                               {"family_started", c.family_started},
+                               {"findings_in", c.findings_in},
+                               {"findings_bytes", c.findings_bytes},
+                               {"findings_hash", c.hash.value},
+                               {"report", c.report.to_json()}})
              << "\n";
   f.commit();
 }
@@ -285,7 +306,8 @@ Checkpoint load(const std::string& path, const TracerCampaignOptions& o) {
   try {
     const json j = parse_json_text(text.str());
     if (j.at("fingerprint") != fingerprint(o))
-      throw std::runtime_error(path + ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
+      throw std::runtime_error(path +
+                               ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
     Checkpoint c;
     c.family = j.at("family"), c.next_mesh = j.at("next_mesh"), c.family_started = j.at("family_started");
     c.findings_in = j.at("findings_in").get<std::map<std::string, std::uint64_t>>();
@@ -358,7 +380,8 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
     if (s.made) return s;
     s.made = true;
     const bool too_far = p == Precision::f32 && work.log2_translate > kFarFloatLimit;
-    if (p == Precision::f64) s.mesh = work.mesh;
+    if (p == Precision::f64)
+      s.mesh = work.mesh;
     else if (!too_far)
       if (auto r = mesh_rounded_to_float(*work.mesh)) s.mesh = std::make_shared<TriangleMesh>(std::move(*r));
     for (const TracerRay& r : work.rays) {
@@ -379,8 +402,10 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
     auto count = [](TracerTally& tally, TraceKind k) { tally.add(to_string(k)); };
     std::vector<std::size_t> live;  // rays this tracer can be given
     for (std::size_t i = 0; i < s.rays.size(); ++i) {
-      if (s.rays[i]) live.push_back(i);
-      else count(near, TraceKind::not_representable), count(any, TraceKind::not_representable);
+      if (s.rays[i])
+        live.push_back(i);
+      else
+        count(near, TraceKind::not_representable), count(any, TraceKind::not_representable);
     }
     if (live.empty()) continue;
     auto finding = [&](std::size_t i, bool all, TraceKind k, const TracerOutcome& outcome) {
@@ -527,7 +552,8 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
       std::atomic<std::uint64_t> next{start};
       run_workers(threads, [&](int) {
         for (std::uint64_t m; (m = next.fetch_add(1)) < end;) {
-          const std::uint64_t rays_here = std::min<std::uint64_t>(kRaysPerMesh, o.count - std::min(o.count, m * kRaysPerMesh));
+          const std::uint64_t rays_here =
+              std::min<std::uint64_t>(kRaysPerMesh, o.count - std::min(o.count, m * kRaysPerMesh));
           judge_mesh(family, m, rays_here, o, states, results[m - start]);
         }
       });
@@ -547,14 +573,16 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
       std::vector<std::string> lines(chosen.size());
       std::atomic<std::size_t> next_finding{0};
       run_workers(threads, [&](int) {
-        for (std::size_t k; (k = next_finding.fetch_add(1)) < chosen.size();) lines[k] = finding_line(family, *chosen[k], o);
+        for (std::size_t k; (k = next_finding.fetch_add(1)) < chosen.size();)
+          lines[k] = finding_line(family, *chosen[k], o);
       });
       for (const std::string& line : lines) out << line, cp.hash.add(line);
       out.flush();
       if (!out) throw std::runtime_error(o.output + ": write failed");
       cp.report.findings_written += lines.size();
       if (o.crash_after_batches >= 0 && ++batches_done > o.crash_after_batches) std::_Exit(3);  // testing hook
-      cp.report.seconds[std::string(to_string(family))] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      cp.report.seconds[std::string(to_string(family))] +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       cp.report.rays[std::string(to_string(family))] += rays;
       cp.next_mesh = end;
       cp.findings_bytes = std::filesystem::file_size(o.output);
@@ -562,14 +590,21 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
       if (o.progress) o.progress(family, end - lo, hi - lo);
     }
   }
-  if (o.keep_checkpoint) save(checkpoint_path, o, cp);
-  else std::filesystem::remove(checkpoint_path);
+  if (o.keep_checkpoint)
+    save(checkpoint_path, o, cp);
+  else
+    std::filesystem::remove(checkpoint_path);
   json families = json::array(), tracers = json::array();
   for (TracerFamily x : o.families) families.push_back(std::string(to_string(x)));
   for (const Tracer* x : o.tracers) tracers.push_back(x->name);
-  cp.report.shard_of = {{{"kind", "tracers"}, {"families", families}, {"tracers", tracers}, {"count", o.count}, {"seed", o.seed},
+  cp.report.shard_of = {{{"kind", "tracers"},
+                         {"families", families},
+                         {"tracers", tracers},
+                         {"count", o.count},
+                         {"seed", o.seed},
                          {"version", RAYPROOF_VERSION}},
-                        o.shard, o.shards};
+                        o.shard,
+                        o.shards};
   return cp.report;
 }
 

@@ -56,11 +56,15 @@ struct Builder {
     if (fresh) mesh.vertices.insert(mesh.vertices.end(), key.begin(), key.end());
     return it->second;
   }
-  void triangle(std::uint32_t a, std::uint32_t b, std::uint32_t c) { mesh.indices.insert(mesh.indices.end(), {a, b, c}); }
+  void triangle(std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    mesh.indices.insert(mesh.indices.end(), {a, b, c});
+  }
   // Two triangles over the quad a b c d (counter-clockwise), split along either diagonal.
   void quad(std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d, bool other_diagonal) {
-    if (other_diagonal) triangle(a, b, d), triangle(b, c, d);
-    else triangle(a, b, c), triangle(a, c, d);
+    if (other_diagonal)
+      triangle(a, b, d), triangle(b, c, d);
+    else
+      triangle(a, b, c), triangle(a, c, d);
   }
 };
 
@@ -110,7 +114,8 @@ void height_field(Builder& b, Rng& r, int n, bool flat, double lift = 0, std::ui
     }
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i)
-      b.quad(id[j * (n + 1) + i], id[j * (n + 1) + i + 1], id[(j + 1) * (n + 1) + i + 1], id[(j + 1) * (n + 1) + i], r.coin());
+      b.quad(id[j * (n + 1) + i], id[j * (n + 1) + i + 1], id[(j + 1) * (n + 1) + i + 1], id[(j + 1) * (n + 1) + i],
+             r.coin());
 }
 
 // The surface of the cube [0, 4n]^3, each face n × n cells, wound outward, sharing its edges.
@@ -127,8 +132,10 @@ void cube_surface(Builder& b, Rng& r, int n) {
       for (int j = 0; j < n; ++j)
         for (int i = 0; i < n; ++i) {
           const std::uint32_t a = at(i, j), c = at(i + 1, j), d = at(i + 1, j + 1), e = at(i, j + 1);
-          if (positive) b.quad(a, c, d, e, r.coin());
-          else b.quad(a, e, d, c, r.coin());
+          if (positive)
+            b.quad(a, c, d, e, r.coin());
+          else
+            b.quad(a, e, d, c, r.coin());
         }
     }
 }
@@ -143,8 +150,10 @@ void aim_at_features(MeshWork& w, std::uint64_t seed, TracerFamily f, std::uint6
     const Vec3 p = feature_point(*w.mesh, t, r, detail);
     Vec3 d = random_direction(r, 8);
     const double facing = dot(d, normal_of(*w.mesh, t));
-    if (facing == 0) d = -normal_of(*w.mesh, t);
-    else if (from_front && facing > 0) d = -d;
+    if (facing == 0)
+      d = -normal_of(*w.mesh, t);
+    else if (from_front && facing > 0)
+      d = -d;
     w.rays.push_back(through(p, d, r));
     w.details.push_back(detail);
   }
@@ -161,7 +170,8 @@ MeshWork shared_edges(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, T
   Builder b;
   const bool closed = r.between(0, 2) == 0;
   const bool full_precision = !closed && r.coin();
-  if (closed) cube_surface(b, r, grid_size(r, 73));
+  if (closed)
+    cube_surface(b, r, grid_size(r, 73));
   else {
     const bool flat = r.coin();
     height_field(b, r, grid_size(r, 181), flat, 0, seed ^ m);
@@ -282,7 +292,8 @@ MeshWork needles(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, Tracer
     bottom.push_back(b.vertex(Vec3(i * length, 0, 0)));
     top.push_back(b.vertex(Vec3(i * length + length / 2, width, (i & 1) ? tilt : 0)));
   }
-  for (int i = 0; i < n; ++i) b.triangle(bottom[i], bottom[i + 1], top[i]), b.triangle(top[i], bottom[i + 1], top[i + 1]);
+  for (int i = 0; i < n; ++i)
+    b.triangle(bottom[i], bottom[i + 1], top[i]), b.triangle(top[i], bottom[i + 1], top[i + 1]);
   MeshWork w{std::make_shared<TriangleMesh>(std::move(b.mesh)), {}, {}, 0};
   for (std::uint64_t i = 0; i < rays; ++i) {
     Rng rr(seed, static_cast<std::uint64_t>(f), m, i);
@@ -303,8 +314,10 @@ MeshWork needles(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, Tracer
 MeshWork spawned(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, TracerFamily f) {
   Rng r(seed, static_cast<std::uint64_t>(f), m, ~0ull);
   Builder b;
-  if (r.coin()) height_field(b, r, grid_size(r, 32), false, 0, seed ^ m);
-  else cube_surface(b, r, grid_size(r, 16));
+  if (r.coin())
+    height_field(b, r, grid_size(r, 32), false, 0, seed ^ m);
+  else
+    cube_surface(b, r, grid_size(r, 16));
   // Scaled by 2^s (exact): a shadow ray far from the origin re-hits its surface more easily.
   const int s = r.between(-8, 16);
   for (double& x : b.mesh.vertices) x = std::ldexp(x, s);
@@ -381,7 +394,8 @@ const std::vector<std::shared_ptr<const TriangleMesh>>& bundled_meshes() {
 MeshWork random_at_bundled(std::shared_ptr<const TriangleMesh> mesh, std::uint64_t seed, std::uint64_t m,
                            std::uint64_t rays, TracerFamily f) {
   Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
-  for (std::size_t i = 0; i < mesh->vertex_count(); ++i) lo = lo.cwiseMin(mesh->vertex(i)), hi = hi.cwiseMax(mesh->vertex(i));
+  for (std::size_t i = 0; i < mesh->vertex_count(); ++i)
+    lo = lo.cwiseMin(mesh->vertex(i)), hi = hi.cwiseMax(mesh->vertex(i));
   const Vec3 centre = (lo + hi) / 2, half = (hi - lo) / 2;
   MeshWork w{std::move(mesh), {}, {}, 0};
   for (std::uint64_t i = 0; i < rays; ++i) {
@@ -411,14 +425,18 @@ MeshWork random_rays(std::uint64_t seed, std::uint64_t m, std::uint64_t rays, Tr
     if (i == 0) return b.vertex(centre + Vec3(0, 0, radius));
     if (i == stacks) return b.vertex(centre - Vec3(0, 0, radius));
     const double theta = std::numbers::pi * i / stacks, phi = 2 * std::numbers::pi * (j % slices) / slices;
-    return b.vertex(centre + radius * Vec3(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)));
+    return b.vertex(centre +
+                    radius * Vec3(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)));
   };
   for (int i = 0; i < stacks; ++i)
     for (int j = 0; j < slices; ++j) {
       const std::uint32_t a = at(i, j), c = at(i + 1, j), d = at(i + 1, j + 1), e = at(i, j + 1);
-      if (i == 0) b.triangle(a, c, d);
-      else if (i == stacks - 1) b.triangle(a, c, e);
-      else b.quad(a, c, d, e, false);
+      if (i == 0)
+        b.triangle(a, c, d);
+      else if (i == stacks - 1)
+        b.triangle(a, c, e);
+      else
+        b.quad(a, c, d, e, false);
     }
   MeshWork w{std::make_shared<TriangleMesh>(std::move(b.mesh)), {}, {}, 0};
   for (std::uint64_t i = 0; i < rays; ++i) {
@@ -454,7 +472,7 @@ MeshWork generate_mesh_work(TracerFamily family, std::uint64_t seed, std::uint64
   if (family != TracerFamily::far) return generate_base(family, seed, m, rays, family);
   // far: each of the others in turn, moved by 2^k along (1, 1, 1) — k from 4 to 60, the
   // vertices and origins rounded to doubles there (that rounded mesh is what is judged).
-  constexpr TracerFamily kBases[] = {TracerFamily::shared_edges, TracerFamily::fans,  TracerFamily::axis_planes,
+  constexpr TracerFamily kBases[] = {TracerFamily::shared_edges, TracerFamily::fans,    TracerFamily::axis_planes,
                                      TracerFamily::needles,      TracerFamily::spawned, TracerFamily::shells};
   Rng r(seed, static_cast<std::uint64_t>(family), m, ~1ull);
   MeshWork w = generate_base(kBases[m % 6], seed, m, rays, TracerFamily::far);

@@ -18,7 +18,7 @@ std::runtime_error system_error(const std::string& path, const std::string& what
 }  // namespace
 
 AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
-  struct stat st{};
+  struct stat st {};
   const bool exists = ::lstat(path_.c_str(), &st) == 0;
   if (exists && !S_ISREG(st.st_mode)) {
     if (S_ISDIR(st.st_mode)) throw std::runtime_error(path_ + ": is a directory, not a file to write");
@@ -31,8 +31,10 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
     fd_ = ::mkstemp(pattern.data());
     if (fd_ < 0) throw system_error(path_, "cannot create a file in " + dir);
     temp_ = pattern;
-    if (exists) ::fchmod(fd_, st.st_mode & 07777);  // keep the replaced file's permissions
-    else ::fchmod(fd_, 0644);
+    if (exists)
+      ::fchmod(fd_, st.st_mode & 07777);  // keep the replaced file's permissions
+    else
+      ::fchmod(fd_, 0644);
   }
   buffer_ = std::make_unique<__gnu_cxx::stdio_filebuf<char>>(fd_, std::ios::out | std::ios::binary, 1 << 16);
   stream_ = std::make_unique<std::ostream>(buffer_.get());
@@ -68,7 +70,8 @@ void AtomicFile::commit() {
 }
 
 bool same_file(const std::string& a, const std::string& b) {
-  struct stat sa{}, sb{};
+  struct stat sa {
+  }, sb{};
   if (::stat(a.c_str(), &sa) != 0 || ::stat(b.c_str(), &sb) != 0) return false;
   return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
 }

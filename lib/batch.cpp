@@ -10,20 +10,27 @@
 namespace rayproof {
 
 namespace {
-template <class T> T as(double x) {  // a double as T: itself, or its nearest float (fp.h)
-  if constexpr (std::is_same_v<T, float>) return to_nearest_float(x);
-  else return x;
+template <class T>
+T as(double x) {  // a double as T: itself, or its nearest float (fp.h)
+  if constexpr (std::is_same_v<T, float>)
+    return to_nearest_float(x);
+  else
+    return x;
 }
 }  // namespace
 
-template <class T> void RaysSoAOf<T>::push(const Ray& r) {
+template <class T>
+void RaysSoAOf<T>::push(const Ray& r) {
   ox.push_back(as<T>(r.origin.x())), oy.push_back(as<T>(r.origin.y())), oz.push_back(as<T>(r.origin.z()));
   dx.push_back(as<T>(r.direction.x())), dy.push_back(as<T>(r.direction.y())), dz.push_back(as<T>(r.direction.z()));
 }
-template <class T> void SpheresSoAOf<T>::push(const Sphere& s) {
-  cx.push_back(as<T>(s.center.x())), cy.push_back(as<T>(s.center.y())), cz.push_back(as<T>(s.center.z())), r.push_back(as<T>(s.radius));
+template <class T>
+void SpheresSoAOf<T>::push(const Sphere& s) {
+  cx.push_back(as<T>(s.center.x())), cy.push_back(as<T>(s.center.y())), cz.push_back(as<T>(s.center.z())),
+      r.push_back(as<T>(s.radius));
 }
-template <class T> void TrianglesSoAOf<T>::push(const Triangle& t) {
+template <class T>
+void TrianglesSoAOf<T>::push(const Triangle& t) {
   x0.push_back(as<T>(t.v[0].x())), y0.push_back(as<T>(t.v[0].y())), z0.push_back(as<T>(t.v[0].z()));
   x1.push_back(as<T>(t.v[1].x())), y1.push_back(as<T>(t.v[1].y())), z1.push_back(as<T>(t.v[1].z()));
   x2.push_back(as<T>(t.v[2].x())), y2.push_back(as<T>(t.v[2].y())), z2.push_back(as<T>(t.v[2].z()));
@@ -44,11 +51,12 @@ constexpr double kMiss = 0, kEnter = 1, kExit = 2, kTangent = 3, kBoundary = 4; 
 // `stable`, float: `stable-f32`, 4 or 8 lanes per AVX2 register). The arrays are restrict
 // parameters: GCC's dependence analysis honours restrict on parameters, not on local pointers.
 template <class T>
-[[gnu::always_inline]] static inline void sphere_stable_loop(
-    size_t n, const T* __restrict ox, const T* __restrict oy, const T* __restrict oz,
-    const T* __restrict dx, const T* __restrict dy, const T* __restrict dz,
-    const T* __restrict cx, const T* __restrict cy, const T* __restrict cz,
-    const T* __restrict rr, std::uint8_t* __restrict cls, T* __restrict tt) {
+[[gnu::always_inline]] static inline void sphere_stable_loop(size_t n, const T* __restrict ox, const T* __restrict oy,
+                                                             const T* __restrict oz, const T* __restrict dx,
+                                                             const T* __restrict dy, const T* __restrict dz,
+                                                             const T* __restrict cx, const T* __restrict cy,
+                                                             const T* __restrict cz, const T* __restrict rr,
+                                                             std::uint8_t* __restrict cls, T* __restrict tt) {
   constexpr T nan = std::numeric_limits<T>::quiet_NaN();
   for (size_t i = 0; i < n; ++i) {
     const T fx = ox[i] - cx[i], fy = oy[i] - cy[i], fz = oz[i] - cz[i];
@@ -62,7 +70,7 @@ template <class T>
     const T c_over_q = c / q;  // computed in every lane, used only where q ≠ 0
     const T x2 = q == 0 ? T(0) : c_over_q;
     const T t0 = x2 < x1 ? x2 : x1, t1 = x1 < x2 ? x2 : x1;  // std::min, std::max
-    const bool miss = disc < 0, touching = disc == 0, near = t0 > 0, far = t1 > 0;
+    const bool miss = disc<0, touching = disc == 0, near = t0> 0, far = t1 > 0;
     const T k_far = far ? T(kExit) : T(kMiss), t_far = far ? t1 : nan;
     const T k_open = near ? T(kEnter) : k_far, t_open = near ? t0 : t_far;
     const T k_touch = near ? T(kTangent) : T(kMiss), t_touch = near ? t0 : nan;
@@ -72,23 +80,30 @@ template <class T>
   }
 }
 
-#define RAYPROOF_SPHERE_PARAMS(T)                                                                            \
-  size_t n, const T *__restrict ox, const T *__restrict oy, const T *__restrict oz,                          \
-      const T *__restrict dx, const T *__restrict dy, const T *__restrict dz,                               \
-      const T *__restrict cx, const T *__restrict cy, const T *__restrict cz,                               \
-      const T *__restrict rr, std::uint8_t *__restrict cls, T *__restrict tt
+#define RAYPROOF_SPHERE_PARAMS(T)                                                                           \
+  size_t n, const T *__restrict ox, const T *__restrict oy, const T *__restrict oz, const T *__restrict dx, \
+      const T *__restrict dy, const T *__restrict dz, const T *__restrict cx, const T *__restrict cy,       \
+      const T *__restrict cz, const T *__restrict rr, std::uint8_t *__restrict cls, T *__restrict tt
 #define RAYPROOF_SPHERE_ARGS n, ox, oy, oz, dx, dy, dz, cx, cy, cz, rr, cls, tt
-template <class T> __attribute__((target("avx512f"))) static void sphere_stable_avx512(RAYPROOF_SPHERE_PARAMS(T)) {
+template <class T>
+__attribute__((target("avx512f"))) static void sphere_stable_avx512(RAYPROOF_SPHERE_PARAMS(T)) {
   sphere_stable_loop<T>(RAYPROOF_SPHERE_ARGS);
 }
-template <class T> __attribute__((target("avx2"))) static void sphere_stable_avx2(RAYPROOF_SPHERE_PARAMS(T)) {
+template <class T>
+__attribute__((target("avx2"))) static void sphere_stable_avx2(RAYPROOF_SPHERE_PARAMS(T)) {
   sphere_stable_loop<T>(RAYPROOF_SPHERE_ARGS);
 }
-template <class T> static void sphere_stable_sse2(RAYPROOF_SPHERE_PARAMS(T)) { sphere_stable_loop<T>(RAYPROOF_SPHERE_ARGS); }
+template <class T>
+static void sphere_stable_sse2(RAYPROOF_SPHERE_PARAMS(T)) {
+  sphere_stable_loop<T>(RAYPROOF_SPHERE_ARGS);
+}
 
 template <class T>
-static void sphere_stable_batch_of(const RaysSoAOf<T>& rays, const SpheresSoAOf<T>& s, std::uint8_t* cls, T* t, BatchIsa isa) {
-  auto* kernel = isa == BatchIsa::avx512 ? sphere_stable_avx512<T> : isa == BatchIsa::avx2 ? sphere_stable_avx2<T> : sphere_stable_sse2<T>;
+static void sphere_stable_batch_of(const RaysSoAOf<T>& rays, const SpheresSoAOf<T>& s, std::uint8_t* cls, T* t,
+                                   BatchIsa isa) {
+  auto* kernel = isa == BatchIsa::avx512 ? sphere_stable_avx512<T>
+                 : isa == BatchIsa::avx2 ? sphere_stable_avx2<T>
+                                         : sphere_stable_sse2<T>;
   kernel(rays.size(), rays.ox.data(), rays.oy.data(), rays.oz.data(), rays.dx.data(), rays.dy.data(), rays.dz.data(),
          s.cx.data(), s.cy.data(), s.cz.data(), s.r.data(), cls, t);
 }
@@ -105,12 +120,11 @@ void sphere_stable_f32_batch(const RaysSoAF& rays, const SpheresSoAF& s, HitsSoA
 // Same steps as triangle_moller_trumbore (nearest contact), branch-free; T as for spheres.
 template <class T>
 [[gnu::always_inline]] static inline void moller_trumbore_loop(
-    size_t n, const T* __restrict ox, const T* __restrict oy, const T* __restrict oz,
-    const T* __restrict dx_, const T* __restrict dy_, const T* __restrict dz_,
-    const T* __restrict x0, const T* __restrict y0, const T* __restrict z0,
-    const T* __restrict x1, const T* __restrict y1, const T* __restrict z1,
-    const T* __restrict x2, const T* __restrict y2, const T* __restrict z2,
-    std::uint8_t* __restrict cls, T* __restrict tt) {
+    size_t n, const T* __restrict ox, const T* __restrict oy, const T* __restrict oz, const T* __restrict dx_,
+    const T* __restrict dy_, const T* __restrict dz_, const T* __restrict x0, const T* __restrict y0,
+    const T* __restrict z0, const T* __restrict x1, const T* __restrict y1, const T* __restrict z1,
+    const T* __restrict x2, const T* __restrict y2, const T* __restrict z2, std::uint8_t* __restrict cls,
+    T* __restrict tt) {
   constexpr T nan = std::numeric_limits<T>::quiet_NaN();
   for (size_t i = 0; i < n; ++i) {
     const T e1x = x1[i] - x0[i], e1y = y1[i] - y0[i], e1z = z1[i] - z0[i];
@@ -136,24 +150,31 @@ template <class T>
 }
 
 #define RAYPROOF_TRIANGLE_PARAMS(T)                                                                          \
-  size_t n, const T *__restrict ox, const T *__restrict oy, const T *__restrict oz,                          \
-      const T *__restrict dx_, const T *__restrict dy_, const T *__restrict dz_,                            \
-      const T *__restrict x0, const T *__restrict y0, const T *__restrict z0,                               \
-      const T *__restrict x1, const T *__restrict y1, const T *__restrict z1,                               \
-      const T *__restrict x2, const T *__restrict y2, const T *__restrict z2,                               \
-      std::uint8_t *__restrict cls, T *__restrict tt
+  size_t n, const T *__restrict ox, const T *__restrict oy, const T *__restrict oz, const T *__restrict dx_, \
+      const T *__restrict dy_, const T *__restrict dz_, const T *__restrict x0, const T *__restrict y0,      \
+      const T *__restrict z0, const T *__restrict x1, const T *__restrict y1, const T *__restrict z1,        \
+      const T *__restrict x2, const T *__restrict y2, const T *__restrict z2, std::uint8_t *__restrict cls,  \
+      T *__restrict tt
 #define RAYPROOF_TRIANGLE_ARGS n, ox, oy, oz, dx_, dy_, dz_, x0, y0, z0, x1, y1, z1, x2, y2, z2, cls, tt
-template <class T> __attribute__((target("avx512f"))) static void moller_trumbore_avx512(RAYPROOF_TRIANGLE_PARAMS(T)) {
+template <class T>
+__attribute__((target("avx512f"))) static void moller_trumbore_avx512(RAYPROOF_TRIANGLE_PARAMS(T)) {
   moller_trumbore_loop<T>(RAYPROOF_TRIANGLE_ARGS);
 }
-template <class T> __attribute__((target("avx2"))) static void moller_trumbore_avx2(RAYPROOF_TRIANGLE_PARAMS(T)) {
+template <class T>
+__attribute__((target("avx2"))) static void moller_trumbore_avx2(RAYPROOF_TRIANGLE_PARAMS(T)) {
   moller_trumbore_loop<T>(RAYPROOF_TRIANGLE_ARGS);
 }
-template <class T> static void moller_trumbore_sse2(RAYPROOF_TRIANGLE_PARAMS(T)) { moller_trumbore_loop<T>(RAYPROOF_TRIANGLE_ARGS); }
+template <class T>
+static void moller_trumbore_sse2(RAYPROOF_TRIANGLE_PARAMS(T)) {
+  moller_trumbore_loop<T>(RAYPROOF_TRIANGLE_ARGS);
+}
 
 template <class T>
-static void moller_trumbore_batch_of(const RaysSoAOf<T>& rays, const TrianglesSoAOf<T>& tr, std::uint8_t* cls, T* t, BatchIsa isa) {
-  auto* kernel = isa == BatchIsa::avx512 ? moller_trumbore_avx512<T> : isa == BatchIsa::avx2 ? moller_trumbore_avx2<T> : moller_trumbore_sse2<T>;
+static void moller_trumbore_batch_of(const RaysSoAOf<T>& rays, const TrianglesSoAOf<T>& tr, std::uint8_t* cls, T* t,
+                                     BatchIsa isa) {
+  auto* kernel = isa == BatchIsa::avx512 ? moller_trumbore_avx512<T>
+                 : isa == BatchIsa::avx2 ? moller_trumbore_avx2<T>
+                                         : moller_trumbore_sse2<T>;
   kernel(rays.size(), rays.ox.data(), rays.oy.data(), rays.oz.data(), rays.dx.data(), rays.dy.data(), rays.dz.data(),
          tr.x0.data(), tr.y0.data(), tr.z0.data(), tr.x1.data(), tr.y1.data(), tr.z1.data(), tr.x2.data(), tr.y2.data(),
          tr.z2.data(), cls, t);

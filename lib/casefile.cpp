@@ -21,8 +21,7 @@ std::string CaseError::to_string() const {
 
 namespace {
 double read_expected_t(const json& j) {
-  if (j.is_string() && j.get_ref<const std::string&>() == "inf")
-    return std::numeric_limits<double>::infinity();
+  if (j.is_string() && j.get_ref<const std::string&>() == "inf") return std::numeric_limits<double>::infinity();
   const double t = read_number(j, "expect.t");
   if (t < 0) throw FieldError("expect.t", "t must be >= 0");
   return t;
@@ -69,8 +68,7 @@ json case_to_json(const Case& c) {
   j["id"] = c.id;
   j["ray"] = {{"origin", json::array({exact_json_number(c.ray.origin.x()), exact_json_number(c.ray.origin.y()),
                                       exact_json_number(c.ray.origin.z())})},
-              {"direction", json::array({exact_json_number(c.ray.direction.x()),
-                                         exact_json_number(c.ray.direction.y()),
+              {"direction", json::array({exact_json_number(c.ray.direction.x()), exact_json_number(c.ray.direction.y()),
                                          exact_json_number(c.ray.direction.z())})}};
   j["shape"] = shape_to_json(c.shape);
   if (c.expect) {
@@ -91,7 +89,7 @@ class IdFingerprints {
  public:
   // False when the id (or, with that tiny probability, another with its fingerprint) was seen.
   bool insert(std::string_view id) {
-    std::uint64_t h = std::hash<std::string_view>{}(id) * 0x9E3779B97F4A7C15ull;
+    std::uint64_t h = std::hash<std::string_view>{}(id)*0x9E3779B97F4A7C15ull;
     if (h == 0) h = 1;  // 0 marks an empty slot
     if (20 * (count_ + 1) > 17 * slots_.size()) grow(slots_.empty() ? 1024 : slots_.size() + slots_.size() / 2);
     return place(h);
@@ -128,8 +126,7 @@ class IdFingerprints {
 
 }  // namespace
 
-bool read_case_file(const std::string& path,
-                    const std::function<void(const Case&, long line)>& on_case,
+bool read_case_file(const std::string& path, const std::function<void(const Case&, long line)>& on_case,
                     const std::function<void(const CaseError&)>& on_error,
                     const std::function<void(const MeshCase&, long line)>& on_mesh_case) {
   std::ifstream file;
@@ -167,7 +164,8 @@ bool read_case_file(const std::string& path,
           throw FieldError("", std::string("malformed JSON: ") + e.what());
         }
         if (is_mesh_case(j)) {
-          if (!on_mesh_case) throw FieldError("mesh", "a mesh case (docs/spec/tracer.md): `rayproof check` judges tracers on it");
+          if (!on_mesh_case)
+            throw FieldError("mesh", "a mesh case (docs/spec/tracer.md): `rayproof check` judges tracers on it");
           MeshCase c = read_mesh_case(j);
           if (!ids.insert(c.id)) throw FieldError("id", "duplicate id \"" + c.id + "\"");
           on_mesh_case(c, line);

@@ -35,15 +35,12 @@ std::string_view to_string(HitFailure f) {
 }
 
 std::optional<HitClass> hit_class_from_string(std::string_view s) {
-  for (HitClass c : {HitClass::miss, HitClass::enter, HitClass::exit, HitClass::tangent,
-                     HitClass::boundary})
+  for (HitClass c : {HitClass::miss, HitClass::enter, HitClass::exit, HitClass::tangent, HitClass::boundary})
     if (to_string(c) == s) return c;
   return std::nullopt;
 }
 
-std::string_view to_string(HitRule r) {
-  return r == HitRule::enter_only ? "enter-only" : "nearest";
-}
+std::string_view to_string(HitRule r) { return r == HitRule::enter_only ? "enter-only" : "nearest"; }
 
 std::optional<HitRule> hit_rule_from_string(std::string_view s) {
   if (s == "nearest") return HitRule::nearest_contact;

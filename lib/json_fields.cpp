@@ -14,8 +14,7 @@ std::optional<double> parse_hex_double(std::string_view text) {
   // Grammar: [+-] 0x|0X hexdigits [. hexdigits] p|P [+-] digits — strictly, no spaces.
   size_t i = 0;
   if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
-  if (i + 1 >= text.size() || text[i] != '0' || (text[i + 1] != 'x' && text[i + 1] != 'X'))
-    return std::nullopt;
+  if (i + 1 >= text.size() || text[i] != '0' || (text[i + 1] != 'x' && text[i + 1] != 'X')) return std::nullopt;
   i += 2;
   size_t digits = 0;
   while (i < text.size() && std::isxdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
@@ -47,8 +46,7 @@ json exact_json_number(double x) {
     char buf[32];
     auto [end, ec] = std::to_chars(buf, buf + sizeof buf, x);  // shortest round-trip decimal
     if (ec == std::errc() && end - buf <= 12) {
-      if (x == std::floor(x) && std::abs(x) < 9007199254740992.0)
-        return static_cast<std::int64_t>(x);
+      if (x == std::floor(x) && std::abs(x) < 9007199254740992.0) return static_cast<std::int64_t>(x);
       return x;
     }
   }
@@ -158,7 +156,8 @@ class DomBuilder {
 json parse_json_text(const std::string& text) {
   // A marker no string of this input contains (a counter until one is absent).
   std::string marker = "rayproof-overflow:";
-  for (unsigned n = 0; text.find(marker) != std::string::npos; ++n) marker = "rayproof-overflow-" + std::to_string(n) + ":";
+  for (unsigned n = 0; text.find(marker) != std::string::npos; ++n)
+    marker = "rayproof-overflow-" + std::to_string(n) + ":";
   std::string patched = text;
   for (;;) {
     DomBuilder builder(marker);
@@ -182,13 +181,20 @@ std::size_t utf8_sequence(std::string_view text, std::size_t i) {
   const unsigned char c = byte(i);
   std::size_t n = 0;
   unsigned char lo = 0x80, hi = 0xbf;  // the range of the second byte
-  if (c >= 0xc2 && c <= 0xdf) n = 2;
-  else if (c == 0xe0) n = 3, lo = 0xa0;
-  else if (c >= 0xe1 && c <= 0xef) n = 3, hi = c == 0xed ? 0x9f : 0xbf;
-  else if (c == 0xf0) n = 4, lo = 0x90;
-  else if (c >= 0xf1 && c <= 0xf3) n = 4;
-  else if (c == 0xf4) n = 4, hi = 0x8f;
-  else return 0;
+  if (c >= 0xc2 && c <= 0xdf)
+    n = 2;
+  else if (c == 0xe0)
+    n = 3, lo = 0xa0;
+  else if (c >= 0xe1 && c <= 0xef)
+    n = 3, hi = c == 0xed ? 0x9f : 0xbf;
+  else if (c == 0xf0)
+    n = 4, lo = 0x90;
+  else if (c >= 0xf1 && c <= 0xf3)
+    n = 4;
+  else if (c == 0xf4)
+    n = 4, hi = 0x8f;
+  else
+    return 0;
   if (i + n > text.size() || byte(i + 1) < lo || byte(i + 1) > hi) return 0;
   for (std::size_t k = 2; k < n; ++k)
     if (byte(i + k) < 0x80 || byte(i + k) > 0xbf) return 0;
@@ -277,8 +283,8 @@ std::uint64_t read_count(const json& j, const std::string& field) {
 double read_number(const json& j, const std::string& field) {
   double x;
   if (j.is_binary())  // DomBuilder's mark for a number beyond the double range
-    throw FieldError(field, "value " + std::string(j.get_binary().begin(), j.get_binary().end()) +
-                                " overflows the double range");
+    throw FieldError(
+        field, "value " + std::string(j.get_binary().begin(), j.get_binary().end()) + " overflows the double range");
   if (j.is_number()) {
     x = j.get<double>();
   } else if (j.is_string()) {
@@ -296,8 +302,7 @@ double read_number(const json& j, const std::string& field) {
 
 Vec3 read_vec3(const json& j, const std::string& field) {
   if (!j.is_array()) throw FieldError(field, "expected an array of 3 numbers, got " + std::string(j.type_name()));
-  if (j.size() != 3)
-    throw FieldError(field, "expected 3 components, got " + std::to_string(j.size()));
+  if (j.size() != 3) throw FieldError(field, "expected 3 components, got " + std::to_string(j.size()));
   Vec3 v;
   for (int i = 0; i < 3; ++i) v[i] = read_number(j[i], field + "[" + std::to_string(i) + "]");
   return v;
@@ -321,8 +326,7 @@ void check_keys(const json& obj, const std::string& field, std::initializer_list
     if (!obj.contains(r)) throw FieldError(prefix + std::string(r), "missing");
 }
 
-Shape read_shape(const json& j, const std::string& field,
-                 std::initializer_list<std::string_view> extra_keys) {
+Shape read_shape(const json& j, const std::string& field, std::initializer_list<std::string_view> extra_keys) {
   require_object(j, field);
   const std::string prefix = field + ".";
   if (!j.contains("type")) throw FieldError(prefix + "type", "missing");
@@ -352,8 +356,7 @@ Shape read_shape(const json& j, const std::string& field,
   } else if (type == "triangle") {
     keys({"vertices"});
     const json& v = j["vertices"];
-    if (!v.is_array() || v.size() != 3)
-      throw FieldError(prefix + "vertices", "expected an array of 3 vertices");
+    if (!v.is_array() || v.size() != 3) throw FieldError(prefix + "vertices", "expected an array of 3 vertices");
     Triangle t;
     for (int i = 0; i < 3; ++i) t.v[i] = read_vec3(v[i], prefix + "vertices[" + std::to_string(i) + "]");
     shape = t;
@@ -383,8 +386,7 @@ json shape_to_json(const Shape& shape) {
       return {{"type", "plane"}, {"normal", vec_json(p.normal)}, {"offset", exact_json_number(p.offset)}};
     }
     json operator()(const Triangle& t) const {
-      return {{"type", "triangle"},
-              {"vertices", json::array({vec_json(t.v[0]), vec_json(t.v[1]), vec_json(t.v[2])})}};
+      return {{"type", "triangle"}, {"vertices", json::array({vec_json(t.v[0]), vec_json(t.v[1]), vec_json(t.v[2])})}};
     }
     json operator()(const Box& b) const {
       return {{"type", "box"}, {"min", vec_json(b.min)}, {"max", vec_json(b.max)}};

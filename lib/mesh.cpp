@@ -14,7 +14,6 @@
 
 namespace rayproof {
 
-
 namespace {
 
 using mesh_detail::Soup;
@@ -42,7 +41,8 @@ std::vector<std::string_view> tokens_of(std::string_view line) {
 double coordinate(std::string_view text, const std::string& path, long line) {
   double x = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
-  if (ec == std::errc::result_out_of_range) fail(path, line, "coordinate '" + printable(text) + "' is beyond the double range");
+  if (ec == std::errc::result_out_of_range)
+    fail(path, line, "coordinate '" + printable(text) + "' is beyond the double range");
   if (ec != std::errc() || end != text.data() + text.size())
     fail(path, line, "expected a number, got '" + printable(text) + "'");
   if (!std::isfinite(x)) fail(path, line, "coordinate '" + printable(text) + "' is not finite");
@@ -99,24 +99,28 @@ Soup read_off(const std::string& path) {
   if (counts.size() < 2) fail(path, in.line(), "expected 'vertices faces edges'");
   const long long nv = integer(counts[0], path, in.line(), "a vertex count");
   const long long nf = integer(counts[1], path, in.line(), "a face count");
-  if (nv < 0 || nf < 0 || nv > (1LL << 31) || nf > (1LL << 31)) fail(path, in.line(), "vertex or face count out of range");
+  if (nv < 0 || nf < 0 || nv > (1LL << 31) || nf > (1LL << 31))
+    fail(path, in.line(), "vertex or face count out of range");
   Soup soup;
   soup.points.reserve(static_cast<size_t>(std::min(nv, 1LL << 24)));
   for (long long i = 0; i < nv; ++i) {
-    if (!in.next(tok)) fail(path, in.line(), "file ends after " + std::to_string(i) + " of " + std::to_string(nv) + " vertices");
+    if (!in.next(tok))
+      fail(path, in.line(), "file ends after " + std::to_string(i) + " of " + std::to_string(nv) + " vertices");
     if (tok.size() < 3) fail(path, in.line(), "a vertex needs 3 coordinates");
     soup.points.push_back({coordinate(tok[0], path, in.line()), coordinate(tok[1], path, in.line()),
                            coordinate(tok[2], path, in.line())});
   }
   for (long long f = 0; f < nf; ++f) {
-    if (!in.next(tok)) fail(path, in.line(), "file ends after " + std::to_string(f) + " of " + std::to_string(nf) + " faces");
+    if (!in.next(tok))
+      fail(path, in.line(), "file ends after " + std::to_string(f) + " of " + std::to_string(nf) + " faces");
     const long long n = integer(tok[0], path, in.line(), "the face's vertex count");
     if (n < 3 || static_cast<size_t>(n) + 1 > tok.size()) fail(path, in.line(), "a face needs n >= 3 and n indices");
     std::vector<size_t> face;
     for (long long k = 1; k <= n; ++k) {
       const long long idx = integer(tok[k], path, in.line(), "a vertex index");
       if (idx < 0 || idx >= nv)
-        fail(path, in.line(), "vertex index " + std::to_string(idx) + " out of range (" + std::to_string(nv) + " vertices)");
+        fail(path, in.line(),
+             "vertex index " + std::to_string(idx) + " out of range (" + std::to_string(nv) + " vertices)");
       face.push_back(static_cast<size_t>(idx));
     }
     soup.faces.push_back(std::move(face));
@@ -144,8 +148,8 @@ Soup read_obj(const std::string& path) {
         const long long raw = integer(tok[k].substr(0, tok[k].find('/')), path, in.line(), "a vertex index");
         const long long idx = raw < 0 ? n + raw : raw - 1;
         if (raw == 0 || idx < 0 || idx >= n)
-          fail(path, in.line(), "vertex index " + std::to_string(raw) + " out of range (" + std::to_string(n) +
-                                    " vertices so far)");
+          fail(path, in.line(),
+               "vertex index " + std::to_string(raw) + " out of range (" + std::to_string(n) + " vertices so far)");
         face.push_back(static_cast<size_t>(idx));
       }
       soup.faces.push_back(std::move(face));
@@ -185,8 +189,9 @@ Mesh mesh_of_soup(const std::string& path, const Soup& soup, double scale, const
     const long line = soup.face_lines.empty() ? 0 : soup.face_lines[f];
     for (size_t idx : face)
       if (idx >= placed.size())
-        fail(path, line, "face " + std::to_string(f) + ": vertex index " + std::to_string(idx) + " out of range (" +
-                             std::to_string(placed.size()) + " vertices)");
+        fail(path, line,
+             "face " + std::to_string(f) + ": vertex index " + std::to_string(idx) + " out of range (" +
+                 std::to_string(placed.size()) + " vertices)");
     for (size_t k = 1; k + 1 < face.size(); ++k) {  // the fan from the face's first vertex
       const std::array<std::uint32_t, 3> c = {static_cast<std::uint32_t>(face[0]), static_cast<std::uint32_t>(face[k]),
                                               static_cast<std::uint32_t>(face[k + 1])};
@@ -213,11 +218,16 @@ Mesh load_mesh(const std::string& path, double scale, const Vec3& translate) {
   if (!std::filesystem::is_regular_file(path, ec)) fail(path, 0, "not a regular file");
   const std::string ext = lower_extension(path);
   Soup soup;
-  if (ext == "off") soup = read_off(path);
-  else if (ext == "obj") soup = read_obj(path);
-  else if (ext == "ply") soup = mesh_detail::read_ply(path);
-  else if (ext == "stl") soup = mesh_detail::read_stl(path);
-  else fail(path, 0, "unknown mesh format '" + printable(ext) + "' (OFF, OBJ, PLY or STL)");
+  if (ext == "off")
+    soup = read_off(path);
+  else if (ext == "obj")
+    soup = read_obj(path);
+  else if (ext == "ply")
+    soup = mesh_detail::read_ply(path);
+  else if (ext == "stl")
+    soup = mesh_detail::read_stl(path);
+  else
+    fail(path, 0, "unknown mesh format '" + printable(ext) + "' (OFF, OBJ, PLY or STL)");
 
   return mesh_of_soup(path, soup, scale, translate);
 }

@@ -37,8 +37,9 @@ MeshCase read_mesh_case(const json& j) {
     for (int k = 0; k < 3; ++k) {
       const std::uint32_t index = read_index(ts[i][k], field + "[" + std::to_string(k) + "]");
       if (index >= mesh->vertex_count())
-        throw FieldError(field + "[" + std::to_string(k) + "]",
-                         "vertex " + std::to_string(index) + " out of range (" + std::to_string(mesh->vertex_count()) + " vertices)");
+        throw FieldError(field + "[" + std::to_string(k) + "]", "vertex " + std::to_string(index) + " out of range (" +
+                                                                    std::to_string(mesh->vertex_count()) +
+                                                                    " vertices)");
       mesh->indices.push_back(index);
     }
   }
@@ -52,7 +53,7 @@ MeshCase read_mesh_case(const json& j) {
   if (r.contains("tmax")) {
     const json& t = r.at("tmax");
     c.ray.tmax = t.is_string() && t.get<std::string>() == "inf" ? std::numeric_limits<double>::infinity()
-                                                                 : read_number(t, "ray.tmax");
+                                                                : read_number(t, "ray.tmax");
   }
   if (const auto why = invalid_ray_reason(c.ray)) throw FieldError("ray", *why);
   if (j.contains("all")) {
@@ -74,7 +75,9 @@ json mesh_to_json(const TriangleMesh& mesh) {
 }
 
 json tracer_ray_to_json(const TracerRay& r) {
-  auto vec = [](const Vec3& v) { return json{exact_json_number(v.x()), exact_json_number(v.y()), exact_json_number(v.z())}; };
+  auto vec = [](const Vec3& v) {
+    return json{exact_json_number(v.x()), exact_json_number(v.y()), exact_json_number(v.z())};
+  };
   return {{"origin", vec(r.ray.origin)},
           {"direction", vec(r.ray.direction)},
           {"tmin", exact_json_number(r.tmin)},

@@ -21,7 +21,8 @@ Soup read_stl(const std::string& path) {
   std::vector<Point> points;
   std::vector<std::vector<std::size_t>> faces;
   if (!CGAL::IO::read_STL(in, points, faces, CGAL::parameters::verbose(false)))
-    throw std::runtime_error(printable(path) + ": CGAL's STL reader could not read this file (malformed, truncated or not STL)");
+    throw std::runtime_error(printable(path) +
+                             ": CGAL's STL reader could not read this file (malformed, truncated or not STL)");
   Soup soup;
   soup.points.reserve(points.size());
   for (const Point& p : points) soup.points.push_back({p.x(), p.y(), p.z()});

@@ -47,9 +47,13 @@ std::optional<PlyType> ply_type(std::string_view name) {
 
 std::size_t size_of(PlyType t) {
   switch (t) {
-    case PlyType::i8: case PlyType::u8: return 1;
-    case PlyType::i16: case PlyType::u16: return 2;
-    case PlyType::i32: case PlyType::u32: case PlyType::f32: return 4;
+    case PlyType::i8:
+    case PlyType::u8: return 1;
+    case PlyType::i16:
+    case PlyType::u16: return 2;
+    case PlyType::i32:
+    case PlyType::u32:
+    case PlyType::f32: return 4;
     case PlyType::f64: return 8;
   }
   return 8;
@@ -137,7 +141,10 @@ class PlyReader {
   }
 
   void read_header() {
-    if (header_line() != "ply") { line_ = 1; fail("expected 'ply' on the first line"); }
+    if (header_line() != "ply") {
+      line_ = 1;
+      fail("expected 'ply' on the first line");
+    }
     bool have_format = false;
     for (;;) {
       const std::vector<std::string_view> w = words(header_line());
@@ -145,23 +152,30 @@ class PlyReader {
       if (w[0] == "end_header") break;
       if (w[0] == "format") {
         if (w.size() != 3) fail("expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
-        if (w[1] == "ascii") encoding_ = Encoding::ascii;
-        else if (w[1] == "binary_little_endian") encoding_ = Encoding::little;
-        else if (w[1] == "binary_big_endian") encoding_ = Encoding::big;
-        else fail("unknown format '" + printable(w[1]) + "'");
+        if (w[1] == "ascii")
+          encoding_ = Encoding::ascii;
+        else if (w[1] == "binary_little_endian")
+          encoding_ = Encoding::little;
+        else if (w[1] == "binary_big_endian")
+          encoding_ = Encoding::big;
+        else
+          fail("unknown format '" + printable(w[1]) + "'");
         have_format = true;
       } else if (w[0] == "element") {
         std::uint64_t count = 0;
-        if (w.size() != 3 || std::from_chars(w[2].data(), w[2].data() + w[2].size(), count).ptr != w[2].data() + w[2].size())
+        if (w.size() != 3 ||
+            std::from_chars(w[2].data(), w[2].data() + w[2].size(), count).ptr != w[2].data() + w[2].size())
           fail("expected 'element NAME COUNT' with a count >= 0");
-        if (count > (std::uint64_t{1} << 31)) fail("element '" + printable(w[1]) + "' count " + std::string(w[2]) + " is out of range");
+        if (count > (std::uint64_t{1} << 31))
+          fail("element '" + printable(w[1]) + "' count " + std::string(w[2]) + " is out of range");
         elements_.push_back({std::string(w[1]), count, {}});
       } else if (w[0] == "property") {
         if (elements_.empty()) fail("a property before any element");
         Property p;
         if (w.size() == 5 && w[1] == "list") {
           p = {std::string(w[4]), true, type_named(w[2]), type_named(w[3])};
-          if (p.count_type == PlyType::f32 || p.count_type == PlyType::f64) fail("a list count must have an integer type");
+          if (p.count_type == PlyType::f32 || p.count_type == PlyType::f64)
+            fail("a list count must have an integer type");
         } else if (w.size() == 3) {
           p = {std::string(w[2]), false, PlyType::u8, type_named(w[1])};
         } else {
@@ -286,10 +300,14 @@ class PlyReader {
       std::array<double, 3> point{};
       for (std::size_t k = 0; k < e.properties.size(); ++k) {
         const Property& p = e.properties[k];
-        const int axis = k == static_cast<std::size_t>(axis_of[0]) ? 0 : k == static_cast<std::size_t>(axis_of[1]) ? 1
-                         : k == static_cast<std::size_t>(axis_of[2]) ? 2 : -1;
-        if (axis < 0) skip(p, what);
-        else point[axis] = value(p.value_type, what + " " + p.name);
+        const int axis = k == static_cast<std::size_t>(axis_of[0])   ? 0
+                         : k == static_cast<std::size_t>(axis_of[1]) ? 1
+                         : k == static_cast<std::size_t>(axis_of[2]) ? 2
+                                                                     : -1;
+        if (axis < 0)
+          skip(p, what);
+        else
+          point[axis] = value(p.value_type, what + " " + p.name);
       }
       soup.points.push_back(point);
     }
@@ -316,7 +334,8 @@ class PlyReader {
         face.reserve(n);
         for (std::uint64_t j = 0; j < n; ++j) {
           const double idx = value(p.value_type, what + " vertex index");
-          if (!(idx >= 0) || idx != std::floor(idx)) fail(what + ": vertex index " + std::to_string(idx) + " is not an index");
+          if (!(idx >= 0) || idx != std::floor(idx))
+            fail(what + ": vertex index " + std::to_string(idx) + " is not an index");
           face.push_back(static_cast<std::size_t>(idx));
         }
         soup.faces.push_back(std::move(face));

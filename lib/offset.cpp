@@ -15,8 +15,8 @@ Vec3 offset_by_error_bound(const Ray& r, double t, const Vec3& p, const Vec3& n)
   const double d = std::abs(n.x()) * error.x() + std::abs(n.y()) * error.y() + std::abs(n.z()) * error.z();
   Vec3 out = p + d * n;
   for (int i = 0; i < 3; ++i) {
-    if (n[i] > 0) out[i] = std::nextafter(out[i], INFINITY);
-    if (n[i] < 0) out[i] = std::nextafter(out[i], -INFINITY);
+    if (n[i] > 0) out[i] = next_up(out[i]);
+    if (n[i] < 0) out[i] = next_down(out[i]);
   }
   return out;
 }

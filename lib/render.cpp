@@ -76,7 +76,8 @@ double diffuse_cosine(const Vec3& p, const Vec3& n, const PointLight& light) {
   return std::max(-dot(n, w), 0.0);
 }
 
-Vec3 shade_point(const Scene& scene, const Vec3& color, const Vec3& p, const Ray& ray, std::span<const double> light_terms) {
+Vec3 shade_point(const Scene& scene, const Vec3& color, const Vec3& p, const Ray& ray,
+                 std::span<const double> light_terms) {
   switch (scene.shading) {
     case Shading::flat: return color;
     case Shading::depth: {
@@ -125,8 +126,7 @@ Image render(const Scene& scene, const RenderOptions& options) {
         Vec3 sum = Vec3::Zero();
         for (int sy = 0; sy < grid; ++sy)
           for (int sx = 0; sx < grid; ++sx)
-            sum += shade(index, options.intersectors,
-                         cam.ray_through(x + (sx + 0.5) / grid, y + (sy + 0.5) / grid));
+            sum += shade(index, options.intersectors, cam.ray_through(x + (sx + 0.5) / grid, y + (sy + 0.5) / grid));
         const Vec3 c = sum / (grid * grid);
         for (int k = 0; k < 3; ++k)
           image.rgb[3 * (size_t(y) * cam.width + x) + k] =
@@ -200,11 +200,9 @@ void write_image(const Image& image, AtomicFile& file) {
 Image read_png(const std::string& path) {
   png_image img{};
   img.version = PNG_IMAGE_VERSION;
-  if (!png_image_begin_read_from_file(&img, path.c_str()))
-    throw std::runtime_error(path + ": " + img.message);
+  if (!png_image_begin_read_from_file(&img, path.c_str())) throw std::runtime_error(path + ": " + img.message);
   img.format = PNG_FORMAT_RGB;
-  Image out{static_cast<int>(img.width), static_cast<int>(img.height),
-            std::vector<std::uint8_t>(PNG_IMAGE_SIZE(img))};
+  Image out{static_cast<int>(img.width), static_cast<int>(img.height), std::vector<std::uint8_t>(PNG_IMAGE_SIZE(img))};
   if (!png_image_finish_read(&img, nullptr, out.rgb.data(), 0, nullptr))
     throw std::runtime_error(path + ": " + img.message);
   return out;

@@ -88,8 +88,8 @@ Camera read_camera(const json& j) {
   const double widest = std::max(std::abs(cam.window_left), std::abs(cam.window_right));
   const double tallest = std::max(std::abs(cam.window_top), std::abs(cam.window_bottom));
   constexpr double kLargest = std::numeric_limits<double>::max() / 4;
-  if (!(std::abs(cam.window_right - cam.window_left) <= kLargest && std::abs(cam.window_bottom - cam.window_top) <= kLargest &&
-        1 + widest + tallest <= kLargest))
+  if (!(std::abs(cam.window_right - cam.window_left) <= kLargest &&
+        std::abs(cam.window_bottom - cam.window_top) <= kLargest && 1 + widest + tallest <= kLargest))
     throw FieldError(window ? "camera.right" : "camera.fov_deg",
                      "the window is so wide that ray directions would overflow (every camera ray must be finite)");
   return cam;
@@ -126,10 +126,14 @@ Scene read_scene(const json& j, const std::string& scene_dir) {
   if (j.contains("shading")) {
     if (!j["shading"].is_string()) throw FieldError("shading", "expected a string");
     const std::string s = j["shading"];
-    if (s == "flat") scene.shading = Shading::flat;
-    else if (s == "diffuse") scene.shading = Shading::diffuse;
-    else if (s == "depth") scene.shading = Shading::depth;
-    else throw FieldError("shading", "unknown shading \"" + s + "\" (flat, diffuse, depth)");
+    if (s == "flat")
+      scene.shading = Shading::flat;
+    else if (s == "diffuse")
+      scene.shading = Shading::diffuse;
+    else if (s == "depth")
+      scene.shading = Shading::depth;
+    else
+      throw FieldError("shading", "unknown shading \"" + s + "\" (flat, diffuse, depth)");
   }
   if (j.contains("background")) scene.background = read_color(j["background"], "background");
   if (j.contains("lights")) {
@@ -153,8 +157,10 @@ Scene read_scene(const json& j, const std::string& scene_dir) {
     const std::string f = "objects[" + std::to_string(i) + "]";
     SceneObject obj;
     const bool is_mesh = objects[i].is_object() && objects[i].contains("type") && objects[i]["type"] == "mesh";
-    if (is_mesh) obj = read_mesh_object(objects[i], f, scene_dir, scene.warnings);
-    else obj.shape = read_shape(objects[i], f, {"color", "id"});
+    if (is_mesh)
+      obj = read_mesh_object(objects[i], f, scene_dir, scene.warnings);
+    else
+      obj.shape = read_shape(objects[i], f, {"color", "id"});
     if (objects[i].contains("color")) obj.color = read_color(objects[i]["color"], f + ".color");
     if (objects[i].contains("id")) {
       if (!objects[i]["id"].is_string()) throw FieldError(f + ".id", "expected a string");
@@ -218,8 +224,7 @@ Scene load_scene(const std::string& path) {
   }
   std::stringstream buf;
   buf << (path == "-" ? std::cin.rdbuf() : file.rdbuf());
-  if (buf.str().find_first_not_of(" \t\r\n") == std::string::npos)
-    throw std::runtime_error(name + ": empty file");
+  if (buf.str().find_first_not_of(" \t\r\n") == std::string::npos) throw std::runtime_error(name + ": empty file");
   return parse_scene(buf.str(), path == "-" ? name : path);
 }
 
@@ -251,9 +256,12 @@ Scene translated(const Scene& scene, const Vec3& by) {
     std::visit(
         [&](auto& s) {
           using S = std::decay_t<decltype(s)>;
-          if constexpr (std::is_same_v<S, Sphere>) s.center += by;
-          else if constexpr (std::is_same_v<S, Plane>) s.offset = s.offset + dot(s.normal, by);
-          else if constexpr (std::is_same_v<S, Triangle>) for (Vec3& v : s.v) v += by;
+          if constexpr (std::is_same_v<S, Sphere>)
+            s.center += by;
+          else if constexpr (std::is_same_v<S, Plane>)
+            s.offset = s.offset + dot(s.normal, by);
+          else if constexpr (std::is_same_v<S, Triangle>)
+            for (Vec3& v : s.v) v += by;
           else {
             s.min += by;
             s.max += by;

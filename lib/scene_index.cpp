@@ -13,8 +13,8 @@ Bounds bounds_of(const Shape& shape) {
   if (const auto* s = std::get_if<Sphere>(&shape)) {
     // c ± r rounds by at most half an ulp: one more double outward covers it.
     for (int k = 0; k < 3; ++k) {
-      b.lo[k] = std::nextafter(s->center[k] - s->radius, -inf);
-      b.hi[k] = std::nextafter(s->center[k] + s->radius, inf);
+      b.lo[k] = next_down(s->center[k] - s->radius);
+      b.hi[k] = next_up(s->center[k] + s->radius);
     }
   } else if (const auto* t = std::get_if<Triangle>(&shape)) {
     for (const Vec3& v : t->v) b.grow(v);

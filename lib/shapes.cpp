@@ -38,7 +38,8 @@ bool exactly_collinear(const Vec3& a, const Vec3& b, const Vec3& c) {
     const int j = (i + 1) % 3, k = (i + 2) % 3;
     const double p = e1[j] * e2[k], q = e1[k] * e2[j];
     const double magnitude = std::abs(p) + std::abs(q);
-    if (std::isfinite(magnitude) && magnitude > kSafeMagnitudeMin && std::abs(p - q) > 2 * gamma(6) * magnitude) return false;
+    if (std::isfinite(magnitude) && magnitude > kSafeMagnitudeMin && std::abs(p - q) > 2 * gamma(6) * magnitude)
+      return false;
   }
   return exactly_collinear_rational(a, b, c);
 }
@@ -88,13 +89,15 @@ std::optional<std::string> degenerate_reason(const Shape& shape) {
 }
 
 Shape scaled(const Shape& shape, double f) {
-  return std::visit([f](const auto& x) -> Shape {
-    using S = std::decay_t<decltype(x)>;
-    if constexpr (std::is_same_v<S, Sphere>) return Sphere{x.center * f, x.radius * f};
-    if constexpr (std::is_same_v<S, Plane>) return Plane{x.normal, x.offset * f};
-    if constexpr (std::is_same_v<S, Triangle>) return Triangle{{x.v[0] * f, x.v[1] * f, x.v[2] * f}};
-    if constexpr (std::is_same_v<S, Box>) return Box{x.min * f, x.max * f};
-  }, shape);
+  return std::visit(
+      [f](const auto& x) -> Shape {
+        using S = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<S, Sphere>) return Sphere{x.center * f, x.radius * f};
+        if constexpr (std::is_same_v<S, Plane>) return Plane{x.normal, x.offset * f};
+        if constexpr (std::is_same_v<S, Triangle>) return Triangle{{x.v[0] * f, x.v[1] * f, x.v[2] * f}};
+        if constexpr (std::is_same_v<S, Box>) return Box{x.min * f, x.max * f};
+      },
+      shape);
 }
 
 Vec3 outward_normal(const Shape& shape, const Vec3& p) {
@@ -102,9 +105,7 @@ Vec3 outward_normal(const Shape& shape, const Vec3& p) {
     const Vec3& p;
     Vec3 operator()(const Sphere& s) const { return normalized(p - s.center); }
     Vec3 operator()(const Plane& pl) const { return normalized(pl.normal); }
-    Vec3 operator()(const Triangle& t) const {
-      return normalized(cross(t.v[1] - t.v[0], t.v[2] - t.v[0]));
-    }
+    Vec3 operator()(const Triangle& t) const { return normalized(cross(t.v[1] - t.v[0], t.v[2] - t.v[0])); }
     Vec3 operator()(const Box& b) const {
       // The face whose plane is nearest to p, relative to the box's extent on that axis.
       int best_axis = 0;
@@ -134,10 +135,14 @@ int shape_numbers(const Shape& s, double out[kMaxShapeNumbers]) {
   return std::visit(
       [&](const auto& x) {
         using T = std::decay_t<decltype(x)>;
-        if constexpr (std::is_same_v<T, Sphere>) put(0, x.center), out[3] = x.radius;
-        else if constexpr (std::is_same_v<T, Plane>) put(0, x.normal), out[3] = x.offset;
-        else if constexpr (std::is_same_v<T, Triangle>) put(0, x.v[0]), put(3, x.v[1]), put(6, x.v[2]);
-        else put(0, x.min), put(3, x.max);
+        if constexpr (std::is_same_v<T, Sphere>)
+          put(0, x.center), out[3] = x.radius;
+        else if constexpr (std::is_same_v<T, Plane>)
+          put(0, x.normal), out[3] = x.offset;
+        else if constexpr (std::is_same_v<T, Triangle>)
+          put(0, x.v[0]), put(3, x.v[1]), put(6, x.v[2]);
+        else
+          put(0, x.min), put(3, x.max);
         return shape_number_count(kind_of(Shape(x)));
       },
       s);

@@ -160,7 +160,8 @@ std::map<std::string, Tracer, std::less<>>& builtin() {
     if (all.contains(name)) continue;
     Tracer t;
     t.name = name;
-    t.source = "rayproof BVH (binned SAH, conservative slabs) + " + std::string(v->name) + ": " + std::string(v->source);
+    t.source =
+        "rayproof BVH (binned SAH, conservative slabs) + " + std::string(v->name) + ": " + std::string(v->source);
     t.build = [v](const TriangleMesh& mesh) { return build_bvh_tracer_scene(*v, mesh); };
     all.emplace(name, std::move(t));
   }

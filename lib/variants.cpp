@@ -29,25 +29,43 @@ struct V3 {
   T operator[](int i) const { return i == 0 ? x : i == 1 ? y : z; }
 };
 // A double as T: itself, or rounded to the nearest float (±inf beyond float's range, fp.h).
-template <class T> T as(double x) {
-  if constexpr (std::is_same_v<T, float>) return to_nearest_float(x);
-  else return x;
+template <class T>
+T as(double x) {
+  if constexpr (std::is_same_v<T, float>)
+    return to_nearest_float(x);
+  else
+    return x;
 }
-template <class T> V3<T> lift(const Vec3& v) { return {as<T>(v.x()), as<T>(v.y()), as<T>(v.z())}; }
-template <class T> V3<T> operator-(const V3<T>& a, const V3<T>& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-template <class T> V3<T> operator*(T k, const V3<T>& a) { return {k * a.x, k * a.y, k * a.z}; }
-template <class T> T dot(const V3<T>& a, const V3<T>& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-template <class T> V3<T> cross(const V3<T>& a, const V3<T>& b) {
+template <class T>
+V3<T> lift(const Vec3& v) {
+  return {as<T>(v.x()), as<T>(v.y()), as<T>(v.z())};
+}
+template <class T>
+V3<T> operator-(const V3<T>& a, const V3<T>& b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+template <class T>
+V3<T> operator*(T k, const V3<T>& a) {
+  return {k * a.x, k * a.y, k * a.z};
+}
+template <class T>
+T dot(const V3<T>& a, const V3<T>& b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+template <class T>
+V3<T> cross(const V3<T>& a, const V3<T>& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-template <class T> struct RayOf {
+template <class T>
+struct RayOf {
   V3<T> o, d;
   explicit RayOf(const Ray& r) : o(lift<T>(r.origin)), d(lift<T>(r.direction)) {}
   V3<T> at(T t) const { return {o.x + t * d.x, o.y + t * d.y, o.z + t * d.z}; }
 };
 
 // γ(n) in T's unit roundoff (fp.h's γ for double, checked below; 2^-24 for float).
-template <class T> constexpr T gamma_of(int n) {
+template <class T>
+constexpr T gamma_of(int n) {
   constexpr T u = std::numeric_limits<T>::epsilon() / 2;
   return (n * u) / (1 - n * u);
 }
@@ -71,16 +89,19 @@ Hit sphere_hit_from_roots(const RayOf<T>& ray, const V3<T>& center, T t0, T t1, 
 
 // The sphere's quadratic a t² + b t + c = 0 with a = d·d, b = 2 d·(o−m), c = |o−m|² − r²
 // (Rietmann 2020, Aufgabe 1), shared by the variants that start from it.
-template <class T> struct Quadratic {
+template <class T>
+struct Quadratic {
   T a, b, c;
 };
-template <class T> Quadratic<T> sphere_quadratic(const RayOf<T>& ray, const V3<T>& m, T r) {
+template <class T>
+Quadratic<T> sphere_quadratic(const RayOf<T>& ray, const V3<T>& m, T r) {
   const V3<T> oc = ray.o - m;
   return {dot(ray.d, ray.d), 2 * dot(ray.d, oc), dot(oc, oc) - r * r};
 }
 
 // The stable roots q = −½(b + sgn(b)√D), q/a and c/q with sgn(0) = +1, sorted.
-template <class T> std::pair<T, T> stable_roots(const Quadratic<T>& k, T disc) {
+template <class T>
+std::pair<T, T> stable_roots(const Quadratic<T>& k, T disc) {
   const T root = std::sqrt(disc);
   const T q = T(-0.5) * (k.b + (k.b >= 0 ? root : -root));
   const T x1 = q / k.a;
@@ -90,7 +111,8 @@ template <class T> std::pair<T, T> stable_roots(const Quadratic<T>& k, T disc) {
 
 // Textbook quadratic formula, t = (−b ± √(b² − 4ac)) / 2a (Rietmann, "Raytracing und
 // Vektorgeometrie", 2020, Aufgabe 1). Cancels catastrophically in −b + √D when b² ≫ 4ac.
-template <class T> Hit textbook(const Ray& r, const Sphere& s, HitRule rule) {
+template <class T>
+Hit textbook(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
   const auto [a, b, c] = sphere_quadratic(ray, m, as<T>(s.radius));
@@ -104,7 +126,8 @@ template <class T> Hit textbook(const Ray& r, const Sphere& s, HitRule rule) {
 
 // Stable quadratic roots q = −½(b + sgn(b)√D), t1 = q/a, t2 = c/q with sgn(0) = +1
 // (DGL Wiki, "Tutorial Raytracing – Grundlagen I", 2012; Numerical Recipes §5.6).
-template <class T> Hit stable(const Ray& r, const Sphere& s, HitRule rule) {
+template <class T>
+Hit stable(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
   const Quadratic<T> k = sphere_quadratic(ray, m, as<T>(s.radius));
@@ -117,14 +140,15 @@ template <class T> Hit stable(const Ray& r, const Sphere& s, HitRule rule) {
 // As `stable`, but the discriminant b² − 4ac is computed with Kahan's FMA-compensated
 // difference of products (Kahan, "On the Cost of Floating-Point Computation Without
 // Extra-Precise Arithmetic", 2004): D is accurate to a few ulps even when b² ≈ 4ac.
-template <class T> Hit stable_fma(const Ray& r, const Sphere& s, HitRule rule) {
+template <class T>
+Hit stable_fma(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
   const Quadratic<T> k = sphere_quadratic(ray, m, as<T>(s.radius));
   const T four_a = 4 * k.a;
   const T w = four_a * k.c;
-  const T e = std::fma(-four_a, k.c, w);        // exact error of the product 4a·c
-  const T disc = std::fma(k.b, k.b, -w) + e;    // b² − 4ac with one rounding in b²−w
+  const T e = std::fma(-four_a, k.c, w);      // exact error of the product 4a·c
+  const T disc = std::fma(k.b, k.b, -w) + e;  // b² − 4ac with one rounding in b²−w
   if (disc < 0) return Hit::miss();
   const auto [t0, t1] = stable_roots(k, disc);
   return sphere_hit_from_roots(ray, m, t0, t1, disc == 0, rule);
@@ -133,7 +157,8 @@ template <class T> Hit stable_fma(const Ray& r, const Sphere& s, HitRule rule) {
 // Discriminant from the distance of the centre to the ray's line, Δ = r² − |f − (f·d/d·d) d|²
 // with f = o − m, and the stable root choice q = b′ + sgn(b′)√(aΔ), b′ = −f·d, t0 = c/q,
 // t1 = q/a (Haines, Günther, Akenine-Möller, Ray Tracing Gems ch. 7, eqs. 7–10, 2019).
-template <class T> Hit hearn_baker(const Ray& r, const Sphere& s, HitRule rule) {
+template <class T>
+Hit hearn_baker(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
   const V3<T> f = ray.o - m;
@@ -153,7 +178,8 @@ template <class T> Hit hearn_baker(const Ray& r, const Sphere& s, HitRule rule) 
 }
 
 // Plane in normal form n·x = d: t = (d − n·o) / (n·dir) (DGL Wiki tutorial, "Ebenen").
-template <class T> Hit direct(const Ray& r, const Plane& p, HitRule rule) {
+template <class T>
+Hit direct(const Ray& r, const Plane& p, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> n = lift<T>(p.normal);
   const T denom = dot(n, ray.d);
@@ -170,7 +196,8 @@ template <class T> Hit direct(const Ray& r, const Plane& p, HitRule rule) {
 
 // Shared tail of the triangle variants: the hit is on the front face when `front`,
 // on an edge or vertex when `on_edge`.
-template <class T> Hit triangle_hit(T t, bool front, bool on_edge, HitRule rule) {
+template <class T>
+Hit triangle_hit(T t, bool front, bool on_edge, HitRule rule) {
   if (!(t > 0)) return Hit::miss();
   if (!front && rule == HitRule::enter_only) return Hit::miss();
   if (on_edge) return {HitClass::boundary, double(t)};
@@ -179,7 +206,8 @@ template <class T> Hit triangle_hit(T t, bool front, bool on_edge, HitRule rule)
 
 // Möller & Trumbore, "Fast, Minimum Storage Ray/Triangle Intersection", JGT 1997.
 // det = e1·(d × e2) = −d·n, so det > 0 means the ray meets the front face.
-template <class T> Hit moller_trumbore(const Ray& r, const Triangle& tri, HitRule rule) {
+template <class T>
+Hit moller_trumbore(const Ray& r, const Triangle& tri, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> v0 = lift<T>(tri.v[0]);
   const V3<T> e1 = lift<T>(tri.v[1]) - v0;
@@ -205,7 +233,8 @@ template <class T> Hit moller_trumbore(const Ray& r, const Triangle& tri, HitRul
 // error ≤ 2u, so exact in sign while the products are 0 or at least 2^-969 in magnitude. (Long
 // double, used before, has 64 bits where a product of doubles needs 106, and is double itself on
 // some platforms: it said 0 for 2^-70.)
-template <class T> T exact_sign_edge(T a, T b, T c, T d) {
+template <class T>
+T exact_sign_edge(T a, T b, T c, T d) {
   if constexpr (std::is_same_v<T, float>)
     return static_cast<float>(double(a) * double(b) - double(c) * double(d));
   else
@@ -220,7 +249,8 @@ template <class T> T exact_sign_edge(T a, T b, T c, T d) {
 // is computed bit-identically, reversed, in both triangles (fl(x − y) = −fl(y − x)), so exactly
 // one owns it; at a closed fan's centre exactly one triangle owns both its edges there: what DXR
 // and Vulkan ray tracing promise, one hit per shared edge and vertex.
-template <class T, bool top_left> Hit watertight(const Ray& r, const Triangle& tri, HitRule rule) {
+template <class T, bool top_left>
+Hit watertight(const Ray& r, const Triangle& tri, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T>& d = ray.d;
   int kz = 0;
@@ -260,7 +290,8 @@ template <class T, bool top_left> Hit watertight(const Ray& r, const Triangle& t
 }
 
 // Shared tail of the box variants: the ray's parameter interval inside the closed box.
-template <class T> Hit box_hit(T t_min, T t_max, HitRule rule) {
+template <class T>
+Hit box_hit(T t_min, T t_max, HitRule rule) {
   if (!(t_min <= t_max)) return Hit::miss();
   if (t_min > 0) {
     if (t_min == t_max) return rule == HitRule::enter_only ? Hit::miss() : Hit{HitClass::tangent, double(t_min)};
@@ -273,7 +304,8 @@ template <class T> Hit box_hit(T t_min, T t_max, HitRule rule) {
 // Naive slab test as usually written (Kay & Kajiya 1986; Scratchapixel's ray–box lesson):
 // per-axis division by d and plain comparisons, no care for zero or −0.0 components — 0/0 is
 // NaN when the origin lies on a slab plane, and a NaN bound then poisons the interval.
-template <class T> Hit slab(const Ray& r, const Box& box, HitRule rule) {
+template <class T>
+Hit slab(const Ray& r, const Box& box, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> lo = lift<T>(box.min), hi = lift<T>(box.max);
   T t_min = (lo.x - ray.o.x) / ray.d.x;
@@ -294,7 +326,8 @@ template <class T> Hit slab(const Ray& r, const Box& box, HitRule rule) {
 // Algorithm", JGT 2005 (inverse direction, near/far bound chosen by the sign bit so −0.0 works),
 // with NaN-safe, boundary-inclusive min/max ordering and the far distance widened by
 // 1 + 2γ(3) in T's own unit roundoff (Ize, "Robust BVH Ray Traversal", JCGT 2013).
-template <class T> Hit robust_slab(const Ray& r, const Box& box, HitRule rule) {
+template <class T>
+Hit robust_slab(const Ray& r, const Box& box, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> lo = lift<T>(box.min), hi = lift<T>(box.max);
   constexpr T kInf = std::numeric_limits<T>::infinity();
@@ -322,8 +355,12 @@ Hit sphere_stable(const Ray& ray, const Sphere& s, HitRule rule) { return stable
 Hit sphere_stable_fma(const Ray& ray, const Sphere& s, HitRule rule) { return stable_fma<double>(ray, s, rule); }
 Hit sphere_hearn_baker(const Ray& ray, const Sphere& s, HitRule rule) { return hearn_baker<double>(ray, s, rule); }
 Hit plane_direct(const Ray& ray, const Plane& p, HitRule rule) { return direct<double>(ray, p, rule); }
-Hit triangle_moller_trumbore(const Ray& ray, const Triangle& t, HitRule rule) { return moller_trumbore<double>(ray, t, rule); }
-Hit triangle_watertight(const Ray& ray, const Triangle& t, HitRule rule) { return watertight<double, false>(ray, t, rule); }
+Hit triangle_moller_trumbore(const Ray& ray, const Triangle& t, HitRule rule) {
+  return moller_trumbore<double>(ray, t, rule);
+}
+Hit triangle_watertight(const Ray& ray, const Triangle& t, HitRule rule) {
+  return watertight<double, false>(ray, t, rule);
+}
 Hit triangle_watertight_top_left(const Ray& ray, const Triangle& t, HitRule rule) {
   return watertight<double, true>(ray, t, rule);
 }
@@ -342,24 +379,19 @@ Hit erase(const Ray& ray, const Shape& shape, HitRule rule) {
 }
 
 constexpr Variant kVariants[] = {
-    {"textbook", ShapeKind::sphere, "Rietmann 2020: (-b ± sqrt(b^2-4ac)) / 2a",
-     erase<Sphere, sphere_textbook>},
+    {"textbook", ShapeKind::sphere, "Rietmann 2020: (-b ± sqrt(b^2-4ac)) / 2a", erase<Sphere, sphere_textbook>},
     {"stable", ShapeKind::sphere, "DGL Wiki 2012 / Numerical Recipes: q = -(b + sgn(b) sqrt D)/2",
      erase<Sphere, sphere_stable>},
-    {"stable-fma", ShapeKind::sphere, "stable roots, Kahan 2004 FMA discriminant",
-     erase<Sphere, sphere_stable_fma>},
-    {"hearn-baker", ShapeKind::sphere, "Ray Tracing Gems ch. 7 eqs. 7-10",
-     erase<Sphere, sphere_hearn_baker>},
+    {"stable-fma", ShapeKind::sphere, "stable roots, Kahan 2004 FMA discriminant", erase<Sphere, sphere_stable_fma>},
+    {"hearn-baker", ShapeKind::sphere, "Ray Tracing Gems ch. 7 eqs. 7-10", erase<Sphere, sphere_hearn_baker>},
     {"direct", ShapeKind::plane, "t = (d - n.o) / n.dir", erase<Plane, plane_direct>},
-    {"moller-trumbore", ShapeKind::triangle, "Moller & Trumbore, JGT 1997",
-     erase<Triangle, triangle_moller_trumbore>},
-    {"watertight", ShapeKind::triangle, "Woop, Benthin & Wald, JCGT 2013",
-     erase<Triangle, triangle_watertight>},
-    {"watertight-top-left", ShapeKind::triangle, "Woop, Benthin & Wald 2013 + a top-left tie rule on zero edge functions",
+    {"moller-trumbore", ShapeKind::triangle, "Moller & Trumbore, JGT 1997", erase<Triangle, triangle_moller_trumbore>},
+    {"watertight", ShapeKind::triangle, "Woop, Benthin & Wald, JCGT 2013", erase<Triangle, triangle_watertight>},
+    {"watertight-top-left", ShapeKind::triangle,
+     "Woop, Benthin & Wald 2013 + a top-left tie rule on zero edge functions",
      erase<Triangle, triangle_watertight_top_left>},
     {"slab", ShapeKind::box, "naive slab test, Kay & Kajiya 1986", erase<Box, box_slab>},
-    {"robust-slab", ShapeKind::box, "Williams et al. 2005 + Ize 2013",
-     erase<Box, box_robust_slab>},
+    {"robust-slab", ShapeKind::box, "Williams et al. 2005 + Ize 2013", erase<Box, box_robust_slab>},
     // The same formulas computed in float (what GPUs and Embree run): given the case rounded to
     // float and judged on it (verify/compare.cpp), as float plugins are.
     f32({"textbook-f32", ShapeKind::sphere, "textbook in float", erase<Sphere, textbook<float>>}),
@@ -367,8 +399,10 @@ constexpr Variant kVariants[] = {
     f32({"stable-fma-f32", ShapeKind::sphere, "stable-fma in float (fmaf)", erase<Sphere, stable_fma<float>>}),
     f32({"hearn-baker-f32", ShapeKind::sphere, "hearn-baker in float", erase<Sphere, hearn_baker<float>>}),
     f32({"direct-f32", ShapeKind::plane, "direct in float", erase<Plane, direct<float>>}),
-    f32({"moller-trumbore-f32", ShapeKind::triangle, "moller-trumbore in float", erase<Triangle, moller_trumbore<float>>}),
-    f32({"watertight-f32", ShapeKind::triangle, "watertight in float, zero edge functions recomputed in double (exact in sign)",
+    f32({"moller-trumbore-f32", ShapeKind::triangle, "moller-trumbore in float",
+         erase<Triangle, moller_trumbore<float>>}),
+    f32({"watertight-f32", ShapeKind::triangle,
+         "watertight in float, zero edge functions recomputed in double (exact in sign)",
          erase<Triangle, watertight<float, false>>}),
     f32({"watertight-top-left-f32", ShapeKind::triangle, "watertight-top-left in float",
          erase<Triangle, watertight<float, true>>}),

@@ -35,7 +35,8 @@ class AnswersFile final : public ExternalIntersector {
         Answer a = parse_answer_line(text);
         auto [it, fresh] = by_id_.try_emplace(a.id, Entry{a.hit, line, false});
         if (!fresh)
-          problems_.push_back(where(line) + ": id '" + printable(a.id) + "' repeats line " + std::to_string(it->second.line));
+          problems_.push_back(where(line) + ": id '" + printable(a.id) + "' repeats line " +
+                              std::to_string(it->second.line));
       } catch (const FieldError& e) {
         problems_.push_back(where(line) + ": " + (e.field.empty() ? "" : e.field + ": ") + printable(e.what()));
       } catch (const std::exception& e) {

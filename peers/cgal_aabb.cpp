@@ -50,37 +50,37 @@ class CgalAabbScene final : public TracerScene {
   // answer is a tracer error, its message kept for the finding.
   void nearest(std::span<const TracerRay> rays, std::span<TraceAnswer> out) override {
     for (std::size_t i = 0; i < rays.size(); ++i) try {
-      const TracerRay& r = rays[i];
-      out[i] = {};
-      const K::Ray_3 ray = to_cgal(r);
-      if (whole_ray(r)) {
-        const auto hit = tree_.first_intersection(ray);
-        if (hit) out[i] = {index_of(hit->second), parameter(r, hit->first)};
-        continue;
+        const TracerRay& r = rays[i];
+        out[i] = {};
+        const K::Ray_3 ray = to_cgal(r);
+        if (whole_ray(r)) {
+          const auto hit = tree_.first_intersection(ray);
+          if (hit) out[i] = {index_of(hit->second), parameter(r, hit->first)};
+          continue;
+        }
+        for_each_in_range(r, [&](std::uint32_t id, double t) {
+          if (!out[i].hit() || t < out[i].t) out[i] = {id, t};
+        });
+      } catch (const std::exception& e) {
+        out[i] = {kNoTriangle, NAN, HitFailure::bad_answer};
+        note(e);
       }
-      for_each_in_range(r, [&](std::uint32_t id, double t) {
-        if (!out[i].hit() || t < out[i].t) out[i] = {id, t};
-      });
-    } catch (const std::exception& e) {
-      out[i] = {kNoTriangle, NAN, HitFailure::bad_answer};
-      note(e);
-    }
   }
 
   void all_hits(std::span<const TracerRay> rays, std::span<AllHitsAnswer> out) override {
     for (std::size_t i = 0; i < rays.size(); ++i) try {
-      out[i] = {};
-      if (whole_ray(rays[i])) {
-        std::vector<Primitive::Id> ids;
-        tree_.all_intersected_primitives(to_cgal(rays[i]), std::back_inserter(ids));
-        for (const auto& id : ids) out[i].triangles.push_back(index_of(id));
-        continue;
+        out[i] = {};
+        if (whole_ray(rays[i])) {
+          std::vector<Primitive::Id> ids;
+          tree_.all_intersected_primitives(to_cgal(rays[i]), std::back_inserter(ids));
+          for (const auto& id : ids) out[i].triangles.push_back(index_of(id));
+          continue;
+        }
+        for_each_in_range(rays[i], [&](std::uint32_t id, double) { out[i].triangles.push_back(id); });
+      } catch (const std::exception& e) {
+        out[i] = {{}, HitFailure::bad_answer};
+        note(e);
       }
-      for_each_in_range(rays[i], [&](std::uint32_t id, double) { out[i].triangles.push_back(id); });
-    } catch (const std::exception& e) {
-      out[i] = {{}, HitFailure::bad_answer};
-      note(e);
-    }
   }
 
  private:
@@ -94,7 +94,8 @@ class CgalAabbScene final : public TracerScene {
   template <class Where>  // CGAL 5's boost::variant<Point_3, Segment_3>
   static double parameter(const TracerRay& r, const Where& where) {
     K::Point_3 p;
-    if (const auto* point = boost::get<K::Point_3>(&where)) p = *point;
+    if (const auto* point = boost::get<K::Point_3>(&where))
+      p = *point;
     else {
       const auto& s = *boost::get<K::Segment_3>(&where);
       const double d0 = CGAL::to_double(CGAL::squared_distance(s.source(), to_cgal(r).source()));
@@ -125,7 +126,8 @@ void register_cgal_aabb_tracer() {
   Tracer t;
   t.name = "cgal-aabb";
   t.precision = Precision::f64;
-  t.source = "CGAL " CGAL_VERSION_STR " AABB_tree over Epick triangles: first_intersection / all_intersected_primitives";
+  t.source =
+      "CGAL " CGAL_VERSION_STR " AABB_tree over Epick triangles: first_intersection / all_intersected_primitives";
   t.origin = "peer: CGAL (header-only)";
   t.build = [](const TriangleMesh& mesh) { return BuiltScene{std::make_unique<CgalAabbScene>(mesh)}; };
   t.stop_reason = [] {

@@ -71,7 +71,8 @@ studies::Contender contender(ShapeKind shape, bool robust) {
               auto scenes = std::make_shared<std::vector<std::unique_ptr<Scene>>>();
               for (const Query& q : qs) scenes->push_back(std::make_unique<Scene>(std::span(&q.shape, 1), robust));
               return studies::Prepared{[scenes, hits, &qs] {
-                                         for (size_t i = 0; i < qs.size(); ++i) (*hits)[i] = (*scenes)[i]->intersect(qs[i].ray);
+                                         for (size_t i = 0; i < qs.size(); ++i)
+                                           (*hits)[i] = (*scenes)[i]->intersect(qs[i].ray);
                                        },
                                        [hits](size_t i) { return (*hits)[i]; }};
             }
@@ -104,8 +105,10 @@ RTCScene build_embree_scene(std::span<const Shape> shapes, bool robust) {
     if (const auto* t = std::get_if<Triangle>(&s)) triangles.push_back(t);
     if (const auto* sp = std::get_if<Sphere>(&s)) {
       RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_SPHERE_POINT);
-      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 1));
-      v[0] = float(sp->center.x()), v[1] = float(sp->center.y()), v[2] = float(sp->center.z()), v[3] = float(sp->radius);
+      auto* v = static_cast<float*>(
+          rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 1));
+      v[0] = float(sp->center.x()), v[1] = float(sp->center.y()), v[2] = float(sp->center.z()),
+      v[3] = float(sp->radius);
       rtcCommitGeometry(g);
       rtcAttachGeometry(scene, g);
       rtcReleaseGeometry(g);
@@ -114,8 +117,10 @@ RTCScene build_embree_scene(std::span<const Shape> shapes, bool robust) {
   if (!triangles.empty()) {
     RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
     const size_t n = triangles.size();
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n));
-    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n));
+    auto* v = static_cast<float*>(
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n));
+    auto* idx = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n));
     for (size_t t = 0; t < n; ++t)
       for (int i = 0; i < 3; ++i) {
         for (int k = 0; k < 3; ++k) v[9 * t + 3 * i + k] = static_cast<float>(triangles[t]->v[i][k]);

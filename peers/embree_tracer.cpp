@@ -40,11 +40,12 @@ class EmbreeTracerScene final : public TracerScene {
     scene_ = rtcNewScene(dev);
     rtcSetSceneFlags(scene_, robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
     RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                          mesh.vertex_count()));
-    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                                               mesh.triangle_count()));
-    for (std::size_t i = 0; i < mesh.vertices.size(); ++i) v[i] = static_cast<float>(mesh.vertices[i]);  // exact: rounded before
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                          3 * sizeof(float), mesh.vertex_count()));
+    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                               3 * sizeof(unsigned), mesh.triangle_count()));
+    for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
+      v[i] = static_cast<float>(mesh.vertices[i]);  // exact: rounded before
     for (std::size_t i = 0; i < mesh.indices.size(); ++i) idx[i] = mesh.indices[i];
     rtcSetGeometryIntersectFilterFunction(g, collect_every_hit);
     rtcCommitGeometry(g);
@@ -89,10 +90,13 @@ void register_embree_tracers() {
     Tracer t;
     t.name = robust ? "embree-robust" : "embree";
     t.precision = Precision::f32;
-    t.source = std::string("Intel Embree ") + RTC_VERSION_STRING + (robust ? ", RTC_SCENE_FLAG_ROBUST" : ", default scene flags") +
+    t.source = std::string("Intel Embree ") + RTC_VERSION_STRING +
+               (robust ? ", RTC_SCENE_FLAG_ROBUST" : ", default scene flags") +
                "; any-hit through an intersection filter";
     t.origin = "peer: libembree3";
-    t.build = [robust](const TriangleMesh& mesh) { return BuiltScene{std::make_unique<EmbreeTracerScene>(mesh, robust)}; };
+    t.build = [robust](const TriangleMesh& mesh) {
+      return BuiltScene{std::make_unique<EmbreeTracerScene>(mesh, robust)};
+    };
     register_tracer(std::move(t));
   }
 }

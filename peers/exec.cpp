@@ -63,14 +63,30 @@ std::string exec_case_line(const Query& q, const std::string& id) {
   shape_numbers(q.shape, s);
   line += "]},\"shape\":{\"type\":\"" + std::string(to_string(kind_of(q.shape))) + "\",";
   switch (kind_of(q.shape)) {
-    case ShapeKind::sphere: line += "\"center\":["; numbers(s, 3); line += "],\"radius\":"; numbers(s + 3, 1); break;
-    case ShapeKind::plane: line += "\"normal\":["; numbers(s, 3); line += "],\"offset\":"; numbers(s + 3, 1); break;
+    case ShapeKind::sphere:
+      line += "\"center\":[";
+      numbers(s, 3);
+      line += "],\"radius\":";
+      numbers(s + 3, 1);
+      break;
+    case ShapeKind::plane:
+      line += "\"normal\":[";
+      numbers(s, 3);
+      line += "],\"offset\":";
+      numbers(s + 3, 1);
+      break;
     case ShapeKind::triangle:
       line += "\"vertices\":[[";
       numbers(s, 3), line += "],[", numbers(s + 3, 3), line += "],[", numbers(s + 6, 3);
       line += "]]";
       break;
-    case ShapeKind::box: line += "\"min\":["; numbers(s, 3); line += "],\"max\":["; numbers(s + 3, 3); line += "]"; break;
+    case ShapeKind::box:
+      line += "\"min\":[";
+      numbers(s, 3);
+      line += "],\"max\":[";
+      numbers(s + 3, 3);
+      line += "]";
+      break;
   }
   return line + "}}\n";
 }
@@ -96,8 +112,10 @@ std::string with_python_words_quoted(const std::string& text) {
     const char c = text[i];
     if (in_string) {
       out += c;
-      if (c == '\\' && i + 1 < text.size()) out += text[++i];
-      else if (c == '"') in_string = false;
+      if (c == '\\' && i + 1 < text.size())
+        out += text[++i];
+      else if (c == '"')
+        in_string = false;
       continue;
     }
     if (c == '"') in_string = true;
@@ -165,9 +183,12 @@ std::optional<Answer> parse_answer_fast(std::string_view s) {
       continue;
     }
     if (!plain_string(value)) return std::nullopt;
-    if (key == "id" && !id) id = value;
-    else if (key == "class" && !cls) cls = value;
-    else return std::nullopt;
+    if (key == "id" && !id)
+      id = value;
+    else if (key == "class" && !cls)
+      cls = value;
+    else
+      return std::nullopt;
   }
   skip();
   if (i != s.size() || !id || !cls) return std::nullopt;
@@ -255,7 +276,8 @@ class ExecVariant final : public ExternalIntersector {
       try {
         Answer a = parse_answer_line(lines[i]);
         if (a.id != ids[i]) {
-          why = "answered id '" + printable(a.id) + "' where '" + printable(ids[i]) + "' was due (answers must keep the order)";
+          why = "answered id '" + printable(a.id) + "' where '" + printable(ids[i]) +
+                "' was due (answers must keep the order)";
           break;
         }
         out[i] = a.hit;
@@ -266,8 +288,10 @@ class ExecVariant final : public ExternalIntersector {
         break;
       }
     }
-    if (!why.empty()) kind = HitFailure::protocol;
-    else why = ended;
+    if (!why.empty())
+      kind = HitFailure::protocol;
+    else
+      why = ended;
     if (why.empty()) {
       give_back(std::move(process));
       return qs.size();
@@ -277,8 +301,10 @@ class ExecVariant final : public ExternalIntersector {
     // fresh command goes on with the next case while the crash budget lasts. A protocol error
     // stops it now: a fresh command would answer the same way.
     out[i] = Hit::failure_of(kind);
-    if (kind == HitFailure::protocol) budget_.stop(why);
-    else budget_.spend(why);
+    if (kind == HitFailure::protocol)
+      budget_.stop(why);
+    else
+      budget_.spend(why);
     return i + 1;
   }
 

@@ -43,7 +43,7 @@ namespace {
 // ---------------------------------------------------------------- the shared-memory protocol
 constexpr std::size_t kBatchCapacity = 4096;
 constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;  // the worker's fixed descriptors
-constexpr const char* kWorkerEnv = "RAYPROOF_PLUGIN_WORKER";  // "table:PATH" or "serve:PATH"
+constexpr const char* kWorkerEnv = "RAYPROOF_PLUGIN_WORKER";         // "table:PATH" or "serve:PATH"
 
 struct WireQuery {
   double numbers[6 + kMaxShapeNumbers];  // ray, then the shape's numbers (cases.md order)
@@ -58,7 +58,7 @@ struct SharedBatch {
   std::atomic<std::uint32_t> forked;    // set by the worker when the plugin forked (library_table.h)
   std::uint32_t variant, count;
   std::uint32_t repeats;  // `trade`: run the batch this many times on inputs already in cache, for timing
-  double inner_seconds;  // the worker's own time for the calls of this batch
+  double inner_seconds;   // the worker's own time for the calls of this batch
   WireQuery queries[kBatchCapacity];
   WireAnswer answers[kBatchCapacity];
 };
@@ -95,8 +95,8 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
   const WorkerStart start = start_worker(setting);
   int count = 0;
   std::string error;
-  const rayproof_variant* table = load_library_table<rayproof_variant>(start.path, "rayproof_plugin", RAYPROOF_PLUGIN_ABI,
-                                                                       "rayproof/plugin.h", "variants", count, error);
+  const rayproof_variant* table = load_library_table<rayproof_variant>(
+      start.path, "rayproof_plugin", RAYPROOF_PLUGIN_ABI, "rayproof/plugin.h", "variants", count, error);
   if (is_forked_copy()) ::_exit(0);  // a copy forked at load time says nothing
   if (start.table_only) {
     json rows = json::array();
@@ -109,8 +109,8 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
                       {"f32", table[i].f32 != nullptr}});
     report_table_and_exit(start.report_fd, error, "variants", rows);
   }
-  auto* shared = static_cast<SharedBatch*>(
-      ::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0));
+  auto* shared =
+      static_cast<SharedBatch*>(::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0));
   if (!table || shared == MAP_FAILED) ::_exit(3);
   double unwritten64;
   float unwritten32;
@@ -154,11 +154,13 @@ class WorkerProcess {
     const int shared_fd = ::memfd_create("rayproof-batch", MFD_CLOEXEC);
     if (shared_fd < 0 || ::ftruncate(shared_fd, sizeof(SharedBatch)) != 0)
       throw std::runtime_error("cannot create shared memory for a plugin worker");
-    shared_ = static_cast<SharedBatch*>(::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, shared_fd, 0));
+    shared_ = static_cast<SharedBatch*>(
+        ::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, shared_fd, 0));
     if (shared_ == MAP_FAILED) throw std::runtime_error("cannot map shared memory for a plugin worker");
     try {
       pid_ = spawn_worker(kWorkerEnv, "serve:" + plugin_path, "rayproof-plugin-worker",
-                          {{request[0], kRequestFd}, {response[1], kResponseFd}, {shared_fd, kSharedFd}}, "a plugin worker");
+                          {{request[0], kRequestFd}, {response[1], kResponseFd}, {shared_fd, kSharedFd}},
+                          "a plugin worker");
     } catch (...) {
       for (int fd : {request[0], request[1], response[0], response[1], shared_fd}) ::close(fd);
       throw;
@@ -167,7 +169,7 @@ class WorkerProcess {
     request_ = request[1], response_ = response[0];
   }
   ~WorkerProcess() {
-    ::close(request_), ::close(response_);  // the worker reads EOF and exits
+    ::close(request_), ::close(response_);           // the worker reads EOF and exits
     if (pid_ > 0 && !reaped_) end_child(pid_, 1.0);  // bounded; whatever the plugin left running goes too
     ::munmap(shared_, sizeof(SharedBatch));
   }
@@ -204,7 +206,8 @@ class WorkerProcess {
       }
       const std::uint32_t now_at = shared_->progress.load(std::memory_order_relaxed);
       const auto now = std::chrono::steady_clock::now();
-      if (now_at != last) last = now_at, last_change = now;
+      if (now_at != last)
+        last = now_at, last_change = now;
       else if (std::chrono::duration<double>(now - last_change).count() > case_timeout) {
         ::kill(-pid_, SIGKILL);
         finish(stopped_at);
@@ -281,10 +284,13 @@ class PluginVariant final : public ExternalIntersector {
       }
       // The worker is gone: blame the case it was on, keep what it answered, and go on with a
       // fresh worker from the next case while the crash budget lasts (a forking plugin stops now).
-      out[start + answered] =
-          Hit::failure_of(worker->forked() ? HitFailure::protocol : timed_out ? HitFailure::timeout : HitFailure::crash);
-      if (worker->forked()) budget_.stop(why);
-      else budget_.spend(why);
+      out[start + answered] = Hit::failure_of(worker->forked() ? HitFailure::protocol
+                                              : timed_out      ? HitFailure::timeout
+                                                               : HitFailure::crash);
+      if (worker->forked())
+        budget_.stop(why);
+      else
+        budget_.spend(why);
       inside = -1;  // a batch with a crash times nothing
       start += answered + 1;
     }
@@ -340,22 +346,26 @@ std::vector<const Variant*> load_plugin(const std::string& path, const ExternalO
   auto fail = [&](const std::string& why) { return std::runtime_error("--plugin " + printable(path) + ": " + why); };
   // A path without a slash would make dlopen search the library path; the user means a file.
   const std::string file = path.find('/') == std::string::npos ? "./" + path : path;
-  const json table = read_table_in_worker(kWorkerEnv, file, "rayproof-plugin-table", options.case_timeout_seconds, fail);
+  const json table =
+      read_table_in_worker(kWorkerEnv, file, "rayproof-plugin-table", options.case_timeout_seconds, fail);
   loaded_plugins().emplace_back(file);
   Plugin& plugin = loaded_plugins().back();
   std::vector<const Variant*> out;
   for (std::size_t i = 0; i < table.at("variants").size(); ++i) {
     const json& v = table.at("variants")[i];
     const std::string name = table_string(v, "name");
-    const std::string where = "variant " + std::to_string(i) + (name.empty() ? "" : " '" + printable_prefix(name, 80) + "'");
-    if (!bounded_name(v, "name")) throw fail(where + ": name must match [a-z0-9-]+ (at most " + std::to_string(kMaxNameBytes) + " bytes)");
+    const std::string where =
+        "variant " + std::to_string(i) + (name.empty() ? "" : " '" + printable_prefix(name, 80) + "'");
+    if (!bounded_name(v, "name"))
+      throw fail(where + ": name must match [a-z0-9-]+ (at most " + std::to_string(kMaxNameBytes) + " bytes)");
     const auto shape = shape_kind_from_string(table_string(v, "shape"));
     if (!shape) throw fail(where + ": shape must be sphere, plane, triangle or box");
     const auto rule = hit_rule_from_string(table_string(v, "rule"));
     if (!rule) throw fail(where + ": rule must be nearest or enter-only");
     if (v.value("f64", false) == v.value("f32", false)) throw fail(where + ": exactly one of f64 and f32 must be set");
     if (find_variant(name)) throw fail(where + ": a variant of that name exists already");
-    external_intersectors().push_back(std::make_unique<PluginVariant>(plugin, static_cast<std::uint32_t>(i), *shape, options));
+    external_intersectors().push_back(
+        std::make_unique<PluginVariant>(plugin, static_cast<std::uint32_t>(i), *shape, options));
     const std::string& stored_name = plugin_strings().emplace_back(name);
     Variant registered{stored_name, *shape, plugin_strings().emplace_back(table_source(v)), nullptr};
     registered.precision = v.value("f32", false) ? Precision::f32 : Precision::f64;

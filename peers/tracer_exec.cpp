@@ -32,7 +32,9 @@ std::string mesh_line(const TriangleMesh& m) {
 }
 
 std::string ray_line(const TracerRay& r, const std::string& id, bool all) {
-  auto vec = [](const Vec3& v) { return "[" + hex_string(v.x()) + "," + hex_string(v.y()) + "," + hex_string(v.z()) + "]"; };
+  auto vec = [](const Vec3& v) {
+    return "[" + hex_string(v.x()) + "," + hex_string(v.y()) + "," + hex_string(v.z()) + "]";
+  };
   return "{\"id\":" + json(id).dump() + ",\"origin\":" + vec(r.ray.origin) + ",\"direction\":" + vec(r.ray.direction) +
          ",\"tmin\":" + hex_string(r.tmin) + ",\"tmax\":" + hex_string(r.tmax) + (all ? ",\"all\":true" : "") + "}\n";
 }
@@ -40,7 +42,8 @@ std::string ray_line(const TracerRay& r, const std::string& id, bool all) {
 // A triangle index or null.
 std::uint32_t read_triangle(const json& j, const std::string& field) {
   if (j.is_null()) return kNoTriangle;
-  if (!j.is_number_unsigned() || j.get<std::uint64_t>() >= kNoTriangle) throw FieldError(field, "must be a triangle index or null");
+  if (!j.is_number_unsigned() || j.get<std::uint64_t>() >= kNoTriangle)
+    throw FieldError(field, "must be a triangle index or null");
   return static_cast<std::uint32_t>(j.get<std::uint64_t>());
 }
 
@@ -114,7 +117,8 @@ class ExecTracerScene final : public TracerScene {
     HitFailure kind = HitFailure::none;
     // An all-hits answer lists at most every triangle, each shorter than in the mesh line.
     const std::size_t max_line = ExecProcess::kMaxLineBytes + mesh_line_.size();
-    const std::string ended = process_->exchange(payload, rays.size(), state_.options.case_timeout_seconds, lines, kind, max_line);
+    const std::string ended =
+        process_->exchange(payload, rays.size(), state_.options.case_timeout_seconds, lines, kind, max_line);
     std::string why;
     for (std::size_t i = 0; i < lines.size() && why.empty(); ++i) {
       try {
@@ -126,8 +130,8 @@ class ExecTracerScene final : public TracerScene {
           break;
         }
         if (!a.contains("id") || !a.at("id").is_string() || a.at("id").get<std::string>() != ids[i])
-          throw FieldError("id", "answered " + (a.contains("id") ? a.at("id").dump() : std::string("no id")) + " where \"" + ids[i] +
-                                     "\" was due (answers keep the order)");
+          throw FieldError("id", "answered " + (a.contains("id") ? a.at("id").dump() : std::string("no id")) +
+                                     " where \"" + ids[i] + "\" was due (answers keep the order)");
         if (a.contains("error") && !(all && a.at("error") == "unsupported"))
           throw FieldError("error", printable(a.at("error").dump()));
         if (!a.contains("error")) {
@@ -179,7 +183,8 @@ std::deque<ExecTracerState>& exec_states() {
 }  // namespace
 
 const Tracer& add_exec_tracer(const std::string& name, const std::string& command, const ExternalOptions& options) {
-  if (!valid_variant_name(name)) throw std::runtime_error("--tracer-exec " + name + "=...: the name must match [a-z0-9-]+");
+  if (!valid_variant_name(name))
+    throw std::runtime_error("--tracer-exec " + name + "=...: the name must match [a-z0-9-]+");
   ExecTracerState& state = exec_states().emplace_back();
   state.command = command, state.options = options;
   Tracer t;

@@ -47,7 +47,7 @@ enum class Op : std::uint32_t { build = 1, nearest = 2, all_hits = 3, release = 
 struct Header {
   std::atomic<std::uint64_t> progress;
   std::atomic<std::uint32_t> forked;  // set by the worker when the library forked (library_table.h)
-  std::uint64_t bytes;  // the file's size, for the worker's mapping
+  std::uint64_t bytes;                // the file's size, for the worker's mapping
   Op op;
   std::uint32_t tracer;
   std::uint32_t built;  // build: 1 when the tracer returned a scene
@@ -59,7 +59,9 @@ static_assert(sizeof(Header) <= kData);
 
 std::size_t build_bytes(std::uint64_t v, std::uint64_t t) { return kData + 24 * v + 12 * t; }
 std::size_t nearest_bytes(std::uint64_t n) { return kData + n * (sizeof(rayproof_ray) + sizeof(rayproof_trace)); }
-std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + n * (sizeof(rayproof_ray) + 8) + 4 * cap; }
+std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
+  return kData + n * (sizeof(rayproof_ray) + 8) + 4 * cap;
+}
 
 // ----------------------------------------------------------------- the worker
 // Loads the library, then either writes its table as one JSON line and ends (mode "table") or
@@ -68,8 +70,8 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) { return kData + 
   const WorkerStart start = start_worker(setting);
   int count = 0;
   std::string error;
-  const rayproof_tracer* table = load_library_table<rayproof_tracer>(start.path, "rayproof_tracers", RAYPROOF_TRACER_ABI,
-                                                                     "rayproof/tracer.h", "tracers", count, error);
+  const rayproof_tracer* table = load_library_table<rayproof_tracer>(
+      start.path, "rayproof_tracers", RAYPROOF_TRACER_ABI, "rayproof/tracer.h", "tracers", count, error);
   if (is_forked_copy()) ::_exit(0);  // a copy forked at load time says nothing
   if (start.table_only) {
     json rows = json::array();
@@ -196,7 +198,8 @@ class TracerWorker {
     if (bytes <= bytes_) return;
     bytes = std::max(bytes, bytes_ * 2);
     if (map_) ::munmap(map_, bytes_);
-    if (::ftruncate(fd_, static_cast<off_t>(bytes)) != 0) throw std::runtime_error("cannot grow a tracer worker's shared memory");
+    if (::ftruncate(fd_, static_cast<off_t>(bytes)) != 0)
+      throw std::runtime_error("cannot grow a tracer worker's shared memory");
     map_ = static_cast<char*>(::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, 0));
     if (map_ == MAP_FAILED) map_ = nullptr, throw std::runtime_error("cannot map a tracer worker's shared memory");
     bytes_ = bytes;
@@ -233,7 +236,8 @@ class TracerWorker {
       }
       const std::uint64_t now_at = header().progress.load(std::memory_order_relaxed);
       const auto now = std::chrono::steady_clock::now();
-      if (now_at != last) last = now_at, last_change = now;
+      if (now_at != last)
+        last = now_at, last_change = now;
       else if (std::chrono::duration<double>(now - last_change).count() > timeout) {
         ::kill(-pid_, SIGKILL);
         finish();
@@ -275,7 +279,8 @@ HitFailure failure_of(bool timed_out, bool forked = false) {
 
 class PluginTracerScene final : public TracerScene {
  public:
-  PluginTracerScene(PluginTracerState& state, std::unique_ptr<TracerWorker> worker) : state_(state), worker_(std::move(worker)) {}
+  PluginTracerScene(PluginTracerState& state, std::unique_ptr<TracerWorker> worker)
+      : state_(state), worker_(std::move(worker)) {}
   ~PluginTracerScene() override {
     if (!worker_) return;
     worker_->header().op = Op::release;
@@ -286,7 +291,8 @@ class PluginTracerScene final : public TracerScene {
 
   void nearest(std::span<const TracerRay> rays, std::span<TraceAnswer> out) override {
     std::lock_guard lock(mutex_);  // one worker per scene: callers on other threads wait
-    if (!worker_ || state_.stopped) return std::fill(out.begin(), out.end(), TraceAnswer{kNoTriangle, NAN, HitFailure::stopped});
+    if (!worker_ || state_.stopped)
+      return std::fill(out.begin(), out.end(), TraceAnswer{kNoTriangle, NAN, HitFailure::stopped});
     worker_->ensure(nearest_bytes(rays.size()));
     Header& h = worker_->header();
     h.op = Op::nearest, h.tracer = state_.index, h.ray_count = rays.size();
@@ -324,7 +330,8 @@ class PluginTracerScene final : public TracerScene {
       const std::size_t answered = why.empty() ? h.answered : std::min<std::size_t>(h.progress.load(), n);
       const auto* counts = reinterpret_cast<const std::uint64_t*>(worker_->data() + n * sizeof(rayproof_ray));
       const auto* flat = reinterpret_cast<const std::uint32_t*>(worker_->data() + n * (sizeof(rayproof_ray) + 8));
-      for (std::size_t i = 0, at = 0; i < answered; at += counts[i], ++i) out[done + i] = {{flat + at, flat + at + counts[i]}};
+      for (std::size_t i = 0, at = 0; i < answered; at += counts[i], ++i)
+        out[done + i] = {{flat + at, flat + at + counts[i]}};
       done += answered;
       if (!why.empty()) {
         std::vector<TraceAnswer> unused(rays.size() - done);
@@ -359,10 +366,12 @@ class PluginTracerScene final : public TracerScene {
 
 BuiltScene build_plugin_scene(PluginTracerState& state, const TriangleMesh& mesh) {
   if (state.stopped) return {nullptr, HitFailure::stopped, "stopped earlier"};
-  std::unique_ptr<TracerWorker> worker = state.library->workers.take([&] { return std::make_unique<TracerWorker>(state.library->path); });
+  std::unique_ptr<TracerWorker> worker =
+      state.library->workers.take([&] { return std::make_unique<TracerWorker>(state.library->path); });
   worker->ensure(build_bytes(mesh.vertex_count(), mesh.triangle_count()));
   Header& h = worker->header();
-  h.op = Op::build, h.tracer = state.index, h.vertex_count = mesh.vertex_count(), h.triangle_count = mesh.triangle_count();
+  h.op = Op::build, h.tracer = state.index, h.vertex_count = mesh.vertex_count(),
+  h.triangle_count = mesh.triangle_count();
   std::memcpy(worker->data(), mesh.vertices.data(), 8 * mesh.vertices.size());
   std::memcpy(worker->data() + 24 * mesh.vertex_count(), mesh.indices.data(), 4 * mesh.indices.size());
   bool timed_out = false;
@@ -392,17 +401,21 @@ std::deque<PluginTracerState>& states() {
 std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const ExternalOptions& options) {
   auto fail = [&](const std::string& why) { return std::runtime_error("--tracer " + printable(path) + ": " + why); };
   const std::string file = path.find('/') == std::string::npos ? "./" + path : path;
-  const json table = read_table_in_worker(kWorkerEnv, file, "rayproof-tracer-table", options.case_timeout_seconds, fail);
+  const json table =
+      read_table_in_worker(kWorkerEnv, file, "rayproof-tracer-table", options.case_timeout_seconds, fail);
   TracerLibrary& library = libraries().emplace_back();
   library.path = file;
   std::vector<const Tracer*> out;
   for (std::size_t i = 0; i < table.at("tracers").size(); ++i) {
     const json& t = table.at("tracers")[i];
     const std::string name = table_string(t, "name");
-    const std::string where = "tracer " + std::to_string(i) + (name.empty() ? "" : " '" + printable_prefix(name, 80) + "'");
-    if (!bounded_name(t, "name")) throw fail(where + ": name must match [a-z0-9-]+ (at most " + std::to_string(kMaxNameBytes) + " bytes)");
+    const std::string where =
+        "tracer " + std::to_string(i) + (name.empty() ? "" : " '" + printable_prefix(name, 80) + "'");
+    if (!bounded_name(t, "name"))
+      throw fail(where + ": name must match [a-z0-9-]+ (at most " + std::to_string(kMaxNameBytes) + " bytes)");
     const std::string precision = table_string(t, "precision");
-    if (precision != "double" && precision != "float") throw fail(where + ": precision must be \"double\" or \"float\"");
+    if (precision != "double" && precision != "float")
+      throw fail(where + ": precision must be \"double\" or \"float\"");
     if (!t.value("build", false) || !t.value("nearest", false)) throw fail(where + ": build and nearest must be set");
     PluginTracerState& state = states().emplace_back();
     state.library = &library, state.index = static_cast<std::uint32_t>(i), state.options = options;

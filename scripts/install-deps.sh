@@ -10,7 +10,8 @@ packages=(build-essential cmake pkg-config libcgal-dev libgmp-dev libmpfr-dev li
 if [ "${1:-}" = fuzz ] || [ "${1:-}" = sanitize ]; then packages+=(clang libclang-rt-dev); fi
 # `install-deps.sh test` (make test) or `sanitize`: also headless Chromium, for the one test that
 # opens an audit's report.html in a real browser.
-if [ "${1:-}" = test ] || [ "${1:-}" = sanitize ]; then packages+=(chromium); fi
+# And clang-format, for the test that the tree follows .clang-format.
+if [ "${1:-}" = test ] || [ "${1:-}" = sanitize ]; then packages+=(chromium clang-format); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

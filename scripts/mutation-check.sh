@@ -54,14 +54,14 @@ PY
 mutate "ulp-distance-off-by-one" lib/rayproof/core/fp.h \
   "return ia > ib ? std::uint64_t(ia) - std::uint64_t(ib) : std::uint64_t(ib) - std::uint64_t(ia);" \
   "return (ia > ib ? std::uint64_t(ia) - std::uint64_t(ib) : std::uint64_t(ib) - std::uint64_t(ia)) + (ia != ib);"
-mutate "wrong-cannot-tell-swapped" verify/compare.cpp \
+mutate "wrong-cannot-tell-swapped" verify/rayproof/verify/compare.h \
   "exact_is_a_touch && reported_is_plain ? Agreement::cannot_tell : Agreement::wrong" \
   "exact_is_a_touch && reported_is_plain ? Agreement::wrong : Agreement::cannot_tell"
 mutate "textbook-one-ulp" lib/variants.cpp \
-  "const double t0 = (-b - root) / (2 * a);" \
-  "const double t0 = std::nextafter((-b - root) / (2 * a), INFINITY);"
+  "const T t0 = (-b - root) / (2 * a);" \
+  "const T t0 = std::nextafter((-b - root) / (2 * a), T(INFINITY));"
 mutate "robust-slab-no-widening" lib/variants.cpp \
-  "* inv * (1 + 2 * gamma(3));" "* inv;"
+  "* inv * (1 + 2 * gamma_of<T>(3));" "* inv;"
 mutate "oracle-ties-to-odd" verify/oracle.cpp \
   "return (bits & 1) == 0 ? a : b;" "return (bits & 1) == 0 ? b : a;"
 mutate "coplanar-orientation-flipped" verify/oracle.cpp \
@@ -83,7 +83,7 @@ mutate "watertight-fallback-dropped" lib/variants.cpp \
 mutate "bvh-exotic-direction-check-dropped" lib/rayproof/core/bvh.h \
   "if (d != 0 && !(std::abs(d) >= 0x1p-1000 && std::abs(d) <= 0x1p1000)) exotic = true;" ""
 mutate "sphere-box-not-rounded-outward" lib/scene_index.cpp \
-  "b.hi[k] = std::nextafter(s->center[k] + s->radius, inf);" "b.hi[k] = s->center[k] + s->radius;"
+  "b.hi[k] = next_up(s->center[k] + s->radius);" "b.hi[k] = s->center[k] + s->radius;"
 mutate "obj-negative-index-off-by-one" lib/mesh.cpp \
   "const long long idx = raw < 0 ? n + raw : raw - 1;" "const long long idx = raw < 0 ? n + raw + 1 : raw - 1;"
 mutate "plugin-stdout-not-redirected" peers/rayproof/peers/library_table.h \
@@ -91,7 +91,7 @@ mutate "plugin-stdout-not-redirected" peers/rayproof/peers/library_table.h \
 mutate "crash-budget-never-spent" peers/rayproof/peers/crash_budget.h \
   "const int n = ++crashes_;" "const int n = crashes_;"
 mutate "fingerprint-forgets-max-findings" fuzz/campaign.cpp \
-  '{"max_findings", o.max_findings}, ' ""
+  '{"max_findings", o.max_findings},' ""
 mutate "shrink-budget-ignored" fuzz/campaign.cpp \
   "f.shrink = shrunk < o.max_shrunk && !stops_variant(f.failure);" "f.shrink = !stops_variant(f.failure);"
 mutate "merge-in-name-order" cmd/cmd_merge.cpp \

@@ -139,7 +139,9 @@ struct TracerOnScene {
 class Auditor {
  public:
   Auditor(const Scene& scene, const SceneAuditOptions& options)
-      : scene_(scene), index_(scene), options_(options),
+      : scene_(scene),
+        index_(scene),
+        options_(options),
         threads_(std::clamp(options.threads > 0 ? options.threads : default_threads(), 1, 256)) {}
 
   const SceneIndex& index() const { return index_; }
@@ -163,7 +165,10 @@ class Auditor {
     long shadow_total = 0, beyond_total = 0;
     const auto start = std::chrono::steady_clock::now();
     for_rows<State>(
-        threads_, cam.height, [&] { return State{ExactTracer(index_), 0, 0, &shadow_total, &beyond_total}; },
+        threads_, cam.height,
+        [&] {
+          return State{ExactTracer(index_), 0, 0, &shadow_total, &beyond_total};
+        },
         [&](State& st, int y) {
           for (int x = 0; x < cam.width; ++x) {
             const size_t px = size_t(y) * cam.width + x;
@@ -218,14 +223,17 @@ class Auditor {
           for (int x = 0; x < cam.width; ++x)
             variant_pixel(st.tracer, {c, tracer.get(), out, exact_image}, tracer ? &row[x] : nullptr, x, y, per_row[y]);
         },
-        stage_progress((c.tracer ? c.tracer->name : std::string(c.variant->name)) + " (" + std::string(to_string(c.kind)) + ")"));
+        stage_progress((c.tracer ? c.tracer->name : std::string(c.variant->name)) + " (" +
+                       std::string(to_string(c.kind)) + ")"));
     PixelCounts total;
     for (RowResult& r : per_row) {
       total += r.counts;
       if (!out || c.tracer) continue;
       for (WrongPixelCase& w : r.cases)
-        if (out->cases.size() < kMaxCasesPerVariant) out->cases.push_back(std::move(w));
-        else ++out->cases_left_out;
+        if (out->cases.size() < kMaxCasesPerVariant)
+          out->cases.push_back(std::move(w));
+        else
+          ++out->cases_left_out;
     }
     return total;
   }
@@ -257,8 +265,10 @@ class Auditor {
                         const Hit h = v.intersect(ray, shape, HitRule::nearest_contact);
                         trips += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                         const double in = v.external->inner_seconds();
-                        if (in >= 0) inside += in;
-                        else timed_inside = false;
+                        if (in >= 0)
+                          inside += in;
+                        else
+                          timed_inside = false;
                         return h;
                       }).primitive;
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -275,7 +285,8 @@ class Auditor {
       do {
         for (int y = 0; y < cam.height; ++y)
           for (int x = 0; x < cam.width; ++x) {
-            const SceneHit h = trace_kind(index_, c.kind, v, HitRule::nearest_contact, cam.ray_through(x + 0.5, y + 0.5));
+            const SceneHit h =
+                trace_kind(index_, c.kind, v, HitRule::nearest_contact, cam.ray_through(x + 0.5, y + 0.5));
             checksum += h.primitive;
             ++traced;
           }
@@ -297,7 +308,8 @@ class Auditor {
     std::vector<TracerRay> rays;
     for (int y = 0; y < cam.height; ++y)
       for (int x = 0; x < cam.width; ++x)
-        if (auto r = on.seen(cam.ray_through(x + 0.5, y + 0.5), std::numeric_limits<double>::infinity())) rays.push_back(*r);
+        if (auto r = on.seen(cam.ray_through(x + 0.5, y + 0.5), std::numeric_limits<double>::infinity()))
+          rays.push_back(*r);
     std::vector<TraceAnswer> answers(rays.size());
     double best = std::numeric_limits<double>::infinity();
     for (int round = 0; round < 3 && !rays.empty(); ++round) {
@@ -441,7 +453,8 @@ class Auditor {
     std::vector<WrongPixelCase> cases;
   };
 
-  void variant_pixel(ExactTracer& tracer, const PassContext& pass, const SceneHit* traced, int x, int y, RowResult& row) {
+  void variant_pixel(ExactTracer& tracer, const PassContext& pass, const SceneHit* traced, int x, int y,
+                     RowResult& row) {
     const Contender& c = pass.c;
     const ShapeKind kind = c.kind;
     const Camera& cam = scene_.camera;
@@ -457,11 +470,13 @@ class Auditor {
     const SceneHit mine = traced ? *traced : trace_kind(index_, kind, *c.variant, HitRule::nearest_contact, ray);
     ExactContact others;
     for (ShapeKind k : index_.shapes_used())
-      if (k != kind && tracer.before(ray, e.by_kind[static_cast<int>(k)], others)) others = e.by_kind[static_cast<int>(k)];
+      if (k != kind && tracer.before(ray, e.by_kind[static_cast<int>(k)], others))
+        others = e.by_kind[static_cast<int>(k)];
     SceneHit visible = mine;
     bool visible_is_variant = mine.primitive >= 0;
     if (others.found()) {
-      const SceneHit theirs{index_.primitive(others.primitive).object, others.primitive, Hit{HitClass::enter, others.t}};
+      const SceneHit theirs{index_.primitive(others.primitive).object, others.primitive,
+                            Hit{HitClass::enter, others.t}};
       if (mine.primitive < 0 || nearer(others.t, others.primitive, index_.primitive(others.primitive), mine, index_)) {
         visible = theirs;
         visible_is_variant = false;
@@ -476,7 +491,8 @@ class Auditor {
       hole = !false_hit;
       ++(hole ? counts.holes : counts.false_hits);
       // The primitive of the variant's kind that decided it: the one it missed, or the one it hit.
-      if (hole && kind_of(index_.primitive(e.visible.primitive).shape) == kind) add_case("hole", -1, false, ray, e.visible.primitive);
+      if (hole && kind_of(index_.primitive(e.visible.primitive).shape) == kind)
+        add_case("hole", -1, false, ray, e.visible.primitive);
       if (false_hit && visible_is_variant) add_case("false_hit", -1, false, ray, visible.primitive);
     }
 
@@ -507,13 +523,15 @@ class Auditor {
           shadow_wrong = true;
           if (blocker.blocked) {
             wrongly_shadowed = true;
-            const Blocker neighbour = visible_is_variant
-                                          ? variant_blocked(tracer, c, pass.on, segment, visible.primitive, true)
-                                          : Blocker{};
+            const Blocker neighbour =
+                visible_is_variant ? variant_blocked(tracer, c, pass.on, segment, visible.primitive, true) : Blocker{};
             acne = acne || neighbour.blocked;
-            if (neighbour.blocked) add_case("acne", int(l), true, segment, neighbour.primitive);
-            else if (blocker.primitive >= 0) add_case("wrongly_shadowed", int(l), true, segment, blocker.primitive);
-            else if (visible_is_variant) add_case("wrongly_shadowed", int(l), false, ray, visible.primitive);
+            if (neighbour.blocked)
+              add_case("acne", int(l), true, segment, neighbour.primitive);
+            else if (blocker.primitive >= 0)
+              add_case("wrongly_shadowed", int(l), true, segment, blocker.primitive);
+            else if (visible_is_variant)
+              add_case("wrongly_shadowed", int(l), false, ray, visible.primitive);
           } else {
             wrongly_lit = true;
             // The exact blocker of the variant's kind on the variant's own segment, if one is;
@@ -521,7 +539,8 @@ class Auditor {
             const ExactContact should = tracer.nearest(kind, segment);
             if (should.found() && should.primitive != visible.primitive && should.t < 1)
               add_case("wrongly_lit", int(l), true, segment, should.primitive);
-            else if (visible_is_variant) add_case("wrongly_lit", int(l), false, ray, visible.primitive);
+            else if (visible_is_variant)
+              add_case("wrongly_lit", int(l), false, ray, visible.primitive);
           }
         }
       }
@@ -534,10 +553,14 @@ class Auditor {
     if (!pass.out) return;
     put(pass.out->render, px, colour);
     Image& diff = pass.out->diff;
-    if (hole) put(diff, px, kHoleColour);
-    else if (false_hit) put(diff, px, kFalseHitColour);
-    else if (acne) put(diff, px, kAcneColour);
-    else if (shadow_wrong) put(diff, px, kShadowColour);
+    if (hole)
+      put(diff, px, kHoleColour);
+    else if (false_hit)
+      put(diff, px, kFalseHitColour);
+    else if (acne)
+      put(diff, px, kAcneColour);
+    else if (shadow_wrong)
+      put(diff, px, kShadowColour);
     else
       for (int k = 0; k < 3; ++k)
         diff.rgb[3 * px + k] = static_cast<std::uint8_t>(std::lround(kDiffDimming * pass.exact_image->rgb[3 * px + k]));
@@ -553,7 +576,8 @@ class Auditor {
 
 }  // namespace
 
-std::vector<SceneAudit::Recommendation> recommend(const std::vector<VariantAudit>& rows, const std::vector<ShapeKind>& shapes) {
+std::vector<SceneAudit::Recommendation> recommend(const std::vector<VariantAudit>& rows,
+                                                  const std::vector<ShapeKind>& shapes) {
   std::vector<SceneAudit::Recommendation> out;
   for (ShapeKind kind : shapes) {
     SceneAudit::Recommendation r{kind};
@@ -563,7 +587,8 @@ std::vector<SceneAudit::Recommendation> recommend(const std::vector<VariantAudit
       if (va.exact_for_scene() && (!r.best || va.ns_per_ray < r.best->ns_per_ray)) r.best = &va;
     }
     for (const VariantAudit& va : rows)
-      if (r.best && &va != r.best && va.shape == kind && va.exact_for_scene() && va.ns_per_ray <= 1.1 * r.best->ns_per_ray)
+      if (r.best && &va != r.best && va.shape == kind && va.exact_for_scene() &&
+          va.ns_per_ray <= 1.1 * r.best->ns_per_ray)
         r.close.push_back(&va);
     out.push_back(r);
   }
@@ -637,10 +662,13 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
   for (const Variant* v : options.variants)
     for (ShapeKind k : audit.shapes)
       if (v->handles(k)) chosen.push_back({v, nullptr, k});
-  const bool has_triangles = std::find(audit.shapes.begin(), audit.shapes.end(), ShapeKind::triangle) != audit.shapes.end();
+  const bool has_triangles =
+      std::find(audit.shapes.begin(), audit.shapes.end(), ShapeKind::triangle) != audit.shapes.end();
   for (const Tracer* t : options.tracers)
-    if (has_triangles) chosen.push_back({nullptr, t, ShapeKind::triangle});
-    else audit.warnings.push_back("tracer " + t->name + " not audited: the scene has no triangles");
+    if (has_triangles)
+      chosen.push_back({nullptr, t, ShapeKind::triangle});
+    else
+      audit.warnings.push_back("tracer " + t->name + " not audited: the scene has no triangles");
 
   auditor.exact_pass(&audit);
   audit.variants.reserve(chosen.size());  // recommendation points into it

@@ -42,7 +42,8 @@ std::vector<std::string> audit_file_stems(const SceneAudit& a) {
   for (const VariantAudit& va : a.variants) {
     const std::string base = file_stem(va.label);
     std::string stem = base;
-    for (int k = 2; taken.count(stem + ".png") || taken.count(stem + "-diff.png"); ++k) stem = base + "-" + std::to_string(k);
+    for (int k = 2; taken.count(stem + ".png") || taken.count(stem + "-diff.png"); ++k)
+      stem = base + "-" + std::to_string(k);
     taken.insert(stem + ".png");
     taken.insert(stem + "-diff.png");
     stems.push_back(stem);
@@ -63,8 +64,10 @@ std::string reproduce_command(const SceneAudit& a, const std::string& scene_path
     const bool exec = va.origin.rfind("exec: ", 0) == 0, library = va.origin.find('/') != std::string::npos && !exec;
     if (va.tracer) {
       once(tracers, va.name);
-      if (exec) once(loads, "--tracer-exec " + shell_quoted(va.name + "=" + va.origin.substr(6)));
-      else if (library) once(loads, "--tracer " + shell_quoted(va.origin));
+      if (exec)
+        once(loads, "--tracer-exec " + shell_quoted(va.name + "=" + va.origin.substr(6)));
+      else if (library)
+        once(loads, "--tracer " + shell_quoted(va.origin));
     } else {
       once(variants, va.name);
       if (const std::string flags = va.variant ? loading_flags(*va.variant) : ""; !flags.empty()) once(loads, flags);
@@ -100,11 +103,13 @@ std::vector<std::string> users_code_verdicts(const SceneAudit& a) {
       line += " stopped (" + va.stopped + "): not exact for this scene";
     } else if (va.exact_for_scene()) {
       line += " is exact for this scene: " + svg::format("%.1f", va.ns_per_ray) + " ns per primary ray";
-      if (va.tracer) line += " (the whole tracer, timed in rayproof's process)";
+      if (va.tracer)
+        line += " (the whole tracer, timed in rayproof's process)";
       else if (va.timed_in_worker)
         line += " (rayproof's traversal plus the code's own time in its worker; " +
                 svg::format("%.1f", va.round_trip_ns_per_ray) + " ns with the round trips to the worker)";
-      else line += " (timed through its pipe: an --exec command cannot be timed where it runs)";
+      else
+        line += " (timed through its pipe: an --exec command cannot be timed where it runs)";
       for (const auto& r : a.recommendation)
         if (r.shape == va.shape && r.best && r.best != &va)
           line += "; the cheapest exact " + std::string(to_string(r.shape)) + " variant is " + r.best->label + " (" +
@@ -131,8 +136,12 @@ std::string cases_jsonl(const VariantAudit& va, const std::string& stem, const s
     c.shape = w.shape;
     c.id = stem + "-" + std::to_string(w.x) + "-" + std::to_string(w.y) + "-" + w.kind;
     if (w.light >= 0) c.id += "-light" + std::to_string(w.light);
-    c.found = {{"audit", scene_path}, {"variant", va.name}, {"pixel", {w.x, w.y}}, {"kind", w.kind},
-               {"ray", w.shadow_ray ? "shadow" : "primary"}, {"primitive", w.primitive}};
+    c.found = {{"audit", scene_path},
+               {"variant", va.name},
+               {"pixel", {w.x, w.y}},
+               {"kind", w.kind},
+               {"ray", w.shadow_ray ? "shadow" : "primary"},
+               {"primitive", w.primitive}};
     if (w.light >= 0) c.found["light"] = w.light;
     out += json_text(case_to_json(c)) + "\n";
   }
@@ -217,8 +226,10 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
     j["headroom"] = json::object();
     for (const VariantAudit& va : a.variants) {
       json h;
-      h["exact_up_to_log2_translate"] = va.exact_up_to_log2_translate ? json(*va.exact_up_to_log2_translate) : json(nullptr);
-      h["first_wrong_log2_translate"] = va.first_wrong_log2_translate ? json(*va.first_wrong_log2_translate) : json(nullptr);
+      h["exact_up_to_log2_translate"] =
+          va.exact_up_to_log2_translate ? json(*va.exact_up_to_log2_translate) : json(nullptr);
+      h["first_wrong_log2_translate"] =
+          va.first_wrong_log2_translate ? json(*va.first_wrong_log2_translate) : json(nullptr);
       json by_k = json::object();
       const std::vector<int> ks = headroom_exponents();
       for (size_t i = 0; i < ks.size() && i < va.headroom_wrong.size(); ++i)
@@ -230,7 +241,8 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
   if (a.headroom) {
     json changed = json::object();
     const std::vector<int> ks = headroom_exponents();
-    for (size_t i = 0; i < a.headroom_scene_changed.size(); ++i) changed[std::to_string(ks[i])] = a.headroom_scene_changed[i];
+    for (size_t i = 0; i < a.headroom_scene_changed.size(); ++i)
+      changed[std::to_string(ks[i])] = a.headroom_scene_changed[i];
     j["headroom_scene_changed_pixels"] = changed;
     if (a.headroom_collapsed_at) j["headroom_scene_collapsed_log2_translate"] = *a.headroom_collapsed_at;
   }
@@ -296,7 +308,8 @@ std::string headroom_svg(const SceneAudit& a) {
     s << svg::text(label_w - 6, y + cell * 0.7, label, "text-anchor='end'");
     for (size_t i = 0; i < ks.size(); ++i) {
       const auto [fill, title] = cell_of(i);
-      s << svg::rect(label_w + cell * i, y, cell - 2, cell - 2, fill, label + ", k = " + std::to_string(ks[i]) + ": " + title);
+      s << svg::rect(label_w + cell * i, y, cell - 2, cell - 2, fill,
+                     label + ", k = " + std::to_string(ks[i]) + ": " + title);
     }
     s << "\n";
   };
@@ -330,7 +343,8 @@ std::string acne_words(const std::vector<ShapeKind>& shapes) {
   for (size_t i = 0; i < shapes.size(); ++i)
     out += std::string(i == 0 ? "" : i + 1 == shapes.size() ? " or " : ", ") + std::string(to_string(shapes[i]));
   out += " it left";
-  if (std::find(shapes.begin(), shapes.end(), ShapeKind::triangle) != shapes.end()) out += ", or a neighbour in its mesh";
+  if (std::find(shapes.begin(), shapes.end(), ShapeKind::triangle) != shapes.end())
+    out += ", or a neighbour in its mesh";
   return out;
 }
 
@@ -343,10 +357,12 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     << "body{font-family:sans-serif;margin:2em;max-width:1400px;color:#222}"
     << "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
     << "td:first-child,th:first-child{text-align:left}tr.exact td{background:#eef8ee}"
-    << ".pair{display:inline-block;margin:0 1.5em 1.5em 0;vertical-align:top}.pair p.cases{margin:.3em 0;max-width:760px}figure{display:inline-table;margin:0 .5em 0 0}"
+    << ".pair{display:inline-block;margin:0 1.5em 1.5em 0;vertical-align:top}.pair p.cases{margin:.3em "
+       "0;max-width:760px}figure{display:inline-table;margin:0 .5em 0 0}"
     << "figcaption{display:table-caption;caption-side:bottom}"
     << "img{image-rendering:pixelated;border:1px solid #999}.circled{position:relative;display:inline-block}"
-    << ".circled svg{position:absolute;left:1px;top:1px;pointer-events:none}.key span{display:inline-block;width:1em;height:1em;"
+    << ".circled svg{position:absolute;left:1px;top:1px;pointer-events:none}.key "
+       "span{display:inline-block;width:1em;height:1em;"
     << "margin:0 .3em 0 1em;vertical-align:middle}code{background:#f4f4f4;padding:1px 4px}</style></head><body>\n";
   h << "<h1>Which intersector does this scene require?</h1>\n<p>Scene <code>" << html_escape(scene_path) << "</code>, "
     << a.width << "×" << a.height << " pixels, shapes: ";
@@ -354,21 +370,20 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   h << ".</p>\n<h2>Recommendation</h2>\n<ul id=\"recommendation\">";
   for (const auto& r : a.recommendation) {
     h << "<li><b>" << to_string(r.shape) << "</b>: ";
-    if (r.best)
-    {
+    if (r.best) {
       h << "<b>" << html_escape(r.best->name) << "</b>, the cheapest variant that renders this scene exactly ("
         << fixed(r.best->ns_per_ray, 1) << " ns per primary ray)";
       for (size_t i = 0; i < r.close.size(); ++i)
         h << (i == 0 ? "; within 10%, as good a choice: " : ", ") << html_escape(r.close[i]->label) << " ("
           << fixed(r.close[i]->ns_per_ray, 1) << " ns)";
-    }
-    else if (r.audited)
+    } else if (r.audited)
       h << "<b>none</b> of the audited variants renders this scene exactly";
     else
       h << "no variant of this shape was audited (see --variants)";
     h << "</li>";
   }
-  for (const std::string& v : users_code_verdicts(a)) h << "<li class=\"yours\">Your code: " << html_escape(v) << "</li>";
+  for (const std::string& v : users_code_verdicts(a))
+    h << "<li class=\"yours\">Your code: " << html_escape(v) << "</li>";
   h << "</ul>\n<h2>Every variant on this scene</h2>\n"
     << "<p>Each variant draws its own shape; the other shapes are judged exactly, so each count belongs to that "
        "variant alone. <i>wrong</i>: the visible object differs from the exact one (<i>holes</i>: it sees something "
@@ -378,7 +393,8 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
        "shadowed by "
     << acne_words(a.shapes) << ". Exact for the scene = 0 wrong and 0 shadow wrong.</p>\n"
     << "<table id=\"variants\"><tr><th>variant</th><th>shape</th><th>precision</th><th>ns/ray</th><th>wrong</th>"
-       "<th>holes</th><th>false hits</th><th>shadow wrong</th><th>wrongly shadowed</th><th>wrongly lit</th><th>acne</th>"
+       "<th>holes</th><th>false hits</th><th>shadow wrong</th><th>wrongly shadowed</th><th>wrongly "
+       "lit</th><th>acne</th>"
        "<th>exact</th>";
   if (a.headroom) h << "<th>exact up to k</th><th>first wrong k</th>";
   h << "</tr>\n";
@@ -386,13 +402,12 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     const PixelCounts& c = va.counts;
     h << "<tr" << (va.exact_for_scene() ? " class=\"exact\"" : "") << "><td>" << html_escape(va.label)
       << (va.origin != "built-in" ? " <small>(" + html_escape(va.origin) + ")</small>" : "")
-      << (va.tracer ? " <small>[tracer]</small>" : "")
-      << "</td><td>" << to_string(va.shape) << "</td><td>" << va.precision << "</td><td>"
-      << (std::isnan(va.ns_per_ray) ? std::string("–") : fixed(va.ns_per_ray, 1)) << "</td><td>" << c.wrong << "</td><td>" << c.holes << "</td><td>" << c.false_hits
-      << "</td><td>" << c.shadow_wrong << "</td><td>" << c.wrongly_shadowed << "</td><td>" << c.wrongly_lit << "</td><td>"
-      << c.acne << "</td><td>"
-      << (va.exact_for_scene() ? "yes" : "no") << (va.stopped.empty() ? "" : " (stopped: " + html_escape(va.stopped) + ")")
-      << "</td>";
+      << (va.tracer ? " <small>[tracer]</small>" : "") << "</td><td>" << to_string(va.shape) << "</td><td>"
+      << va.precision << "</td><td>" << (std::isnan(va.ns_per_ray) ? std::string("–") : fixed(va.ns_per_ray, 1))
+      << "</td><td>" << c.wrong << "</td><td>" << c.holes << "</td><td>" << c.false_hits << "</td><td>"
+      << c.shadow_wrong << "</td><td>" << c.wrongly_shadowed << "</td><td>" << c.wrongly_lit << "</td><td>" << c.acne
+      << "</td><td>" << (va.exact_for_scene() ? "yes" : "no")
+      << (va.stopped.empty() ? "" : " (stopped: " + html_escape(va.stopped) + ")") << "</td>";
     if (a.headroom) {
       auto k = [](const std::optional<int>& x) { return x ? std::to_string(*x) : std::string("–"); };
       h << "<td>" << k(va.exact_up_to_log2_translate) << "</td><td>" << k(va.first_wrong_log2_translate) << "</td>";
@@ -414,7 +429,8 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
            "rendered, and no variant's headroom can reach it.";
     h << "</p>\n<div id=\"headroom\">" << headroom_svg(a) << "</div>\n";
   }
-  h << "<h2>Images</h2>\n<p class=\"key\">Diff images, over the dimmed exact render:<span style=\"background:rgb(255,0,0)\">"
+  h << "<h2>Images</h2>\n<p class=\"key\">Diff images, over the dimmed exact render:<span "
+       "style=\"background:rgb(255,0,0)\">"
        "</span>hole<span style=\"background:rgb(0,160,255)\"></span>false hit<span style=\"background:rgb(255,255,0)\">"
        "</span>shadow wrong<span style=\"background:rgb(255,128,0)\"></span>acne (shadowed by "
     << acne_words(a.shapes) << "); where a diff has few marks, each is circled.</p>\n";
@@ -426,10 +442,10 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   auto pair = [&](const VariantAudit& va) {
     const std::string& name = va.label;
     h << "<div class=\"pair\"><figure>" << exact_tag << "<figcaption>exact</figcaption></figure><figure>"
-      << img_tag(va.render, name + " render") << "<figcaption>" << html_escape(name)
-      << "</figcaption></figure><figure>" << diff_tag(va.diff, name + " diff") << "<figcaption>" << html_escape(name)
-      << " vs exact: " << va.counts.holes << " holes, " << va.counts.false_hits << " false hits, " << va.counts.shadow_wrong
-      << " shadow wrong (" << va.counts.wrongly_shadowed << " wrongly shadowed, " << va.counts.wrongly_lit
+      << img_tag(va.render, name + " render") << "<figcaption>" << html_escape(name) << "</figcaption></figure><figure>"
+      << diff_tag(va.diff, name + " diff") << "<figcaption>" << html_escape(name) << " vs exact: " << va.counts.holes
+      << " holes, " << va.counts.false_hits << " false hits, " << va.counts.shadow_wrong << " shadow wrong ("
+      << va.counts.wrongly_shadowed << " wrongly shadowed, " << va.counts.wrongly_lit
       << " wrongly lit)</figcaption></figure>";
     if (has_cases_file(va)) {  // under the three images, as wide as they are
       const std::string file = stems[&va - a.variants.data()] + "-cases.jsonl";
@@ -442,8 +458,10 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   };
   long exact_count = 0;
   for (const VariantAudit& va : a.variants)
-    if (!va.exact_for_scene()) pair(va);
-    else ++exact_count;
+    if (!va.exact_for_scene())
+      pair(va);
+    else
+      ++exact_count;
   if (exact_count > 0) {
     h << "<details><summary>" << exact_count << " variants render this scene exactly: their images</summary>\n";
     for (const VariantAudit& va : a.variants)
@@ -458,7 +476,8 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   h << "<p>Reproduce: <code>" << html_escape(reproduce_command(a, scene_path)) << "</code></p>\n";
   // For automated checks (a headless browser dumps the DOM after load): how many images decoded.
   h << "<script>window.addEventListener('load',function(){var n=0,imgs=document.images;for(var i=0;i<imgs.length;i++)"
-       "if(imgs[i].complete&&imgs[i].naturalWidth>0)n++;document.body.setAttribute('data-images-decoded',n+'/'+imgs.length);});"
+       "if(imgs[i].complete&&imgs[i].naturalWidth>0)n++;document.body.setAttribute('data-images-decoded',n+'/"
+       "'+imgs.length);});"
        "</script>\n</body></html>\n";
   return h.str();
 }

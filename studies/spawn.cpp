@@ -13,8 +13,8 @@
 namespace rayproof::studies {
 
 using fuzz::Family;
-using fuzz::GeneratedCase;
 using fuzz::generate;
+using fuzz::GeneratedCase;
 
 std::string_view to_string(SpawnStrategy s) {
   switch (s) {
@@ -106,8 +106,8 @@ namespace rayproof::studies {
 void write_spawn_csv(const std::vector<SpawnCell>& cells, std::ostream& out) {
   out << "variant,shape,strategy,log2_scale,rays,self_intersections,rate\n";
   for (const SpawnCell& c : cells)
-    out << c.variant->name << "," << to_string(c.variant->shape) << "," << to_string(c.strategy) << ","
-        << c.log2_scale << "," << c.rays << "," << c.self_intersections << ","
+    out << c.variant->name << "," << to_string(c.variant->shape) << "," << to_string(c.strategy) << "," << c.log2_scale
+        << "," << c.rays << "," << c.self_intersections << ","
         << (c.rays ? static_cast<double>(c.self_intersections) / c.rays : 0.0) << "\n";
 }
 

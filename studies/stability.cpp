@@ -17,7 +17,8 @@ struct CellRng : fuzz::SplitMix64 {  // seeded per (seed, cell, case): independe
   double sym() { return 2 * unit() - 1; }
   Vec3 direction() {
     Vec3 v;
-    do v = fuzz::vec_z_first([&] { return sym(); }); while (dot(v, v) > 1 || dot(v, v) < 1e-3);
+    do v = fuzz::vec_z_first([&] { return sym(); });
+    while (dot(v, v) > 1 || dot(v, v) < 1e-3);
     return normalized(v);
   }
 };
@@ -66,7 +67,8 @@ Query stability_query(ShapeKind shape, int log2_scale, int log2_size, std::uint6
 
 std::map<std::string, std::vector<StabilityCell>> stability_study(ShapeKind shape,
                                                                   const std::vector<const Variant*>& variants,
-                                                                  HitRule rule, const StabilityGrid& grid, int threads) {
+                                                                  HitRule rule, const StabilityGrid& grid,
+                                                                  int threads) {
   std::vector<std::pair<int, int>> coords;
   for (int b = grid.lo; b <= grid.hi; b += grid.step)
     for (int a = grid.lo; a <= grid.hi; a += grid.step) coords.push_back({a, b});
@@ -116,7 +118,8 @@ std::string ramp(double t) {
   const double f = t - i;
   char buf[16];
   std::snprintf(buf, sizeof buf, "#%02x%02x%02x", int(stops[i][0] + f * (stops[i + 1][0] - stops[i][0])),
-                int(stops[i][1] + f * (stops[i + 1][1] - stops[i][1])), int(stops[i][2] + f * (stops[i + 1][2] - stops[i][2])));
+                int(stops[i][1] + f * (stops[i + 1][1] - stops[i][1])),
+                int(stops[i][2] + f * (stops[i + 1][2] - stops[i][2])));
   return buf;
 }
 // Colour of a disagreement rate: light grey for none, the ramp over log10(rate) ∈ [−4, 0].
@@ -131,10 +134,12 @@ void write_stability_svg(const std::string& title, const std::vector<StabilityCe
   out << svg::text(left, 28, title, "font-size='15'") << "\n";
   for (const StabilityCell& c : cells) {
     const int col = (c.log2_scale - grid.lo) / grid.step, row = (c.log2_size - grid.lo) / grid.step;
-    const std::string tip = svg::format("distance 2^%d, size 2^%d: %llu of %llu disagree, ULP p99 %llu", c.log2_scale,
-                                        c.log2_size, (unsigned long long)c.tally.disagreements(),
-                                        (unsigned long long)c.tally.cases, (unsigned long long)c.tally.ulps.quantile(0.99));
-    out << svg::rect(left + col * cell, top + (n - 1 - row) * cell, cell, cell, colour_of(c.tally.disagreement_rate()), tip)
+    const std::string tip =
+        svg::format("distance 2^%d, size 2^%d: %llu of %llu disagree, ULP p99 %llu", c.log2_scale, c.log2_size,
+                    (unsigned long long)c.tally.disagreements(), (unsigned long long)c.tally.cases,
+                    (unsigned long long)c.tally.ulps.quantile(0.99));
+    out << svg::rect(left + col * cell, top + (n - 1 - row) * cell, cell, cell, colour_of(c.tally.disagreement_rate()),
+                     tip)
         << "\n";
   }
   const int label_every = std::max(1, n / 8);
@@ -150,8 +155,8 @@ void write_stability_svg(const std::string& title, const std::vector<StabilityCe
   out << svg::text(lx, top + 4, "disagreement rate") << "\n";
   const char* labels[] = {"100%", "10%", "1%", "0.1%", "0.01%"};
   for (int i = 0; i < 5; ++i)
-    out << svg::rect(lx, top + 14 + i * 22.0, 18, 18, ramp(1 - i / 4.0)) << svg::text(lx + 24, top + 27 + i * 22.0, labels[i])
-        << "\n";
+    out << svg::rect(lx, top + 14 + i * 22.0, 18, 18, ramp(1 - i / 4.0))
+        << svg::text(lx + 24, top + 27 + i * 22.0, labels[i]) << "\n";
   out << svg::rect(lx, top + 14 + 5 * 22.0, 18, 18, "#eeeeee") << svg::text(lx + 24, top + 27 + 5 * 22.0, "0") << "\n";
   svg::end(out);
 }

@@ -34,9 +34,10 @@ std::string escape(std::string_view text) {
 }
 
 void begin(std::ostream& out, double width, double height, int font_size) {
-  out << format("<svg xmlns='http://www.w3.org/2000/svg' width='%g' height='%g' font-family='sans-serif' "
-                "font-size='%d'>\n<rect width='100%%' height='100%%' fill='white'/>\n",
-                width, height, font_size);
+  out << format(
+      "<svg xmlns='http://www.w3.org/2000/svg' width='%g' height='%g' font-family='sans-serif' "
+      "font-size='%d'>\n<rect width='100%%' height='100%%' fill='white'/>\n",
+      width, height, font_size);
 }
 
 void end(std::ostream& out) { out << "</svg>\n"; }

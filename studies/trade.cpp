@@ -19,7 +19,8 @@ std::vector<Contender> variant_contenders() {
   std::vector<Contender> out;
   for (const Variant& v : all_variants()) {
     const Variant* p = &v;
-    Contender c{std::string(v.name), v.shape,
+    Contender c{std::string(v.name),
+                v.shape,
                 [p](const std::vector<Query>& qs) {
                   auto hits = std::make_shared<std::vector<Hit>>(qs.size());
                   if (p->external)  // one round trip for the batch, run repeatedly where the code runs, timed there
@@ -46,7 +47,8 @@ std::vector<Contender> batched_contenders() {
   for (const BatchedVariant& b : batched_variants()) {
     // The queries laid out as structure of arrays once, in prepare; only the kernel is timed.
     const BatchedVariant* v = &b;
-    out.push_back({std::string(b.name), b.shape,
+    out.push_back({std::string(b.name),
+                   b.shape,
                    [v](const std::vector<Query>& qs) {
                      auto laid_out = std::make_shared<QueriesSoA>(qs);
                      auto hits = std::make_shared<HitsSoA>();
@@ -175,11 +177,17 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
   if (format == TableFormat::json) {
     json j = json::array();
     for (const TradeRow& r : rows)
-      j.push_back({{"variant", r.variant}, {"shape", std::string(to_string(r.shape))},
-                   {"family", std::string(to_string(r.family))}, {"ns_per_test", r.ns_per_test},
-                   {"cases", r.tally.cases}, {"disagreements", r.tally.disagreements()},
-                   {"disagreement_rate", r.tally.disagreement_rate()}, {"ulp_p99", r.t_error().quantile(0.99)},
-                   {"ulp_max", r.t_error().max()}, {"bits", bits_json(r.t_error())}, {"pareto", r.pareto},
+      j.push_back({{"variant", r.variant},
+                   {"shape", std::string(to_string(r.shape))},
+                   {"family", std::string(to_string(r.family))},
+                   {"ns_per_test", r.ns_per_test},
+                   {"cases", r.tally.cases},
+                   {"disagreements", r.tally.disagreements()},
+                   {"disagreement_rate", r.tally.disagreement_rate()},
+                   {"ulp_p99", r.t_error().quantile(0.99)},
+                   {"ulp_max", r.t_error().max()},
+                   {"bits", bits_json(r.t_error())},
+                   {"pareto", r.pareto},
                    {"precision", r.precision}});
     out << json_text(j, 2) << "\n";
     return;
@@ -188,7 +196,8 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
   const char* row_format = md ? "| %s | %s | %s | %.2f | %.3g%% | %s | %llu | %llu | %s |\n"
                               : "%-9s %-12s %-22s %9.2f %10.3g%% %9s %20llu %20llu  %s\n";
   if (md)
-    out << "| shape | family | variant | ns/test | disagreement rate | t error bits p99 | ULP p99 | ULP max | Pareto |\n"
+    out << "| shape | family | variant | ns/test | disagreement rate | t error bits p99 | ULP p99 | ULP max | Pareto "
+           "|\n"
         << "|---|---|---|---:|---:|---:|---:|---:|:---:|\n";
   else
     out << svg::format("%-9s %-12s %-22s %9s %11s %9s %20s %20s  %s\n", "shape", "family", "variant", "ns/test",
@@ -200,8 +209,10 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
                        static_cast<unsigned long long>(r.t_error().quantile(0.99)),
                        static_cast<unsigned long long>(r.t_error().max()), r.pareto ? "★" : "");
   }
-  out << (md ? "\n" : "") << "Disagreement: the class differs from the exact one; t error (ULPs, bits = log2(ulps + 1)) "
-      << "over the cases whose class agrees, in the contender's own precision (float code: float ulps against the exact t "
+  out << (md ? "\n" : "")
+      << "Disagreement: the class differs from the exact one; t error (ULPs, bits = log2(ulps + 1)) "
+      << "over the cases whose class agrees, in the contender's own precision (float code: float ulps against the "
+         "exact t "
       << "rounded to float); ★ Pareto-optimal on its shape and family.\n";
 }
 
@@ -215,7 +226,8 @@ struct TradeFrame {
   double lx0, lx1, ly_floor, ly0, ly1 = 0;
   std::string title;
 
-  TradeFrame(const std::vector<TradeRow>& rows, double offset, std::string heading) : top(offset + 50), title(std::move(heading)) {
+  TradeFrame(const std::vector<TradeRow>& rows, double offset, std::string heading)
+      : top(offset + 50), title(std::move(heading)) {
     double x_lo = INFINITY, x_hi = 0, y_min_nonzero = 1;
     for (const TradeRow& r : rows) {
       x_lo = std::min(x_lo, r.ns_per_test), x_hi = std::max(x_hi, r.ns_per_test);
@@ -259,12 +271,14 @@ struct TradeFrame {
 // colour), exact ones with a black dot in the middle, double ones solid.
 std::string trade_marker(double x, double y, size_t family, const std::string& colour, const std::string& precision) {
   const char* c = colour.c_str();
-  const std::string paint = precision == "float" ? svg::format("fill='#fff' stroke='%s' stroke-width='2'", c)
-                                                 : svg::format("fill='%s'", c);
+  const std::string paint =
+      precision == "float" ? svg::format("fill='#fff' stroke='%s' stroke-width='2'", c) : svg::format("fill='%s'", c);
   std::string m;
   switch (family % 6) {
     case 0: m = svg::format("<circle cx='%.1f' cy='%.1f' r='5' %s/>", x, y, paint.c_str()); break;
-    case 1: m = svg::format("<rect x='%.1f' y='%.1f' width='9' height='9' %s/>", x - 4.5, y - 4.5, paint.c_str()); break;
+    case 1:
+      m = svg::format("<rect x='%.1f' y='%.1f' width='9' height='9' %s/>", x - 4.5, y - 4.5, paint.c_str());
+      break;
     case 2: m = svg::format("<path d='M%.1f %.1f l5.5 9.5 l-11 0 z' %s/>", x, y - 6, paint.c_str()); break;
     case 3: m = svg::format("<path d='M%.1f %.1f l5.5 -9.5 l-11 0 z' %s/>", x, y + 6, paint.c_str()); break;
     case 4: m = svg::format("<path d='M%.1f %.1f l6 6 l-6 6 l-6 -6 z' %s/>", x, y - 6, paint.c_str()); break;
@@ -300,7 +314,8 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
   std::vector<std::string> contenders;  // colours and markers are the same in every panel
   std::vector<Family> families;
   std::vector<ShapeKind> shapes;
-  for (const TradeRow& r : rows) index_in(contenders, r.variant), index_in(families, r.family), index_in(shapes, r.shape);
+  for (const TradeRow& r : rows)
+    index_in(contenders, r.variant), index_in(families, r.family), index_in(shapes, r.shape);
   std::sort(families.begin(), families.end());
   svg::begin(out, TradeFrame::W, std::max<size_t>(1, shapes.size()) * TradeFrame::H + 20, 12);
   for (size_t si = 0; si < shapes.size(); ++si) {
@@ -315,9 +330,11 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
       std::vector<const TradeRow*> front;
       for (const TradeRow& r : panel)
         if (r.family == families[fi] && r.pareto) front.push_back(&r);
-      std::sort(front.begin(), front.end(), [](const TradeRow* a, const TradeRow* b) { return a->ns_per_test < b->ns_per_test; });
+      std::sort(front.begin(), front.end(),
+                [](const TradeRow* a, const TradeRow* b) { return a->ns_per_test < b->ns_per_test; });
       std::string points;
-      for (const TradeRow* r : front) points += svg::format("%.1f,%.1f ", frame.x(r->ns_per_test), frame.y(r->tally.disagreement_rate()));
+      for (const TradeRow* r : front)
+        points += svg::format("%.1f,%.1f ", frame.x(r->ns_per_test), frame.y(r->tally.disagreement_rate()));
       if (front.size() > 1)
         out << "<polyline points='" << points << "' fill='none' stroke='#888' stroke-width='1.2'><title>"
             << svg::escape("Pareto front, " + std::string(to_string(families[fi]))) << "</title></polyline>\n";
@@ -336,20 +353,25 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
     const double lx = TradeFrame::W - TradeFrame::right;
     double ly = frame.top + 10;
     for (size_t i = 0; i < contenders.size(); ++i) {
-      if (std::none_of(panel.begin(), panel.end(), [&](const TradeRow& r) { return r.variant == contenders[i]; })) continue;
-      const bool users = std::any_of(panel.begin(), panel.end(), [&](const TradeRow& r) { return r.variant == contenders[i] && r.users_code; });
+      if (std::none_of(panel.begin(), panel.end(), [&](const TradeRow& r) { return r.variant == contenders[i]; }))
+        continue;
+      const bool users = std::any_of(panel.begin(), panel.end(),
+                                     [&](const TradeRow& r) { return r.variant == contenders[i] && r.users_code; });
       out << svg::rect(lx + 20, ly - 10, 12, 12, contender_colour(i))
-          << svg::text(lx + 38, ly, contenders[i] + (users ? " (yours)" : ""), users ? "font-weight='bold'" : "") << "\n";
+          << svg::text(lx + 38, ly, contenders[i] + (users ? " (yours)" : ""), users ? "font-weight='bold'" : "")
+          << "\n";
       ly += 16;
     }
     ly += 8;
     for (size_t i = 0; i < families.size(); ++i, ly += 16)
-      out << trade_marker(lx + 26, ly - 4, i, "#444", "double") << svg::text(lx + 38, ly, to_string(families[i])) << "\n";
+      out << trade_marker(lx + 26, ly - 4, i, "#444", "double") << svg::text(lx + 38, ly, to_string(families[i]))
+          << "\n";
     for (const char* p : {"float (hollow)", "exact (dotted)"}) {  // how precision is drawn, on any family's mark
       out << trade_marker(lx + 26, ly - 4, 0, "#444", std::string(p).substr(0, 5)) << svg::text(lx + 38, ly, p) << "\n";
       ly += 16;
     }
-    out << svg::line(lx + 20, ly, lx + 34, ly, "stroke='#888' stroke-width='1.2'") << svg::text(lx + 38, ly + 4, "Pareto front") << "\n";
+    out << svg::line(lx + 20, ly, lx + 34, ly, "stroke='#888' stroke-width='1.2'")
+        << svg::text(lx + 38, ly + 4, "Pareto front") << "\n";
   }
   svg::end(out);
 }

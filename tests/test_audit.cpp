@@ -40,7 +40,8 @@ std::vector<Triangle> random_triangles(size_t n, double size, std::mt19937_64& r
   std::vector<Triangle> tris;
   while (tris.size() < n) {
     const Vec3 c(u(rng), u(rng), u(rng));
-    const Triangle t{{c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng))}};
+    const Triangle t{
+        {c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng)), c + Vec3(s(rng), s(rng), s(rng))}};
     if (!degenerate_reason(t)) tris.push_back(t);
   }
   return tris;
@@ -116,7 +117,8 @@ TEST(Bvh, NeverSkipsAContactAtTheLimitsOfItsWidening) {
       // Scaling the direction by a power of two keeps the ray's points; only the arithmetic changes.
       Ray ray{origin, std::ldexp(1.0, e) * (target - origin)};
       if (!all_finite(ray.direction) || ray.direction == Vec3::Zero()) continue;
-      contacts += expect_visits_every_contact(index, ShapeKind::triangle, ray, oracle, "direction 2^" + std::to_string(e));
+      contacts +=
+          expect_visits_every_contact(index, ShapeKind::triangle, ray, oracle, "direction 2^" + std::to_string(e));
     }
   }
   EXPECT_GT(contacts, 500);  // 664 when written (tiny scales lose some rays to underflow)
@@ -133,7 +135,8 @@ TEST(Bvh, NeverSkipsAContactAtTheLimitsOfItsWidening) {
       const Vec3 origin = Vec3(far, far, far) + std::ldexp(1.0, 992) * Vec3(u(rng), u(rng), u(rng));
       const Ray ray{origin, t.v[i % 3] - origin};
       if (!all_finite(ray.direction) || ray.direction == Vec3::Zero()) continue;
-      far_contacts += expect_visits_every_contact(far_index, ShapeKind::triangle, ray, oracle, "origin near " + std::to_string(far));
+      far_contacts += expect_visits_every_contact(far_index, ShapeKind::triangle, ray, oracle,
+                                                  "origin near " + std::to_string(far));
     }
     EXPECT_GT(far_contacts, 100) << far;
   }
@@ -152,7 +155,8 @@ TEST(Bvh, NeverSkipsAContactAtTheLimitsOfItsWidening) {
     const Vec3 target = t.v[i % 3];
     const Ray ray{origin, 0.25 * target - 0.25 * origin};  // target − origin itself overflows
     if (!all_finite(ray.direction)) continue;
-    overflowing += expect_visits_every_contact(opposite_index, ShapeKind::triangle, ray, oracle, "overflowing distance");
+    overflowing +=
+        expect_visits_every_contact(opposite_index, ShapeKind::triangle, ray, oracle, "overflowing distance");
   }
   EXPECT_GT(overflowing, 20);
 }
@@ -180,7 +184,8 @@ TEST(Bvh, SphereBoxesAreRoundedOutward) {
     two_sum(s.center.x(), s.radius, sum, error);
     // x(t) = fl(c + r) + (error / 2)·t: at t = 1 (z = c.z) it lies inside the sphere's extent.
     const Ray ray{Vec3(sum, s.center.y(), s.center.z() - 1), Vec3(error / 2, 0, 1)};
-    const long n = expect_visits_every_contact(index, ShapeKind::sphere, ray, oracle, "sphere at x " + std::to_string(s.center.x()));
+    const long n = expect_visits_every_contact(index, ShapeKind::sphere, ray, oracle,
+                                               "sphere at x " + std::to_string(s.center.x()));
     EXPECT_GE(n, 1);
     contacts += n;
   }
@@ -195,8 +200,8 @@ TEST(Bvh, AxisParallelRaysMeetExactlyTheBoxesTheyRunThrough) {
   EXPECT_FALSE(SlabRay(Ray{Vec3(0.5, 2, -1), Vec3(0, 0, 1)}).meets(box, 10, entry));
   EXPECT_FALSE(SlabRay(Ray{Vec3(0.5, -0.5, -1), Vec3(0, -0.0, 1)}).meets(box, 10, entry));
   EXPECT_FALSE(SlabRay(Ray{Vec3(0.5, 2, -1), Vec3(0, -0.0, 1)}).meets(box, 10, entry));  // lower end +inf
-  EXPECT_TRUE(SlabRay(Ray{Vec3(0.5, 1, -1), Vec3(0, 0, 1)}).meets(box, 10, entry));   // on the face y = 1
-  EXPECT_TRUE(SlabRay(Ray{Vec3(0, 0, -1), Vec3(0, -0.0, 1)}).meets(box, 10, entry));  // along an edge
+  EXPECT_TRUE(SlabRay(Ray{Vec3(0.5, 1, -1), Vec3(0, 0, 1)}).meets(box, 10, entry));      // on the face y = 1
+  EXPECT_TRUE(SlabRay(Ray{Vec3(0, 0, -1), Vec3(0, -0.0, 1)}).meets(box, 10, entry));     // along an edge
   EXPECT_GT(entry, 0.99);
   EXPECT_LE(entry, 1.0);
   EXPECT_FALSE(SlabRay(Ray{Vec3(0.5, 0.5, -1), Vec3(0, 0, 1)}).meets(box, 0.5, entry));  // beyond t_limit
@@ -295,14 +300,16 @@ TEST(Audit, EdgeGridIsAllMeshExactlyAndWatertightHasNoHoles) {
 // Vertices within rounding of the pixel rays: Möller–Trumbore decides the two triangles of an
 // edge separately and misses both; watertight does not; the audit recommends watertight.
 TEST(Audit, TiltedEdgeGridCatchesMollerTrumboreHolesAndRecommendsWatertight) {
-  const auto a = audit_of(kScenes + "/audit/edge-grid-tilted.json", {"moller-trumbore", "watertight", "certified-triangle"});
+  const auto a =
+      audit_of(kScenes + "/audit/edge-grid-tilted.json", {"moller-trumbore", "watertight", "certified-triangle"});
   EXPECT_GT(row(a, "moller-trumbore").counts.holes, 100);
   // An independent count (issue 23), from the variant's own render rather than the branch that
   // colours the diff: the exact image is all mesh with nothing behind it, so every hole shows the
   // background, and only a hole does.
   const Scene scene = load_scene(kScenes + "/audit/edge-grid-tilted.json");
   std::array<std::uint8_t, 3> background{};
-  for (int k = 0; k < 3; ++k) background[k] = static_cast<std::uint8_t>(std::lround(std::clamp(scene.background[k], 0.0, 1.0) * 255));
+  for (int k = 0; k < 3; ++k)
+    background[k] = static_cast<std::uint8_t>(std::lround(std::clamp(scene.background[k], 0.0, 1.0) * 255));
   for (const char* name : {"moller-trumbore", "watertight"}) {
     const Image& render = row(a, name).render;
     long background_pixels = 0;
@@ -347,7 +354,8 @@ void expect_counts_match_images(const std::string& dir) {
 TEST(Audit, CountsInAuditJsonMatchTheDiffImages) {
   for (const char* scene : {"edge-grid-tilted", "telephoto-sphere"}) {
     const std::string dir = test_dir() + "/" + scene;
-    const auto run = testing_support::run_cli("audit " + kScenes + "/audit/" + scene + ".json -o " + dir + " --threads 2");
+    const auto run =
+        testing_support::run_cli("audit " + kScenes + "/audit/" + scene + ".json -o " + dir + " --threads 2");
     ASSERT_EQ(run.status, 0) << run.err;
     expect_counts_match_images(dir);
   }
@@ -375,9 +383,9 @@ Hit triangle_with_tolerance(const Ray& ray, const Shape& shape, HitRule rule) {
 }
 
 const Variant& tolerant_variant() {
-  static const Variant& tolerant = register_variant(
-      {"test-tolerant-triangle", ShapeKind::triangle, "Möller–Trumbore with a 5% barycentric tolerance (test only)",
-       triangle_with_tolerance});
+  static const Variant& tolerant =
+      register_variant({"test-tolerant-triangle", ShapeKind::triangle,
+                        "Möller–Trumbore with a 5% barycentric tolerance (test only)", triangle_with_tolerance});
   return tolerant;
 }
 
@@ -448,7 +456,8 @@ TEST(Audit, WrongPixelsAreCasesThatCheckReplays) {
   const std::string marker = "replay: rayproof ";
   const std::size_t at = run.err.find(marker);
   ASSERT_NE(at, std::string::npos) << run.err;
-  const auto replay = testing_support::run_cli(run.err.substr(at + marker.size(), run.err.find('\n', at) - at - marker.size()));
+  const auto replay =
+      testing_support::run_cli(run.err.substr(at + marker.size(), run.err.find('\n', at) - at - marker.size()));
   ASSERT_EQ(replay.status, 0) << replay.err;
   long replayed = 0, disagree = 0;
   std::istringstream lines(replay.out);
@@ -528,7 +537,8 @@ TEST(Audit, HeadroomCountsShadowsAndStopsWhereTheSceneCollapses) {
   }
   EXPECT_GT(exact_translations, 3);
   bool warned = false;
-  for (const std::string& w : grid.warnings) warned |= w.find("headroom k=" + std::to_string(*grid.headroom_collapsed_at)) == 0;
+  for (const std::string& w : grid.warnings)
+    warned |= w.find("headroom k=" + std::to_string(*grid.headroom_collapsed_at)) == 0;
   EXPECT_TRUE(warned);
   const std::string html = studies::scene_audit_html(grid, "edge-grid.json");
   EXPECT_NE(html.find("the translated scene collapses"), std::string::npos);
@@ -543,7 +553,8 @@ TEST(Audit, RaysBeyondIntervalsAreWhatTheScenesAreBuiltToNeed) {
   const auto tilted = audit_of(kScenes + "/audit/edge-grid-tilted.json", {"watertight"});
   EXPECT_EQ(tilted.rays_beyond_intervals, tilted.primary_rays);
   std::ofstream(test_dir() + "/lone.json") << R"({"camera": {"eye": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0],
-      "fov_deg": 30, "width": 32, "height": 24}, "objects": [{"type": "sphere", "center": [0.01, 0.02, 0.03], "radius": 0.5}]})";
+      "fov_deg": 30, "width": 32, "height": 24},
+      "objects": [{"type": "sphere", "center": [0.01, 0.02, 0.03], "radius": 0.5}]})";
   const auto lone = audit_of(test_dir() + "/lone.json", {"stable"});
   EXPECT_EQ(lone.rays_beyond_intervals, 0);
   EXPECT_EQ(lone.variants.at(0).counts.wrong, 0);
@@ -591,11 +602,13 @@ TEST(Audit, RecommendationIsTheCheapestExactRowAndThoseWithinTenPercent) {
     va.stopped = std::move(stopped);
     return va;
   };
-  const std::vector<studies::VariantAudit> rows = {
-      row_of("fast-but-wrong", ShapeKind::sphere, 5, 3, 0),        row_of("fast-but-shadowed", ShapeKind::sphere, 6, 0, 1),
-      row_of("stopped-cheap", ShapeKind::sphere, 7, 0, 0, "crash"), row_of("best", ShapeKind::sphere, 10, 0, 0),
-      row_of("within", ShapeKind::sphere, 11, 0, 0),                row_of("beyond", ShapeKind::sphere, 11.01, 0, 0),
-      row_of("plane-wrong", ShapeKind::plane, 1, 1, 0)};
+  const std::vector<studies::VariantAudit> rows = {row_of("fast-but-wrong", ShapeKind::sphere, 5, 3, 0),
+                                                   row_of("fast-but-shadowed", ShapeKind::sphere, 6, 0, 1),
+                                                   row_of("stopped-cheap", ShapeKind::sphere, 7, 0, 0, "crash"),
+                                                   row_of("best", ShapeKind::sphere, 10, 0, 0),
+                                                   row_of("within", ShapeKind::sphere, 11, 0, 0),
+                                                   row_of("beyond", ShapeKind::sphere, 11.01, 0, 0),
+                                                   row_of("plane-wrong", ShapeKind::plane, 1, 1, 0)};
   const auto r = studies::recommend(rows, {ShapeKind::sphere, ShapeKind::plane, ShapeKind::box});
   ASSERT_EQ(r.size(), 3u);
   ASSERT_NE(r[0].best, nullptr);
@@ -651,8 +664,8 @@ TEST(Audit, ReportOpensInHeadlessChromiumWithEveryImageDecoded) {
   ASSERT_EQ(run.status, 0) << run.err;
   const std::string dom = test_dir() + "/dom.html";
   const std::string cmd = "chromium --headless --no-sandbox --disable-gpu --user-data-dir=" + test_dir() +
-                          "/chromium-profile --virtual-time-budget=5000 --dump-dom file://" + dir + "/report.html > " + dom +
-                          " 2>/dev/null";
+                          "/chromium-profile --virtual-time-budget=5000 --dump-dom file://" + dir + "/report.html > " +
+                          dom + " 2>/dev/null";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << "headless chromium failed (scripts/install-deps.sh test installs it)";
   std::stringstream page;
   page << std::ifstream(dom).rdbuf();

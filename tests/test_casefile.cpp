@@ -22,9 +22,25 @@ std::uint64_t bits(double x) {
 }
 
 std::vector<double> interesting_doubles() {
-  std::vector<double> v = {0.0, -0.0, 1.0, -1.0, 0.1, 1e-300, DBL_MAX, -DBL_MAX, DBL_MIN, -DBL_MIN,
-                           DBL_TRUE_MIN, -DBL_TRUE_MIN, std::nextafter(DBL_MIN, 0.0), 9007199254740993.0,
-                           9007199254740992.0, 123456789.0, 0.5, 1e22, 1e23};
+  std::vector<double> v = {0.0,
+                           -0.0,
+                           1.0,
+                           -1.0,
+                           0.1,
+                           1e-300,
+                           DBL_MAX,
+                           -DBL_MAX,
+                           DBL_MIN,
+                           -DBL_MIN,
+                           DBL_TRUE_MIN,
+                           -DBL_TRUE_MIN,
+                           std::nextafter(DBL_MIN, 0.0),
+                           9007199254740993.0,
+                           9007199254740992.0,
+                           123456789.0,
+                           0.5,
+                           1e22,
+                           1e23};
   std::mt19937_64 rng(42);
   for (int i = 0; i < 20000; ++i) {
     double x;
@@ -54,8 +70,8 @@ TEST(HexFloat, GrammarIsStrict) {
   EXPECT_EQ(*parse_hex_double("-0X1P-2"), -0.25);
   EXPECT_EQ(*parse_hex_double("0x.8p0"), 0.5);
   EXPECT_TRUE(std::signbit(*parse_hex_double("-0x0p+0")));
-  for (const char* bad : {"0x1.8", "1.5", " 0x1p1", "0x1p1 ", "0xp1", "0x1p", "0x1.8e+1", "nan", "inf",
-                          "0x1p+1x", "", "++0x1p1"})
+  for (const char* bad :
+       {"0x1.8", "1.5", " 0x1p1", "0x1p1 ", "0xp1", "0x1p", "0x1.8e+1", "nan", "inf", "0x1p+1x", "", "++0x1p1"})
     EXPECT_FALSE(parse_hex_double(bad).has_value()) << bad;
   EXPECT_TRUE(std::isinf(*parse_hex_double("0x1p+1024")));  // parses, then read_number rejects it
   EXPECT_THROW(read_number(json("0x1p+1024"), "f"), FieldError);
@@ -121,11 +137,9 @@ TEST(CaseFile, BadInputNamesTheField) {
        "ray.direction[2]"},
       {R"({"id": "a", )" + ray + R"(, "shape": {"type": "sphere", "center": [5, 0, 0], "radius": -1}})",
        "shape.radius"},
-      {R"({"id": "a", )" + ray + R"(, "shape": {"type": "sphere", "center": [5, 0, 0], "radius": 0}})",
-       "shape.radius"},
+      {R"({"id": "a", )" + ray + R"(, "shape": {"type": "sphere", "center": [5, 0, 0], "radius": 0}})", "shape.radius"},
       {R"({"id": "a", )" + ray + R"(, "shape": {"type": "torus"}})", "shape.type"},
-      {R"({"id": "a", )" + ray + R"(, "shape": {"type": "plane", "normal": [0, 0, 0], "offset": 1}})",
-       "shape.normal"},
+      {R"({"id": "a", )" + ray + R"(, "shape": {"type": "plane", "normal": [0, 0, 0], "offset": 1}})", "shape.normal"},
       {R"({"id": "a", )" + ray + R"(, "shape": {"type": "triangle", "vertices": [[0,0,0],[1,1,1],[3,3,3]]}})",
        "shape.vertices"},
       {R"({"id": "a", )" + ray + R"(, "shape": {"type": "box", "min": [0,0,0], "max": [1,0,1]}})", "shape.max"},
@@ -153,15 +167,21 @@ TEST(CaseFile, ErrorsNameFileAndLineAndTheRestIsStillRead) {
   const std::string path = rayproof::testing_support::test_dir() + "/mixed.jsonl";
   {
     std::ofstream out(path);
-    out << R"({"id": "good1", "ray": {"origin": [0,0,0], "direction": [1,0,0]}, "shape": {"type": "sphere", "center": [5,0,0], "radius": 1}})" "\n";
+    out << R"({"id": "good1", "ray": {"origin": [0,0,0], "direction": [1,0,0]}, )"
+           R"("shape": {"type": "sphere", "center": [5,0,0], "radius": 1}})"
+           "\n";
     out << "not json at all\n\n";
-    out << R"({"id": "good1", "ray": {"origin": [0,0,0], "direction": [1,0,0]}, "shape": {"type": "sphere", "center": [5,0,0], "radius": 1}})" "\n";
-    out << R"({"id": "good2", "ray": {"origin": [0,0,0], "direction": [1,0,0]}, "shape": {"type": "plane", "normal": [1,0,0], "offset": 3}})" "\n";
+    out << R"({"id": "good1", "ray": {"origin": [0,0,0], "direction": [1,0,0]}, )"
+           R"("shape": {"type": "sphere", "center": [5,0,0], "radius": 1}})"
+           "\n";
+    out << R"({"id": "good2", "ray": {"origin": [0,0,0], "direction": [1,0,0]}, )"
+           R"("shape": {"type": "plane", "normal": [1,0,0], "offset": 3}})"
+           "\n";
   }
   std::vector<std::string> ids;
   std::vector<CaseError> errors;
-  read_case_file(path, [&](const Case& c, long) { ids.push_back(c.id); },
-                 [&](const CaseError& e) { errors.push_back(e); });
+  read_case_file(
+      path, [&](const Case& c, long) { ids.push_back(c.id); }, [&](const CaseError& e) { errors.push_back(e); });
   EXPECT_EQ(ids, (std::vector<std::string>{"good1", "good2"}));
   ASSERT_EQ(errors.size(), 2u);
   EXPECT_EQ(errors[0].line, 2);

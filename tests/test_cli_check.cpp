@@ -26,11 +26,13 @@ std::string write(const std::string& name, const std::string& text) {
 }
 
 const char* kTangent =
-    R"({"id": "tangent-unit", "ray": {"origin": [-2, 1, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, "expect": {"class": "tangent", "t": 2}})";
+    R"({"id": "tangent-unit", "ray": {"origin": [-2, 1, 0], "direction": [1, 0, 0]}, )"
+    R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, "expect": {"class": "tangent", "t": 2}})";
 
 TEST(CheckCli, ResultLineFollowsTheSpecFieldForField) {
   const std::string path = write("tangent.jsonl", std::string(kTangent) + "\n");
-  const CliRun r = run("check " + path + " --variants textbook,stable --summary " + rayproof::testing_support::test_dir() + "/sum.json");
+  const CliRun r = run("check " + path + " --variants textbook,stable --summary " +
+                       rayproof::testing_support::test_dir() + "/sum.json");
   ASSERT_EQ(r.status, 0) << r.err;
   const json line = json::parse(r.out);
   EXPECT_EQ(line["id"], "tangent-unit");
@@ -54,9 +56,13 @@ TEST(CheckCli, APlainAnswerToATangentIsCountedAsCannotTell) {
   // (worked by hand). Möller–Trumbore's determinant is 0 and it says miss: "cannot tell", not
   // "wrong". A sphere whose textbook discriminant cancels (exact enter, textbook tangent) is
   // "wrong": tangent is no plain answer.
-  const std::string path = write("cannot-tell.jsonl",
-      R"({"id": "coplanar", "ray": {"origin": [-1, 1, 0], "direction": [1, 0, 0]}, "shape": {"type": "triangle", "vertices": [[0, 0, 0], [4, 0, 0], [0, 4, 0]]}})" "\n"
-      R"({"id": "far", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [134217728, 0, 0], "radius": 1}})" "\n");
+  const std::string path =
+      write("cannot-tell.jsonl", R"({"id": "coplanar", "ray": {"origin": [-1, 1, 0], "direction": [1, 0, 0]}, )"
+                                 R"("shape": {"type": "triangle", "vertices": [[0, 0, 0], [4, 0, 0], [0, 4, 0]]}})"
+                                 "\n"
+                                 R"({"id": "far", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, )"
+                                 R"("shape": {"type": "sphere", "center": [134217728, 0, 0], "radius": 1}})"
+                                 "\n");
   const std::string summary = rayproof::testing_support::test_dir() + "/cannot-tell.json";
   const CliRun r = run("check " + path + " --variants moller-trumbore,textbook --summary " + summary);
   ASSERT_EQ(r.status, 0) << r.err;
@@ -71,14 +77,21 @@ TEST(CheckCli, APlainAnswerToATangentIsCountedAsCannotTell) {
 }
 
 TEST(CheckCli, WrongExpectationFailsWithFileAndLine) {
-  const std::string path = write("wrong.jsonl", std::string(kTangent) + "\n" +
-      R"({"id": "liar", "ray": {"origin": [-2, 1, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, "expect": {"class": "enter", "t": 2}})" "\n");
+  const std::string path = write(
+      "wrong.jsonl",
+      std::string(kTangent) + "\n" +
+          R"({"id": "liar", "ray": {"origin": [-2, 1, 0], "direction": [1, 0, 0]}, )"
+          R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, "expect": {"class": "enter", "t": 2}})"
+          "\n");
   const CliRun r = run("check " + path);
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("wrong.jsonl:2: case 'liar'"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 2);  // both lines still reported
-  const std::string t_path = write("wrong-t.jsonl",
-      R"({"id": "t-off", "ray": {"origin": [-2, 1, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, "expect": {"class": "tangent", "t": "0x1.0000000000001p+1"}})" "\n");
+  const std::string t_path =
+      write("wrong-t.jsonl", R"({"id": "t-off", "ray": {"origin": [-2, 1, 0], "direction": [1, 0, 0]}, )"
+                             R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, )"
+                             R"("expect": {"class": "tangent", "t": "0x1.0000000000001p+1"}})"
+                             "\n");
   EXPECT_EQ(run("check " + t_path).status, 1);
 }
 

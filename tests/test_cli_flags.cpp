@@ -37,16 +37,20 @@ TEST(Flags, CountsRefuseNegativeNumbers) {
   const std::string dir = test_dir();
   for (const char* flag : {"--max-shrunk", "--max-findings"}) {
     EXPECT_EQ(run(std::string("fuzz --count 10 ") + flag + " -1 -o '" + dir + "/x.jsonl'", dir), 2) << flag;
-    EXPECT_NE(read(dir + "/stderr").find(std::string(flag) + ": expected a whole number >= 0, got '-1'"), std::string::npos)
+    EXPECT_NE(read(dir + "/stderr").find(std::string(flag) + ": expected a whole number >= 0, got '-1'"),
+              std::string::npos)
         << read(dir + "/stderr");
   }
 }
 
 TEST(Flags, SingularSpellingsAreAliasesOfTheLists) {
   const std::string d = test_dir();
-  ASSERT_EQ(run("fuzz --family tangent,grazing --shape sphere --count 600 --seed 4 --threads 1 -o '" + d + "/a.jsonl'", d), 0);
+  ASSERT_EQ(
+      run("fuzz --family tangent,grazing --shape sphere --count 600 --seed 4 --threads 1 -o '" + d + "/a.jsonl'", d),
+      0);
   ASSERT_EQ(run("fuzz --families tangent --families grazing --shapes sphere --count 600 --seed 4 --threads 2 -o '" + d +
-                    "/b.jsonl'", d),
+                    "/b.jsonl'",
+                d),
             0);
   const std::string a = read(d + "/a.jsonl");
   EXPECT_FALSE(a.empty());
@@ -75,12 +79,15 @@ TEST(Flags, AllMeansEveryOneAnywhereInTheList) {
 
 TEST(Flags, FuzzJudgesTheNamedVariantsAndLeavesTheOraclesOwnOutByDefault) {
   const std::string d = test_dir();
-  ASSERT_EQ(run("fuzz --families tangent,extremes --shapes sphere --count 2000 --format json -o '" + d + "/a.jsonl'", d), 0);
+  ASSERT_EQ(
+      run("fuzz --families tangent,extremes --shapes sphere --count 2000 --format json -o '" + d + "/a.jsonl'", d), 0);
   const std::string table = read(d + "/stderr");
   EXPECT_NE(table.find("\"textbook\""), std::string::npos);
   EXPECT_EQ(table.find("certified-sphere"), std::string::npos);
   ASSERT_EQ(run("fuzz --families tangent,extremes --shapes sphere --variants certified-sphere,textbook --count 2000 "
-                "--summary '" + d + "/s.json' -o '" + d + "/b.jsonl'", d),
+                "--summary '" +
+                    d + "/s.json' -o '" + d + "/b.jsonl'",
+                d),
             0);
   std::ifstream in(d + "/s.json");
   std::stringstream ss;
@@ -104,8 +111,9 @@ TEST(Flags, TradeAndStabilityTakeTheSameFlags) {
   const std::string csv = read(d + "/t.csv");
   EXPECT_NE(csv.find("\nstable,sphere,random,300,"), std::string::npos) << csv;
   EXPECT_EQ(csv.find("textbook"), std::string::npos);
-  ASSERT_EQ(run("stability --shapes sphere,box --variants textbook,slab --from -20 --to 20 --step 20 --count 5 -o '" + d +
-                    "/s'", d),
+  ASSERT_EQ(run("stability --shapes sphere,box --variants textbook,slab --from -20 --to 20 --step 20 --count 5 -o '" +
+                    d + "/s'",
+                d),
             0);
   EXPECT_TRUE(std::filesystem::exists(d + "/s/sphere/textbook.svg"));
   EXPECT_TRUE(std::filesystem::exists(d + "/s/box/slab.svg"));
@@ -130,11 +138,12 @@ namespace {
 // check --rule enter-only: an origin inside a sphere exits, which the rule does not count.
 TEST(Flags, CheckUnderTheEnterOnlyRule) {
   const std::string d = test_dir();
-  std::ofstream(d + "/inside.jsonl")
-      << R"({"id": "inside", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 2}})"
-      << "\n"
-      << R"({"id": "outside", "ray": {"origin": [-5, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 2}})"
-      << "\n";
+  std::ofstream(d + "/inside.jsonl") << R"({"id": "inside", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, )"
+                                        R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": 2}})"
+                                     << "\n"
+                                     << R"({"id": "outside", "ray": {"origin": [-5, 0, 0], "direction": [1, 0, 0]}, )"
+                                        R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": 2}})"
+                                     << "\n";
   ASSERT_EQ(run("check '" + d + "/inside.jsonl' --rule enter-only --variants stable -o '" + d + "/eo.jsonl'", d), 0);
   ASSERT_EQ(run("check '" + d + "/inside.jsonl' --variants stable -o '" + d + "/n.jsonl'", d), 0);
   const std::string eo = read(d + "/eo.jsonl"), n = read(d + "/n.jsonl");

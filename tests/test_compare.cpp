@@ -25,7 +25,9 @@ TEST(Compare, AgreementOfEveryPairOfClasses) {
   };
   for (int e = 0; e < 5; ++e)
     for (int r = 0; r < 5; ++r) {
-      const Agreement want = table[e][r] == 'a' ? Agreement::agrees : table[e][r] == 'c' ? Agreement::cannot_tell : Agreement::wrong;
+      const Agreement want = table[e][r] == 'a'   ? Agreement::agrees
+                             : table[e][r] == 'c' ? Agreement::cannot_tell
+                                                  : Agreement::wrong;
       EXPECT_EQ(agreement_of(classes[e], classes[r]), want) << to_string(classes[e]) << " -> " << to_string(classes[r]);
     }
 }
@@ -36,13 +38,13 @@ TEST(Compare, UlpDistance) {
   EXPECT_EQ(ulp_distance(0.0, -0.0), 0u);
   EXPECT_EQ(ulp_distance(1.0, std::nextafter(1.0, 2.0)), 1u);
   EXPECT_EQ(ulp_distance(std::nextafter(1.0, 2.0), 1.0), 1u);
-  EXPECT_EQ(ulp_distance(1.0, 2.0), 1ull << 52);          // one binade: 2^52 doubles
+  EXPECT_EQ(ulp_distance(1.0, 2.0), 1ull << 52);  // one binade: 2^52 doubles
   EXPECT_EQ(ulp_distance(0.5, 1.0), 1ull << 52);
-  EXPECT_EQ(ulp_distance(-tiny, tiny), 2u);               // across zero: −tiny, 0, tiny
+  EXPECT_EQ(ulp_distance(-tiny, tiny), 2u);  // across zero: −tiny, 0, tiny
   EXPECT_EQ(ulp_distance(-0.0, tiny), 1u);
-  EXPECT_EQ(ulp_distance(0.0, 5 * tiny), 5u);             // subnormals are evenly spaced
+  EXPECT_EQ(ulp_distance(0.0, 5 * tiny), 5u);  // subnormals are evenly spaced
   EXPECT_EQ(ulp_distance(DBL_MIN, std::nextafter(DBL_MIN, 0.0)), 1u);
-  EXPECT_EQ(ulp_distance(DBL_MAX, inf), 1u);              // inf is the double just beyond DBL_MAX
+  EXPECT_EQ(ulp_distance(DBL_MAX, inf), 1u);  // inf is the double just beyond DBL_MAX
   EXPECT_EQ(ulp_distance(-inf, inf), 2 * 0x7ff0000000000000ull);
   EXPECT_EQ(ulp_distance(-1.0, 1.0), 2 * 0x3ff0000000000000ull);
   EXPECT_FALSE(ulp_distance(NAN, 1.0).has_value());
@@ -97,7 +99,8 @@ Shape sample_shape(ShapeKind k, double wobble) {
   switch (k) {
     case ShapeKind::sphere: return Sphere{Vec3(0.1, -0.2, 0.3 + wobble), 1.1};
     case ShapeKind::plane: return Plane{Vec3(0.1, 0.2, 1), 0.7 + wobble};
-    case ShapeKind::triangle: return Triangle{{Vec3(-1.1, -0.9, 0.3), Vec3(1.3, -1, 0.1 + wobble), Vec3(0.2, 1.7, -0.1)}};
+    case ShapeKind::triangle:
+      return Triangle{{Vec3(-1.1, -0.9, 0.3), Vec3(1.3, -1, 0.1 + wobble), Vec3(0.2, 1.7, -0.1)}};
     case ShapeKind::box: return Box{Vec3(-0.9, -1.1, -0.7 + wobble), Vec3(1.3, 0.9, 1.1)};
   }
   return {};
@@ -114,7 +117,8 @@ TEST(FloatVariants, EveryFormulaHasAFloatTwinJudgedOnTheFloatRoundedCase) {
     int agree = 0, judged = 0;
     for (int i = 0; i < 200; ++i) {
       // 0.1, 0.3 + i·1e-9, ... are not floats: the variant sees them rounded.
-      const Query q{Ray{Vec3(0.01 * i - 1, 0.3, 5.1), Vec3(0.001 * i, -0.01, -1)}, sample_shape(v->shape, 1e-9 * i), {}};
+      const Query q{
+          Ray{Vec3(0.01 * i - 1, 0.3, 5.1), Vec3(0.001 * i, -0.01, -1)}, sample_shape(v->shape, 1e-9 * i), {}};
       const Verdict exact = oracle.judge(q.ray, q.shape);
       const VariantOutcome o = compare_variant(oracle, *v, exact, q, HitRule::nearest_contact);
       ASSERT_FALSE(o.hit.failed()) << name << " " << i;
@@ -132,8 +136,9 @@ TEST(FloatVariants, EveryFormulaHasAFloatTwinJudgedOnTheFloatRoundedCase) {
     EXPECT_GE(agree, judged * 9 / 10) << name;
     // Beyond float's range: not representable, never a wrong answer.
     const Query huge{Ray{Vec3(1e39, 0, 5), Vec3(0, 0, -1)}, sample_shape(v->shape, 0), {}};
-    EXPECT_EQ(compare_variant(oracle, *v, oracle.judge(huge.ray, huge.shape), huge, HitRule::nearest_contact).hit.failure,
-              HitFailure::not_representable)
+    EXPECT_EQ(
+        compare_variant(oracle, *v, oracle.judge(huge.ray, huge.shape), huge, HitRule::nearest_contact).hit.failure,
+        HitFailure::not_representable)
         << name;
   }
 }

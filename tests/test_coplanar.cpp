@@ -84,7 +84,8 @@ CoplanarCase make_case(std::mt19937_64& rng) {
   } while (cross(s1, s2) == Vec3::Zero());
   const Vec3 p(big(rng), big(rng), big(rng));
   int a1, b1, a2, b2;
-  do a1 = small(rng), b1 = small(rng), a2 = small(rng), b2 = small(rng); while (a1 * b2 - a2 * b1 == 0);
+  do a1 = small(rng), b1 = small(rng), a2 = small(rng), b2 = small(rng);
+  while (a1 * b2 - a2 * b1 == 0);
   const Triangle tri{{p, p + a1 * s1 + b1 * s2, p + a2 * s1 + b2 * s2}};
   // Barycentric (w0, w1, w2) in eighths: the origin's place relative to the triangle.
   std::uniform_int_distribution<int> eighth(0, 8);
@@ -133,15 +134,18 @@ TEST(OracleCoplanar, AgreesWithAnIndependentClassifierInEveryOrientation) {
     ++by_axis[drop];
     const Truth truth = second_classifier(c.ray, c.tri);
     const Verdict v = oracle.judge(c.ray, c.tri);
-    const bool same = v.cls == truth.cls && v.t.has_value() == truth.t.has_value() &&
-                      (!v.t || correctly_rounded(*v.t, *truth.t));
+    const bool same =
+        v.cls == truth.cls && v.t.has_value() == truth.t.has_value() && (!v.t || correctly_rounded(*v.t, *truth.t));
     if (!same && ++disagreements <= 5)
       ADD_FAILURE() << "case " << i << " (" << c.kind << ", normal's largest axis " << drop << "): oracle "
                     << to_string(v.cls) << (v.t ? " with t" : " without t") << ", second classifier "
                     << to_string(truth.cls) << (truth.t ? " with t" : " without t");
-    if (truth.cls == HitClass::miss) ++misses;
-    else if (truth.t) ++tangent_with_t;
-    else ++tangent_without_t;
+    if (truth.cls == HitClass::miss)
+      ++misses;
+    else if (truth.t)
+      ++tangent_with_t;
+    else
+      ++tangent_without_t;
   }
   EXPECT_EQ(disagreements, 0);
   // The generator reaches every answer and every projection axis.

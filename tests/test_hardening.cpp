@@ -44,15 +44,16 @@ std::string read(const std::string& path) {
   return ss.str();
 }
 
-const std::string kCase =
-    R"({"id": "c", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1}})";
+const std::string kCase = R"({"id": "c", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, )"
+                          R"("shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1}})";
 
 TEST(Hardening, DeepNestingIsAnErrorNotACrash) {
   const std::string d = test_dir();
   std::string nested;
   for (int i = 0; i < 100000; ++i) nested += "{\"a\":";
   nested += "1" + std::string(100000, '}');
-  std::ofstream(d + "/deep.jsonl") << kCase.substr(0, kCase.size() - 1) << ", \"found\": " << nested << "}\n" << kCase << "\n";
+  std::ofstream(d + "/deep.jsonl") << kCase.substr(0, kCase.size() - 1) << ", \"found\": " << nested << "}\n"
+                                   << kCase << "\n";
   for (const char* cmd : {"check", "intersect"}) {
     const CliResult r = run(std::string(cmd) + " deep.jsonl >/dev/null", d);
     EXPECT_EQ(r.status, 1) << cmd << ": " << r.err;
@@ -64,9 +65,11 @@ TEST(Hardening, DeepNestingIsAnErrorNotACrash) {
 TEST(Hardening, DuplicateKeysAreRejectedByName) {
   const std::string d = test_dir();
   std::ofstream(d + "/dup.jsonl")
-      << R"({"id": "a", "id": "b", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1}})"
+      << R"({"id": "a", "id": "b", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, )"
+         R"("shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1}})"
       << "\n"
-      << R"({"id": "c", "ray": {"origin": [0, 0, 0], "origin": [1, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1}})"
+      << R"({"id": "c", "ray": {"origin": [0, 0, 0], "origin": [1, 0, 0], "direction": [1, 0, 0]}, )"
+         R"("shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1}})"
       << "\n";
   const CliResult r = run("check dup.jsonl >/dev/null", d);
   EXPECT_EQ(r.status, 1);
@@ -76,21 +79,26 @@ TEST(Hardening, DuplicateKeysAreRejectedByName) {
 
 TEST(Hardening, OverflowIsReportedWhereTheNumberIs) {
   const std::string d = test_dir();
-  std::ofstream(d + "/big.jsonl")
-      << R"({"id": "1e999", "ray": {"origin": [0, 0, 1e999], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1}})"
-      << "\n"
-      << R"({"id": "overflow:boom", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [5, 0, -1e400], "radius": 1}})"
-      << "\n";
+  std::ofstream(d + "/big.jsonl") << R"({"id": "1e999", "ray": {"origin": [0, 0, 1e999], "direction": [1, 0, 0]}, )"
+                                     R"("shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1}})"
+                                  << "\n"
+                                  << R"({"id": "overflow:boom", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, )"
+                                     R"("shape": {"type": "sphere", "center": [5, 0, -1e400], "radius": 1}})"
+                                  << "\n";
   const CliResult r = run("check big.jsonl >/dev/null", d);
-  EXPECT_NE(r.err.find("big.jsonl:1: field 'ray.origin[2]': value 1e999 overflows the double range"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("big.jsonl:2: field 'shape.center[2]': value -1e400 overflows the double range"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("big.jsonl:1: field 'ray.origin[2]': value 1e999 overflows the double range"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("big.jsonl:2: field 'shape.center[2]': value -1e400 overflows the double range"),
+            std::string::npos)
+      << r.err;
   EXPECT_EQ(r.err.find("boom overflows"), std::string::npos) << r.err;
 }
 
 TEST(Hardening, ControlCharactersAreEscapedInMessages) {
   const std::string d = test_dir();
   std::ofstream(d + "/esc.jsonl")
-      << R"({"id": "x\u001b[2J", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1, "\u001b[31m": 1}})"
+      << R"({"id": "x\u001b[2J", "ray": {"origin": [0, 0, 0], "direction": [1, 0, 0]}, )"
+         R"("shape": {"type": "sphere", "center": [5, 0, 0], "radius": 1, "\u001b[31m": 1}})"
       << "\n";
   const CliResult r = run("check esc.jsonl >/dev/null", d);
   EXPECT_EQ(r.err.find('\x1b'), std::string::npos);
@@ -111,7 +119,7 @@ TEST(Hardening, OutputsNeverFollowPlantedLinksNorReplaceDevicesOrInputs) {
   std::thread reader([&] { std::ofstream(d + "/captured") << read(d + "/fifo"); });
   EXPECT_EQ(run("check cases.jsonl -o fifo", d).status, 0);
   reader.join();
-  struct stat st{};
+  struct stat st {};
   ASSERT_EQ(::stat((d + "/fifo").c_str(), &st), 0);
   EXPECT_TRUE(S_ISFIFO(st.st_mode));
   EXPECT_NE(read(d + "/captured").find("\"id\":\"c\""), std::string::npos);
@@ -132,7 +140,8 @@ TEST(Hardening, AnOutputThatCannotBeWrittenFailsBeforeTheWork) {
   const CliResult trade = run("trade --count 100000 -o missing/dir/trade.csv", d);
   EXPECT_EQ(trade.status, 2);
   EXPECT_NE(trade.err.find("missing/dir/trade.csv"), std::string::npos) << trade.err;
-  const CliResult render = run(std::string("render ") + RAYPROOF_SCENES_DIR + "/seed2-diffuse.json -o missing/x.png", d);
+  const CliResult render =
+      run(std::string("render ") + RAYPROOF_SCENES_DIR + "/seed2-diffuse.json -o missing/x.png", d);
   EXPECT_EQ(render.status, 2);
   const CliResult fuzz = run("fuzz --count 100000 --summary missing/s.json -o f.jsonl", d);
   EXPECT_EQ(fuzz.status, 2);
@@ -224,7 +233,8 @@ TEST(Hardening, TwoCampaignsOnOneOutputAreRefused) {
   // holding none of the test's output pipes); $! is its own pid, not a subshell's.
   const std::string first = std::string("cd '") + d + "'; timeout 60 " + RAYPROOF_CLI +
                             " fuzz --families grazing --shapes triangle --count 40000000 --threads 1 -o f.jsonl"
-                            " </dev/null >/dev/null 2>&1 & echo $! > '" + d + "/pid'";
+                            " </dev/null >/dev/null 2>&1 & echo $! > '" +
+                            d + "/pid'";
   ASSERT_EQ(std::system(first.c_str()), 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   const CliResult second = run("fuzz --families random --shapes sphere --count 100 -o f.jsonl", d);

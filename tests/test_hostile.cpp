@@ -69,7 +69,8 @@ TEST(HostilePlugins, LoadTimeCodeIsThePluginsNotRayproofs) {
   r = run("variants --plugin " + bad_plugin("ESC_SOURCE"));
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out.find('\x1b'), std::string::npos);
-  EXPECT_NE(r.out.find("esc-source\tsphere\tdouble\t\\x1b[2J\\x1b]0;owned\\x07line\\x0abreak"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("esc-source\tsphere\tdouble\t\\x1b[2J\\x1b]0;owned\\x07line\\x0abreak"), std::string::npos)
+      << r.out;
   // A 10 MB name: refused by its length in a short line.
   r = run("variants --plugin " + bad_plugin("HUGE_NAME"));
   EXPECT_EQ(r.status, 2);
@@ -81,8 +82,8 @@ TEST(HostilePlugins, LoadTimeCodeIsThePluginsNotRayproofs) {
 // and nothing it forked is left running.
 TEST(HostilePlugins, AForkingPluginIsAPluginErrorAndNothingIsJudged) {
   const std::string cases = write("cases.jsonl", sphere_cases(40));
-  const CliRun r = run("check " + cases + " --plugin " + bad_plugin("FORKING") + " --variants stable,forking --summary " +
-                       test_dir() + "/s.json");
+  const CliRun r = run("check " + cases + " --plugin " + bad_plugin("FORKING") +
+                       " --variants stable,forking --summary " + test_dir() + "/s.json");
   const auto lines = lines_of(r.out);
   ASSERT_EQ(lines.size(), 40u) << r.err;
   EXPECT_EQ(lines[0]["variants"]["forking"]["error"], "protocol error") << lines[0].dump();
@@ -99,7 +100,8 @@ TEST(HostilePlugins, AWorkerThatClosesItsPipeAndRunsOnIsNotWaitedFor) {
                       R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": 23}})";
   cases = write("cases.jsonl", cases + "\n" + sphere_cases(1));
   const auto start = std::chrono::steady_clock::now();
-  const CliRun r = run("check " + cases + " --plugin " + MISBEHAVING_PLUGIN + " --variants test-crashing,stable --case-timeout 60");
+  const CliRun r =
+      run("check " + cases + " --plugin " + MISBEHAVING_PLUGIN + " --variants test-crashing,stable --case-timeout 60");
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_LT(seconds, 30) << "rayproof waited on a worker that closed its pipe";
   EXPECT_NE(r.err.find("closed its response pipe and kept running (killed)"), std::string::npos) << r.err;
@@ -145,12 +147,14 @@ TEST(HostileExec, EveryWaitIsBoundedAndTheCommandsGroupEnds) {
 // Item 4: an unreadable exec answer (200+ bytes of multibyte text, a raw \xff id) costs that
 // command, never the campaign's findings, summary or the other variants.
 TEST(HostileExec, AnUnreadableAnswerCostsOnlyItsCommand) {
-  const std::string long_line = write("long.sh", "while read l; do printf 'x%0300d\\n' 0 | sed 's/0/\\xc3\\xa9/g'; done\n");
-  const std::string raw_id = write("rawid.sh", "while read l; do printf '{\"id\": \"\\377\", \"class\": \"miss\"}\\n'; done\n");
+  const std::string long_line =
+      write("long.sh", "while read l; do printf 'x%0300d\\n' 0 | sed 's/0/\\xc3\\xa9/g'; done\n");
+  const std::string raw_id =
+      write("rawid.sh", "while read l; do printf '{\"id\": \"\\377\", \"class\": \"miss\"}\\n'; done\n");
   for (const std::string& script : {long_line, raw_id}) {
     const std::string out = test_dir() + "/f.jsonl", summary = test_dir() + "/s.json";
-    const CliRun r = run("fuzz --shapes sphere --families tangent --count 300 --variants stable,bad --exec 'bad=sh " + script +
-                         "' --no-shrink -o " + out + " --summary " + summary);
+    const CliRun r = run("fuzz --shapes sphere --families tangent --count 300 --variants stable,bad --exec 'bad=sh " +
+                         script + "' --no-shrink -o " + out + " --summary " + summary);
     EXPECT_EQ(r.status, 0) << r.err;
     const json s = json::parse(read(summary));
     EXPECT_EQ(s["cases"]["tangent\tsphere"], 300) << s.dump();
@@ -166,7 +170,8 @@ TEST(HostileExec, AnUnreadableAnswerCostsOnlyItsCommand) {
   EXPECT_NE(a["scene"].get<std::string>().find("s\\xff.json"), std::string::npos) << a["scene"];
   // An exec variant that stops mid-audit: the others' results are written, and it is never
   // called exact for the scene (its later pixels were not judged).
-  const CliRun stopped = run("audit '" + scene + "' --variants stable,bad --exec 'bad=sh " + long_line + "' -o " + test_dir() + "/audit2");
+  const CliRun stopped =
+      run("audit '" + scene + "' --variants stable,bad --exec 'bad=sh " + long_line + "' -o " + test_dir() + "/audit2");
   const json b = json::parse(read(test_dir() + "/audit2/audit.json"));
   ASSERT_EQ(b["variants"].size(), 2u) << stopped.err;
   for (const json& v : b["variants"]) {
@@ -240,7 +245,8 @@ TEST(HostileInputs, DashIsStandardInputAndThePrecisionLineMayFollowBlankLines) {
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_FALSE(read(png).empty());
   const std::string cases = write("cases.jsonl", sphere_cases(1));
-  const std::string answers = write("answers.jsonl", "\n  \n{\"precision\": \"float\"}\n{\"id\": \"c0\", \"class\": \"enter\", \"t\": 2}\n");
+  const std::string answers =
+      write("answers.jsonl", "\n  \n{\"precision\": \"float\"}\n{\"id\": \"c0\", \"class\": \"enter\", \"t\": 2}\n");
   const CliRun c = run("check " + cases + " --answers mine=" + answers + " --variants stable");
   EXPECT_EQ(c.err.find("unknown key"), std::string::npos) << c.err;
   const auto lines = lines_of(c.out);

@@ -48,12 +48,16 @@ void expect_tetra(const Mesh& m, const std::string& format) {
 }
 
 TEST(Meshes, FourFormatsReadToTheSameDoubles) {
-  expect_tetra(load_mesh(write("t.off", "OFF\n4 4 0\n" + tetra_vertices("") + "3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1 2 3\n")), "OFF");
-  expect_tetra(load_mesh(write("t.obj", tetra_vertices("v ") + "f 1 2 3\nf 1/1 2/2 4/4\nf 1//1 3//3 4//4\nf -3 -2 -1\n")),
-               "OBJ");
-  expect_tetra(load_mesh(write("t.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
-                                        "property double z\nelement face 4\nproperty list uchar int vertex_indices\n"
-                                        "end_header\n" + tetra_vertices("") + "3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1 2 3\n")),
+  expect_tetra(load_mesh(write("t.off", "OFF\n4 4 0\n" + tetra_vertices("") + "3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1 2 3\n")),
+               "OFF");
+  expect_tetra(
+      load_mesh(write("t.obj", tetra_vertices("v ") + "f 1 2 3\nf 1/1 2/2 4/4\nf 1//1 3//3 4//4\nf -3 -2 -1\n")),
+      "OBJ");
+  expect_tetra(load_mesh(write("t.ply",
+                               "ply\nformat ascii 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+                               "property double z\nelement face 4\nproperty list uchar int vertex_indices\n"
+                               "end_header\n" +
+                                   tetra_vertices("") + "3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1 2 3\n")),
                "PLY");
   std::string stl = "solid t\n";
   const std::string v[4] = {std::string(kX) + " " + kY + " " + kZ, "1 0 0", "0 1 0", std::string(kW) + " 2 3"};
@@ -69,8 +73,9 @@ TEST(Meshes, FourFormatsReadToTheSameDoubles) {
 // a binary face that claims 4·10⁹ indices is refused from the bytes that remain.
 std::string ply_bytes(bool big_endian, bool doubles, std::uint32_t list_length) {
   std::string out = std::string("ply\nformat ") + (big_endian ? "binary_big_endian" : "binary_little_endian") +
-                    " 1.0\ncomment written by test_meshes\nelement vertex 3\nproperty " + (doubles ? "double" : "float") +
-                    " x\nproperty " + (doubles ? "double" : "float") + " y\nproperty " + (doubles ? "double" : "float") +
+                    " 1.0\ncomment written by test_meshes\nelement vertex 3\nproperty " +
+                    (doubles ? "double" : "float") + " x\nproperty " + (doubles ? "double" : "float") +
+                    " y\nproperty " + (doubles ? "double" : "float") +
                     " z\nproperty uchar red\nelement face 1\nproperty list uint uint vertex_indices\nend_header\n";
   auto put = [&](const void* p, std::size_t n) {
     std::string b(static_cast<const char*>(p), n);
@@ -80,7 +85,8 @@ std::string ply_bytes(bool big_endian, bool doubles, std::uint32_t list_length) 
   const double coords[9] = {0.1, 0, 0, 1, 0, 0, 0, 1, 4.9406564584124654e-320};
   for (int v = 0; v < 3; ++v) {
     for (int k = 0; k < 3; ++k) {
-      if (doubles) put(&coords[3 * v + k], 8);
+      if (doubles)
+        put(&coords[3 * v + k], 8);
       else {
         const float f = static_cast<float>(coords[3 * v + k]);
         put(&f, 4);
@@ -106,8 +112,10 @@ TEST(Meshes, BinaryPlyInBothByteOrders) {
       load_mesh(write("l.ply", ply_bytes(big, true, 4000000000u)));
       ADD_FAILURE() << "a list of 4e9 indices read";
     } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find("l.ply: face 0: a list of 4000000000 values is longer than the rest of the file (12 bytes)"),
-                std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(
+                    "l.ply: face 0: a list of 4000000000 values is longer than the rest of the file (12 bytes)"),
+                std::string::npos)
+          << e.what();
     }
   }
 }
@@ -117,23 +125,26 @@ TEST(Meshes, BinaryPlyInBothByteOrders) {
 // vertex read *so far* (vertices interleaved with faces); OFF variants (COFF's colours, counts on
 // the header line, comments); binary STL, whose float corners widen exactly and whose shared
 // corners are one vertex.
-void expect_faces(const Mesh& m, const std::vector<std::array<std::uint32_t, 3>>& corners, const std::vector<Vec3>& points,
-                  const std::string& format) {
+void expect_faces(const Mesh& m, const std::vector<std::array<std::uint32_t, 3>>& corners,
+                  const std::vector<Vec3>& points, const std::string& format) {
   ASSERT_EQ(m.corners, corners) << format;
   ASSERT_EQ(m.triangles.size(), corners.size()) << format;
   for (std::size_t f = 0; f < corners.size(); ++f)
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(m.triangles[f].v[k], points[corners[f][k]]) << format << " face " << f << " corner " << k;
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(m.triangles[f].v[k], points[corners[f][k]]) << format << " face " << f << " corner " << k;
 }
 
 TEST(Meshes, FaceConnectivityIsTheFilesInEveryFormat) {
   const std::vector<Vec3> p = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
-  expect_faces(load_mesh(write("c.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 1\nf 1 -3 -1\nf -1/1/1 -4//2 3\n")),
-               {{0, 1, 2}, {0, 1, 3}, {3, 0, 2}}, p, "OBJ");
-  expect_faces(load_mesh(write("c.off", "# a comment\nCOFF\n4 3 0\n0 0 0 255 0 0 255\n1 0 0 255 0 0 255\n\n"
-                                        "0 1 0 255 0 0 255\n0 0 1 255 0 0 255\n3 0 1 2 255 0 0\n3 0 3 1\n3 3 0 2\n")),
+  expect_faces(
+      load_mesh(write("c.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 1\nf 1 -3 -1\nf -1/1/1 -4//2 3\n")),
+      {{0, 1, 2}, {0, 1, 3}, {3, 0, 2}}, p, "OBJ");
+  expect_faces(load_mesh(write("c.off",
+                               "# a comment\nCOFF\n4 3 0\n0 0 0 255 0 0 255\n1 0 0 255 0 0 255\n\n"
+                               "0 1 0 255 0 0 255\n0 0 1 255 0 0 255\n3 0 1 2 255 0 0\n3 0 3 1\n3 3 0 2\n")),
                {{0, 1, 2}, {0, 3, 1}, {3, 0, 2}}, p, "COFF");
-  expect_faces(load_mesh(write("h.off", "OFF 4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n4 0 1 2 3\n")), {{0, 1, 2}, {0, 2, 3}}, p,
-               "OFF with counts on the header line, a quad fanned");
+  expect_faces(load_mesh(write("h.off", "OFF 4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n4 0 1 2 3\n")), {{0, 1, 2}, {0, 2, 3}},
+               p, "OFF with counts on the header line, a quad fanned");
   // Binary STL: 80-byte header, a count, 50-byte facets (normal, three corners, attribute).
   std::string stl(80, ' ');
   stl.replace(0, 12, "binary test.");
@@ -186,32 +197,39 @@ TEST(Meshes, BadFilesAreErrorsNamingFileAndLine) {
   const BadMesh cases[] = {
       {"range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "range.off:6: vertex index 7 out of range"},
       {"nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", "nan.off:4: coordinate 'nan' is not finite"},
-      {"inf.obj", "v 0 0 0\nv 1e999 0 0\nv 0 1 0\nf 1 2 3\n", "inf.obj:2: coordinate '1e999' is beyond the double range"},
+      {"inf.obj", "v 0 0 0\nv 1e999 0 0\nv 0 1 0\nf 1 2 3\n",
+       "inf.obj:2: coordinate '1e999' is beyond the double range"},
       {"word.obj", "v 0 0 0\nv 1 zero 0\n", "word.obj:2: expected a number, got 'zero'"},
       {"zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "zero.obj:4: vertex index 0 out of range"},
       {"short.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n", "short.off:4: file ends after 2 of 3 vertices"},
       {"header.off", "FOO\n", "header.off:1: expected the OFF header"},
       {"empty.obj", "", "empty.obj: the mesh has no non-degenerate triangles"},
       {"mesh.xyz", "1 2 3\n", "mesh.xyz: unknown mesh format 'xyz'"},
-      {"bad.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\nproperty double z\n"
-                  "element face 0\nproperty list uchar int vertex_indices\nend_header\nnot-a-number 0 0\n",
+      {"bad.ply",
+       "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\nproperty double z\n"
+       "element face 0\nproperty list uchar int vertex_indices\nend_header\nnot-a-number 0 0\n",
        "bad.ply:10: vertex 0 x: expected a number, got 'not-a-number'"},
       // A list count before its data: refused before anything is allocated for it (issue 26).
-      {"list.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
-                   "element face 1\nproperty list uint int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n250000000 0 1 2\n",
+      {"list.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+       "element face 1\nproperty list uint int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n250000000 0 1 2\n",
        "list.ply:13: face 0: a list of 250000000 values is longer than the rest of the file"},
-      {"count.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nproperty float x\nproperty float y\n"
-                    "property float z\nend_header\n",
+      {"count.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nproperty float x\nproperty float y\n"
+       "property float z\nend_header\n",
        "count.ply: the header's element counts need at least 24000000000 bytes"},
-      {"two.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
-                  "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n",
+      {"two.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n",
        "two.ply:13: face 0 has 2 vertices (a face needs at least 3)"},
-      {"noz.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
-                  "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0\n0 1\n3 0 1 2\n",
+      {"noz.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0\n0 1\n3 0 1 2\n",
        "noz.ply: the vertex element has no 'z' property"},
       {"env.off", "SECRET=hunter2\n", "env.off:1: expected the OFF header (not an OFF file"},
-      {"range.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
-                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n",
+      {"range.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n",
        "range.ply:13: face 0: vertex index 9 out of range (3 vertices)"},
   };
   for (const BadMesh& c : cases) {
@@ -239,9 +257,11 @@ TEST(Meshes, BadFilesAreErrorsNamingFileAndLine) {
 
 TEST(Meshes, SceneMeshObjectsResolvePathsAndRejectUnknownKeys) {
   write("m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-  const std::string camera = R"("camera": {"eye": [0,0,-1], "look_at": [0,0,0], "up": [0,1,0], "fov_deg": 40, "width": 4, "height": 4})";
-  const Scene s = parse_scene("{" + camera + R"(, "objects": [{"type": "mesh", "file": "m.obj", "scale": 2, "translate": [0, 0, 0.5]}]})",
-                              test_dir() + "/s.json");
+  const std::string camera =
+      R"("camera": {"eye": [0,0,-1], "look_at": [0,0,0], "up": [0,1,0], "fov_deg": 40, "width": 4, "height": 4})";
+  const Scene s = parse_scene(
+      "{" + camera + R"(, "objects": [{"type": "mesh", "file": "m.obj", "scale": 2, "translate": [0, 0, 0.5]}]})",
+      test_dir() + "/s.json");
   ASSERT_TRUE(s.objects[0].mesh);
   EXPECT_EQ(s.objects[0].mesh->triangles[0].v[1], Vec3(2, 0, 0.5));
   try {
@@ -255,7 +275,8 @@ TEST(Meshes, SceneMeshObjectsResolvePathsAndRejectUnknownKeys) {
     parse_scene("{" + camera + R"(, "objects": [{"type": "mesh", "file": "nope.off"}]})", test_dir() + "/s.json");
     ADD_FAILURE() << "missing mesh accepted";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("nope.off: cannot open mesh file (objects[0].file)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nope.off: cannot open mesh file (objects[0].file)"), std::string::npos)
+        << e.what();
   }
 }
 

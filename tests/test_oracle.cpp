@@ -82,7 +82,8 @@ TEST(OracleTriangle, EveryRowOfTheTable) {
 }
 
 TEST(OracleTriangle, SlantedAndCoplanarRays) {
-  expect_verdict(R({3, 3, 1}, {-1, -1, -1}), kT, {HitClass::boundary, 1}, "slanted ray through (2,2,0) on the hypotenuse");
+  expect_verdict(R({3, 3, 1}, {-1, -1, -1}), kT, {HitClass::boundary, 1},
+                 "slanted ray through (2,2,0) on the hypotenuse");
   expect_verdict(R({3, 3.0000000000000004, 1}, {-1, -1, -1}), kT, {HitClass::miss, {}}, "one ulp outside");
   expect_verdict(R({2.9999999999999996, 3, 1}, {-1, -1, -1}), kT, {HitClass::enter, 1}, "one ulp inside");
   expect_verdict(R({-2, 1, 0}, {1, 0, 0}), kT, {HitClass::tangent, 2}, "coplanar, enters through the edge x = 0");
@@ -406,15 +407,15 @@ TEST(OracleEnterOnly, PlanesTrianglesAndBoxes) {
   EXPECT_EQ(cls(R({0, 0, 2}, {0, 0, -1}), floor), HitClass::enter);   // arrives from the front
   EXPECT_EQ(cls(R({0, 0, -2}, {0, 0, 1}), floor), HitClass::miss);    // from the back: an exit
   EXPECT_EQ(cls(R({0, 0, 0}, {1, 0, 0}), floor), HitClass::miss);     // lying in it: a tangent
-  const Triangle tri{{Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0)}};   // front +z
+  const Triangle tri{{Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0)}};  // front +z
   EXPECT_EQ(cls(R({0.5, 0.5, 1}, {0, 0, -1}), tri), HitClass::enter);
   EXPECT_EQ(cls(R({0.5, 0.5, -1}, {0, 0, 1}), tri), HitClass::miss);
   EXPECT_EQ(cls(R({1, 0, 1}, {0, 0, -1}), tri), HitClass::boundary);  // edge hit on the front face
   EXPECT_EQ(cls(R({1, 0, -1}, {0, 0, 1}), tri), HitClass::miss);      // edge hit from behind
   const Box box{Vec3(0, 0, 0), Vec3(2, 2, 2)};
   EXPECT_EQ(cls(R({-1, 1, 1}, {1, 0, 0}), box), HitClass::enter);
-  EXPECT_EQ(cls(R({1, 1, 1}, {1, 0, 0}), box), HitClass::miss);       // from inside: an exit
-  EXPECT_EQ(cls(R({-1, 0, 1}, {1, 0, 0}), box), HitClass::miss);      // along a face: a tangent
+  EXPECT_EQ(cls(R({1, 1, 1}, {1, 0, 0}), box), HitClass::miss);   // from inside: an exit
+  EXPECT_EQ(cls(R({-1, 0, 1}, {1, 0, 0}), box), HitClass::miss);  // along a face: a tangent
   // classify answers the same as judge under the rule.
   EXPECT_EQ(oracle.classify(R({1, 0, 1}, {0, 0, -1}), tri, HitRule::enter_only), HitClass::boundary);
   EXPECT_EQ(oracle.classify(R({1, 1, 1}, {1, 0, 0}), box, HitRule::enter_only), HitClass::miss);

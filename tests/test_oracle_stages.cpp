@@ -52,9 +52,9 @@ TEST(OracleStages, EveryConfigurationAnswersLikeTheRationalStage) {
             ++compared;
             if (v.cls != truth.cls || v.t != truth.t || v.front != truth.front) {
               if (++differences <= 5)
-                ADD_FAILURE() << kConfigurations[c].name << " differs on " << to_string(family) << "/" << to_string(shape)
-                              << " case " << i << " scaled 2^" << k << ": " << to_string(v.cls) << " vs exact "
-                              << to_string(truth.cls);
+                ADD_FAILURE() << kConfigurations[c].name << " differs on " << to_string(family) << "/"
+                              << to_string(shape) << " case " << i << " scaled 2^" << k << ": " << to_string(v.cls)
+                              << " vs exact " << to_string(truth.cls);
             }
           }
         }
@@ -167,10 +167,13 @@ TEST(OracleVersusRationals, SpheresAndPlanesOnEveryFamily) {
         if (!is_valid_query(pq.ray, pq.shape)) continue;
         const Plane& pl = std::get<Plane>(pq.shape);
         Q num = Q(pl.offset), den = 0;
-        for (int a = 0; a < 3; ++a) num -= Q(pl.normal[a]) * Q(pq.ray.origin[a]), den += Q(pl.normal[a]) * Q(pq.ray.direction[a]);
+        for (int a = 0; a < 3; ++a)
+          num -= Q(pl.normal[a]) * Q(pq.ray.origin[a]), den += Q(pl.normal[a]) * Q(pq.ray.direction[a]);
         HitClass cls = HitClass::miss;
-        if (den == 0) cls = num == 0 ? HitClass::tangent : HitClass::miss;
-        else if (sgn(num) == sgn(den)) cls = den < 0 ? HitClass::enter : HitClass::exit;
+        if (den == 0)
+          cls = num == 0 ? HitClass::tangent : HitClass::miss;
+        else if (sgn(num) == sgn(den))
+          cls = den < 0 ? HitClass::enter : HitClass::exit;
         const Verdict v = oracle.judge(pq.ray, pq.shape);
         ASSERT_EQ(v.cls, cls) << "plane " << to_string(family) << " " << i << " 2^" << k;
         if (den != 0 && cls != HitClass::miss) {
@@ -208,7 +211,8 @@ std::optional<int> filtered_det3(const std::array<double, 9>& m) {
 int exact_det3(const std::array<double, 9>& m) {
   std::array<Q, 9> q;
   for (int k = 0; k < 9; ++k) q[k] = m[k];
-  return sgn(q[0] * (q[4] * q[8] - q[5] * q[7]) - q[1] * (q[3] * q[8] - q[5] * q[6]) + q[2] * (q[3] * q[7] - q[4] * q[6]));
+  return sgn(q[0] * (q[4] * q[8] - q[5] * q[7]) - q[1] * (q[3] * q[8] - q[5] * q[6]) +
+             q[2] * (q[3] * q[7] - q[4] * q[6]));
 }
 
 TEST(FilterBounds, NearSingularDeterminantsNeverGetAWrongSign) {

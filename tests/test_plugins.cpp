@@ -55,7 +55,8 @@ const std::string kPlugin = std::string(" --plugin ") + MISBEHAVING_PLUGIN + " "
 TEST(Plugins, ListedWithTheirSourcePrecisionAndRule) {
   const CliRun r = run("variants --shapes sphere" + kPlugin);
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.out.find("test-float\tsphere\tfloat\ttests: the textbook quadratic in float ["), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("test-float\tsphere\tfloat\ttests: the textbook quadratic in float ["), std::string::npos)
+      << r.out;
   EXPECT_NE(r.out.find(", float, nearest]"), std::string::npos);
   EXPECT_NE(r.out.find("test-crashing\tsphere"), std::string::npos);
 }
@@ -66,7 +67,8 @@ TEST(Plugins, SegfaultIsReportedWithItsCaseAndCostsNothingElse) {
   const std::string cases = write("cases.jsonl", sphere_case("before", 1) + "\n" + sphere_case("segfault", 13) + "\n" +
                                                      sphere_case("after", 1) + "\n" + sphere_case("again", 13) + "\n" +
                                                      sphere_case("last", 1) + "\n");
-  const CliRun r = run("check " + cases + kPlugin + "--variants test-crashing,stable --summary " + test_dir() + "/s.json");
+  const CliRun r =
+      run("check " + cases + kPlugin + "--variants test-crashing,stable --summary " + test_dir() + "/s.json");
   EXPECT_EQ(r.status, 1) << r.err;  // a variant crashed: the run says so in its exit code
   auto lines = lines_of(r.out);
   ASSERT_EQ(lines.size(), 5u) << r.out;
@@ -147,8 +149,9 @@ TEST(Plugins, AbortAndHangAreCrashAndTimeout) {
 }
 
 TEST(Plugins, GarbageAnswersArePluginErrorsNotCrashes) {
-  const std::string cases = write("cases.jsonl", sphere_case("seven", 3) + "\n" + sphere_case("nan", 5) + "\n" +
-                                                     sphere_case("unwritten", 7) + "\n" + sphere_case("fine", 2) + "\n");
+  const std::string cases =
+      write("cases.jsonl", sphere_case("seven", 3) + "\n" + sphere_case("nan", 5) + "\n" + sphere_case("unwritten", 7) +
+                               "\n" + sphere_case("fine", 2) + "\n");
   const CliRun r = run("check " + cases + kPlugin + "--variants test-garbage --summary " + test_dir() + "/s.json");
   const auto lines = lines_of(r.out);
   ASSERT_EQ(lines.size(), 4u) << r.err;
@@ -163,11 +166,12 @@ TEST(Plugins, GarbageAnswersArePluginErrorsNotCrashes) {
 
 TEST(Plugins, FloatCodeIsJudgedOnTheFloatRoundedCase) {
   // 0.1 is not a float: the float case is another query, and its own exact verdict is reported.
-  const std::string line =
-      R"({"id": "tenth", "ray": {"origin": [-3, 0.1, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 0.1}})";
-  const std::string huge =
-      R"({"id": "huge", "ray": {"origin": [-1e39, 0, 0], "direction": [1, 0, 0]}, "shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}})";
-  const CliRun r = run("check " + write("cases.jsonl", line + "\n" + huge + "\n") + kPlugin + "--variants test-float,stable");
+  const std::string line = R"({"id": "tenth", "ray": {"origin": [-3, 0.1, 0], "direction": [1, 0, 0]}, )"
+                           R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": 0.1}})";
+  const std::string huge = R"({"id": "huge", "ray": {"origin": [-1e39, 0, 0], "direction": [1, 0, 0]}, )"
+                           R"("shape": {"type": "sphere", "center": [0, 0, 0], "radius": 1}})";
+  const CliRun r =
+      run("check " + write("cases.jsonl", line + "\n" + huge + "\n") + kPlugin + "--variants test-float,stable");
   const auto lines = lines_of(r.out);
   ASSERT_EQ(lines.size(), 2u) << r.err;
   const json& f = lines[0]["variants"]["test-float"];
@@ -205,8 +209,9 @@ TEST(Plugins, BadPluginsAreOneLineErrorsWithExitCodeTwo) {
 
 TEST(Plugins, FuzzCampaignKeepsEverythingWhenAPluginCrashes) {
   const std::string out = test_dir() + "/findings.jsonl";
-  const CliRun r = run("fuzz --shapes sphere --families random --count 4000 --threads 2 --variants stable,test-crash-often,test-float" +
-                       kPlugin + "-o " + out + " --summary " + test_dir() + "/s.json");
+  const CliRun r = run(
+      "fuzz --shapes sphere --families random --count 4000 --threads 2 --variants stable,test-crash-often,test-float" +
+      kPlugin + "-o " + out + " --summary " + test_dir() + "/s.json");
   ASSERT_EQ(r.status, 0) << r.err;
   std::ifstream in(out);
   int crashes = 0;
@@ -233,8 +238,10 @@ TEST(Plugins, FuzzCampaignKeepsEverythingWhenAPluginCrashes) {
 // and no finding carries an empty `disagreeing`.
 TEST(Plugins, TheCrashFindingIsKeptPastTheFindingsCap) {
   const std::string out = test_dir() + "/findings.jsonl";
-  const CliRun r = run("fuzz --shapes sphere --families tangent --count 3000 --threads 1 --max-findings 0 --no-shrink"
-                       " --max-crashes 1 --variants textbook,test-crash-often" + kPlugin + "-o " + out);
+  const CliRun r =
+      run("fuzz --shapes sphere --families tangent --count 3000 --threads 1 --max-findings 0 --no-shrink"
+          " --max-crashes 1 --variants textbook,test-crash-often" +
+          kPlugin + "-o " + out);
   ASSERT_EQ(r.status, 0) << r.err;
   std::ifstream in(out);
   int crashes = 0, lines = 0;
@@ -253,7 +260,9 @@ TEST(Plugins, RenderSaysWhenThePluginItDrawsWithStopped) {
   const std::string png = test_dir() + "/out.png";
   const CliRun crashed = run("render " + scene + kPlugin + "--variants test-crash-often -o " + png);
   EXPECT_EQ(crashed.status, 1);
-  EXPECT_NE(crashed.err.find("test-crash-often stopped (killed by SIGSEGV (crash 10, --max-crashes 10))"), std::string::npos) << crashed.err;
+  EXPECT_NE(crashed.err.find("test-crash-often stopped (killed by SIGSEGV (crash 10, --max-crashes 10))"),
+            std::string::npos)
+      << crashed.err;
   EXPECT_TRUE(std::ifstream(png).good());  // the image is still written
   const CliRun fine = run("render " + scene + kPlugin + "--variants test-float -o " + png);
   EXPECT_EQ(fine.status, 0) << fine.err;
@@ -262,13 +271,15 @@ TEST(Plugins, RenderSaysWhenThePluginItDrawsWithStopped) {
 // Issue 25, item 7: case i is a pure function of (seed, family, shape, i). The near-origin
 // family spawns from variants' hit points; a plugin loaded but not selected must not change it.
 TEST(Plugins, CasesDoNotDependOnWhichPluginsAreLoaded) {
-  const std::string args = " --families near-origin --shapes sphere --count 400 --variants stable --threads 1 --no-shrink";
+  const std::string args =
+      " --families near-origin --shapes sphere --count 400 --variants stable --threads 1 --no-shrink";
   const CliRun plain = run("fuzz" + args + " -o " + test_dir() + "/a.jsonl --summary " + test_dir() + "/a.json");
   const CliRun loaded = run("fuzz" + args + " --plugin " + std::string(RAYPROOF_PLUGIN_DIR) + "/weekend_sphere.so -o " +
                             test_dir() + "/b.jsonl --summary " + test_dir() + "/b.json");
   ASSERT_EQ(plain.status, 0) << plain.err;
   ASSERT_EQ(loaded.status, 0) << loaded.err;
-  const json a = json::parse(std::ifstream(test_dir() + "/a.json")), b = json::parse(std::ifstream(test_dir() + "/b.json"));
+  const json a = json::parse(std::ifstream(test_dir() + "/a.json")),
+             b = json::parse(std::ifstream(test_dir() + "/b.json"));
   EXPECT_EQ(a["tallies"], b["tallies"]);
   std::stringstream fa, fb;
   fa << std::ifstream(test_dir() + "/a.jsonl").rdbuf();
@@ -279,7 +290,8 @@ TEST(Plugins, CasesDoNotDependOnWhichPluginsAreLoaded) {
 // Issue 25, item 6: the user's own code in an audit: said to be exact (or not) in one line, its
 // cost timed in its worker (below the round trips through the pipe, which are given beside it).
 TEST(Plugins, AuditSaysWhetherTheUsersCodeIsExactAndWhatItCostsInItsWorker) {
-  const std::string scene = write("spheres.json", R"({"camera": {"eye": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0],
+  const std::string scene =
+      write("spheres.json", R"({"camera": {"eye": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0],
     "fov_deg": 40, "width": 24, "height": 16}, "shading": "flat", "background": [0, 0, 0],
     "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "color": [1, 0, 0]}]})");
   const std::string dir = test_dir() + "/audit-users-code";
@@ -294,10 +306,12 @@ TEST(Plugins, AuditSaysWhetherTheUsersCodeIsExactAndWhatItCostsInItsWorker) {
   ASSERT_TRUE((*glsl)["exact_for_scene"].get<bool>()) << "a sphere at the origin seen from 5 units: float is enough";
   EXPECT_TRUE((*glsl)["timed_in_worker"].get<bool>());
   EXPECT_LT((*glsl)["ns_per_ray"].get<double>(), (*glsl)["round_trip_ns_per_ray"].get<double>());
-  EXPECT_NE(r.err.find("your code: glsl-sphere (" + std::string(RAYPROOF_PLUGIN_DIR) + "/glsl_sphere.so) is exact for this scene"),
+  EXPECT_NE(r.err.find("your code: glsl-sphere (" + std::string(RAYPROOF_PLUGIN_DIR) +
+                       "/glsl_sphere.so) is exact for this scene"),
             std::string::npos)
       << r.err;
-  EXPECT_NE(r.err.find("ns per primary ray (rayproof's traversal plus the code's own time in its worker"), std::string::npos);
+  EXPECT_NE(r.err.find("ns per primary ray (rayproof's traversal plus the code's own time in its worker"),
+            std::string::npos);
   std::stringstream html;
   html << std::ifstream(dir + "/report.html").rdbuf();
   EXPECT_NE(html.str().find("Your code: glsl-sphere"), std::string::npos);
@@ -314,26 +328,32 @@ TEST(Diagnosis, EachBundledExamplesKnownDefectIsNamed) {
   const std::vector<Example> examples = {
       {"--plugin " + dir + "/weekend_sphere.so", "weekend-sphere", "sphere", "near-origin,exit-entry",
        "(t_min, an epsilon) of about ", 0.001},
-      {"--plugin " + dir + "/scratchapixel_sphere.so", "scratchapixel-sphere", "sphere", "near-origin,exit-entry", "(tca < 0)"},
+      {"--plugin " + dir + "/scratchapixel_sphere.so", "scratchapixel-sphere", "sphere", "near-origin,exit-entry",
+       "(tca < 0)"},
       {"--plugin " + dir + "/glsl_sphere.so", "glsl-sphere", "sphere", "near-origin,exit-entry",
        "the float rounding of the origin"},
       {"--plugin " + dir + "/wikipedia_moller_trumbore.so", "wikipedia-mt", "triangle", "near-origin,exit-entry",
        "(t_min, an epsilon) of about ", 1e-7},  // t > EPSILON
-      {"--plugin " + dir + "/minmax_slab_box.so", "minmax-slab", "box", "near-origin,exit-entry", "t >= 0 where t > 0 is meant"},
-      {"--exec py-sphere=" + std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py", "py-sphere", "sphere",
-       "extremes", "underflow double"},
+      {"--plugin " + dir + "/minmax_slab_box.so", "minmax-slab", "box", "near-origin,exit-entry",
+       "t >= 0 where t > 0 is meant"},
+      {"--exec py-sphere=" + std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py", "py-sphere",
+       "sphere", "extremes", "underflow double"},
   };
   for (const Example& e : examples) {
     const std::string out = test_dir() + "/" + e.variant + ".jsonl";
-    const CliRun r = run("fuzz " + e.flags + " --variants " + e.variant + " --shapes " + e.shape + " --families " + e.families +
-                         " --count " + (e.variant == "py-sphere" ? "20000" : "3000") + " --max-findings 100 -o " + out);
+    const CliRun r =
+        run("fuzz " + e.flags + " --variants " + e.variant + " --shapes " + e.shape + " --families " + e.families +
+            " --count " + (e.variant == "py-sphere" ? "20000" : "3000") + " --max-findings 100 -o " + out);
     ASSERT_EQ(r.status, 0) << e.variant << ": " << r.err;
     EXPECT_NE(r.err.find("diagnosis (from the findings"), std::string::npos) << e.variant << ": " << r.err;
     EXPECT_NE(r.err.find(e.variant + ": "), std::string::npos) << e.variant;
-    EXPECT_NE(r.err.find(e.defect), std::string::npos) << e.variant << " should be diagnosed with '" << e.defect << "':\n" << r.err;
+    EXPECT_NE(r.err.find(e.defect), std::string::npos)
+        << e.variant << " should be diagnosed with '" << e.defect << "':\n"
+        << r.err;
     if (e.about > 0 && r.err.find(e.defect) != std::string::npos) {
       const double named = std::strtod(r.err.c_str() + r.err.find(e.defect) + e.defect.size(), nullptr);
-      EXPECT_TRUE(named > e.about / 2 && named < e.about * 2) << e.variant << ": named " << named << ", the code has " << e.about;
+      EXPECT_TRUE(named > e.about / 2 && named < e.about * 2)
+          << e.variant << ": named " << named << ", the code has " << e.about;
     }
     // The replay line of the first example is a command that reproduces it.
     const std::size_t at = r.err.find("    rayproof check ");
@@ -355,7 +375,8 @@ TEST(Exec, ShapesNarrowAnExecCommand) {
   const json s = json::parse(std::ifstream(test_dir() + "/s.json"));
   std::size_t sphere_cases = 0;
   for (const json& l : lines_of(r.out)) sphere_cases += l["variants"].contains("py");
-  EXPECT_EQ(s["variants"]["py"]["cases"].get<std::size_t>() + s["variants"]["py"].value("crashes", std::size_t{0}), sphere_cases);
+  EXPECT_EQ(s["variants"]["py"]["cases"].get<std::size_t>() + s["variants"]["py"].value("crashes", std::size_t{0}),
+            sphere_cases);
   std::ifstream in(cases + "sphere.jsonl");
   std::size_t lines = 0;
   for (std::string line; std::getline(in, line);) lines += !line.empty();
@@ -366,8 +387,10 @@ TEST(Exec, ShapesNarrowAnExecCommand) {
 // asked only those; one that does not is tallied per shape (NAME@shape), never under a nominal one.
 TEST(Exec, ACommandThatDeclaresItsShapesIsAskedOnlyThose) {
   const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
-  const std::string args = " --families random --shapes sphere,plane --count 600 --threads 1 --variants stable --summary ";
-  const CliRun undeclared = run("fuzz --exec py=" + script + args + test_dir() + "/a.json -o " + test_dir() + "/a.jsonl");
+  const std::string args =
+      " --families random --shapes sphere,plane --count 600 --threads 1 --variants stable --summary ";
+  const CliRun undeclared =
+      run("fuzz --exec py=" + script + args + test_dir() + "/a.json -o " + test_dir() + "/a.jsonl");
   ASSERT_EQ(undeclared.status, 0) << undeclared.err;
   const json a = json::parse(std::ifstream(test_dir() + "/a.json"));
   EXPECT_EQ(a["tallies"]["random\tpy@sphere"]["cases"], 600);
@@ -375,7 +398,8 @@ TEST(Exec, ACommandThatDeclaresItsShapesIsAskedOnlyThose) {
   EXPECT_FALSE(a["tallies"].contains("random\tpy"));
   EXPECT_NE(undeclared.err.find("random  py@plane   plane"), std::string::npos) << undeclared.err;
 
-  const CliRun declared = run("fuzz --exec py:sphere=" + script + args + test_dir() + "/b.json -o " + test_dir() + "/b.jsonl");
+  const CliRun declared =
+      run("fuzz --exec py:sphere=" + script + args + test_dir() + "/b.json -o " + test_dir() + "/b.jsonl");
   ASSERT_EQ(declared.status, 0) << declared.err;
   const json b = json::parse(std::ifstream(test_dir() + "/b.json"));
   EXPECT_EQ(b["tallies"]["random\tpy"]["cases"], 600);
@@ -390,7 +414,8 @@ TEST(Exec, ACommandThatDeclaresItsShapesIsAskedOnlyThose) {
   EXPECT_EQ(bad.status, 2);
   EXPECT_NE(bad.err.find("'cone' is not a shape"), std::string::npos) << bad.err;
   // The replay line a finding prints loads the command with its declaration.
-  const CliRun found = run("check " + std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl --exec py:sphere=" + script);
+  const CliRun found =
+      run("check " + std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl --exec py:sphere=" + script);
   const std::size_t at = found.err.find("    rayproof check ");
   ASSERT_NE(at, std::string::npos) << found.err;
   const std::string replay = found.err.substr(at + 4 + 9, found.err.find('\n', at) - at - 4 - 9);
@@ -402,7 +427,8 @@ TEST(Exec, ACommandThatDeclaresItsShapesIsAskedOnlyThose) {
 TEST(Exec, PythonIntersectorIsJudgedLikeAPlugin) {
   const std::string script = std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py";
   const std::string cases = std::string(RAYPROOF_SOURCE_DIR) + "/scenes/cases/sphere.jsonl";
-  const CliRun r = run("check " + cases + " --exec py=" + script + " --variants textbook --summary " + test_dir() + "/s.json");
+  const CliRun r =
+      run("check " + cases + " --exec py=" + script + " --variants textbook --summary " + test_dir() + "/s.json");
   ASSERT_EQ(r.status, 0) << r.err;
   const json s = json::parse(std::ifstream(test_dir() + "/s.json"));
   EXPECT_GT(s["variants"]["py"]["cases"].get<int>(), 1000);
@@ -421,7 +447,8 @@ TEST(Exec, EarlyExitWrongIdUnreadableAndSilenceAreReportedWithTheCase) {
   };
   const std::vector<Bad> bad = {
       {"read line; echo '{\\\"id\\\": \\\"one\\\", \\\"class\\\": \\\"miss\\\"}'", "crash", "exited early"},
-      {"while read line; do echo '{\\\"id\\\": \\\"zzz\\\", \\\"class\\\": \\\"miss\\\"}'; done", "protocol", "answered id 'zzz'"},
+      {"while read line; do echo '{\\\"id\\\": \\\"zzz\\\", \\\"class\\\": \\\"miss\\\"}'; done", "protocol",
+       "answered id 'zzz'"},
       {"while read line; do echo 'not json'; done", "protocol", "unreadable answer line"},
       {"sleep 30", "timeout", "no answer within"}};
   for (const Bad& b : bad) {
@@ -437,8 +464,8 @@ TEST(Exec, EarlyExitWrongIdUnreadableAndSilenceAreReportedWithTheCase) {
 }
 
 TEST(Answers, EveryProblemIsNamedWithFileAndLineAndTheRestIsJudged) {
-  const std::string cases = write("cases.jsonl", sphere_case("a", 1) + "\n" + sphere_case("b", 1) + "\n" +
-                                                     sphere_case("c", 1) + "\n");
+  const std::string cases =
+      write("cases.jsonl", sphere_case("a", 1) + "\n" + sphere_case("b", 1) + "\n" + sphere_case("c", 1) + "\n");
   const std::string answers = write("answers.jsonl",
                                     "{\"id\": \"a\", \"class\": \"hit\", \"t\": \"0x1p+1\"}\n"
                                     "{\"id\": \"a\", \"class\": \"miss\"}\n"
@@ -469,9 +496,13 @@ TEST(Answers, FloatPrecisionLineJudgesTheFloatRoundedCase) {
 
 TEST(ExecProtocol, CaseLinesReadBackAsTheSameQuery) {
   for (const std::string& text :
-       {sphere_case("s", 0.1), std::string(R"({"id": "t", "ray": {"origin": [0.1, 0.2, -1], "direction": [1e-300, 0, 1]}, "shape": {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0.3]]}})"),
-        std::string(R"({"id": "b", "ray": {"origin": [-0.0, 2, 3], "direction": [1, 1, 1]}, "shape": {"type": "box", "min": [0, 0, 0], "max": [1, 2, 3]}})"),
-        std::string(R"({"id": "p", "ray": {"origin": [0, 0, 5], "direction": [0, 0, -1]}, "shape": {"type": "plane", "normal": [0, 0.3, 1], "offset": 0.7}})")}) {
+       {sphere_case("s", 0.1),
+        std::string(R"({"id": "t", "ray": {"origin": [0.1, 0.2, -1], "direction": [1e-300, 0, 1]}, )"
+                    R"("shape": {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0.3]]}})"),
+        std::string(R"({"id": "b", "ray": {"origin": [-0.0, 2, 3], "direction": [1, 1, 1]}, )"
+                    R"("shape": {"type": "box", "min": [0, 0, 0], "max": [1, 2, 3]}})"),
+        std::string(R"({"id": "p", "ray": {"origin": [0, 0, 5], "direction": [0, 0, -1]}, )"
+                    R"("shape": {"type": "plane", "normal": [0, 0.3, 1], "offset": 0.7}})")}) {
     const Case c = parse_case(text);
     const std::string line = peers::exec_case_line(c, c.id);
     const Case back = parse_case(line.substr(0, line.size() - 1));
@@ -508,7 +539,8 @@ TEST(ExecProtocol, AnswerLinesMeanTheSameWhicheverReaderReadsThem) {
       {R"({"id":"a","class":"enter","t":"0x1.8p+1"})", HitClass::enter, 3, HitFailure::none},
       {R"( { "t" : 3 , "class" : "exit" , "id" : "a" } )", HitClass::exit, 3, HitFailure::none},
       {R"({"id":"a","class":"hit","t":3e0})", HitClass::hit, 3, HitFailure::none},
-      {R"({"id":"\u0061","class":"tangent","t":"0x1.8p+1"})", HitClass::tangent, 3, HitFailure::none},  // escape: full reader
+      {R"({"id":"\u0061","class":"tangent","t":"0x1.8p+1"})", HitClass::tangent, 3,
+       HitFailure::none},  // escape: full reader
       {R"({"id":"a","class":"miss","t":null})", HitClass::miss, NAN, HitFailure::none},
       {R"({"id":"a","class":"tangent"})", HitClass::tangent, NAN, HitFailure::none},
       {R"({"id":"a","class":"enter"})", HitClass::enter, NAN, HitFailure::t_unwritten},
@@ -527,8 +559,10 @@ TEST(ExecProtocol, AnswerLinesMeanTheSameWhicheverReaderReadsThem) {
     EXPECT_EQ(a.hit.failure, l.failure) << l.text;
     if (l.failure != HitFailure::none) continue;
     EXPECT_EQ(a.hit.cls, l.cls) << l.text;
-    if (std::isnan(l.t)) EXPECT_FALSE(a.hit.has_t()) << l.text;
-    else EXPECT_EQ(a.hit.t, l.t) << l.text;
+    if (std::isnan(l.t))
+      EXPECT_FALSE(a.hit.has_t()) << l.text;
+    else
+      EXPECT_EQ(a.hit.t, l.t) << l.text;
   }
   const std::vector<std::pair<std::string, std::string>> bad = {
       {R"({"id":"a","class":"sideways"})", "class"},

@@ -45,7 +45,8 @@ std::string hints_of(const std::vector<Disagreement>& all) {
 
 TEST(Diagnose, ATMinIsNamedWhereTheMissedContactsStopAtIt) {
   std::vector<Disagreement> all;
-  for (int i = 0; i < 40; ++i) all.push_back(missed_exit(1e-3 * std::pow(10.0, -i / 10.0), std::ldexp(1.0, i % 20 - 10), i));
+  for (int i = 0; i < 40; ++i)
+    all.push_back(missed_exit(1e-3 * std::pow(10.0, -i / 10.0), std::ldexp(1.0, i % 20 - 10), i));
   for (int i = 0; i < 10; ++i) all.push_back(missed_exit(2 + i, 1, 100 + i));
   const std::string hints = hints_of(all);
   EXPECT_NE(hints.find("40 of 50 enter->miss/exit->miss findings have exact t <= 0.001"), std::string::npos) << hints;
@@ -71,7 +72,8 @@ TEST(Diagnose, ContactsAtTZeroAndOverflowAreNamedWithTheirCounts) {
     all.push_back(d);
   }
   const std::string hints = hints_of(all);
-  EXPECT_NE(hints.find("4 of 4 contacts answered where the exact answer is miss are at t <= 0"), std::string::npos) << hints;
+  EXPECT_NE(hints.find("4 of 4 contacts answered where the exact answer is miss are at t <= 0"), std::string::npos)
+      << hints;
   EXPECT_NE(hints.find("3 of 3 plugin_error findings have numbers of magnitude 2^300"), std::string::npos) << hints;
 }
 
@@ -116,8 +118,8 @@ TEST(AuditHelpers, EachFindingOnceUnderItsOwnIdAndPrintedAsALine) {
 TEST(Report, TErrorCountsOnlyCasesWhoseClassAgrees) {
   Tally t;
   t.add(HitClass::enter, answer(HitClass::enter, std::nextafter(2.0, 3.0), HitClass::enter, 2.0));  // 1 ulp
-  t.add(HitClass::enter, answer(HitClass::exit, 1e300, HitClass::enter, 2.0));                    // wrong class
-  t.add(HitClass::tangent, answer(HitClass::enter, 7.0, HitClass::tangent, 2.0));                 // cannot tell
+  t.add(HitClass::enter, answer(HitClass::exit, 1e300, HitClass::enter, 2.0));                      // wrong class
+  t.add(HitClass::tangent, answer(HitClass::enter, 7.0, HitClass::tangent, 2.0));                   // cannot tell
   EXPECT_EQ(t.cases, 3u);
   EXPECT_EQ(t.agree, 1u);
   EXPECT_EQ(t.wrong, 1u);
@@ -169,7 +171,8 @@ TEST(Report, MarkdownTableHasAHeaderRuleAndOneRowPerVariantSortedByShape) {
 }
 
 std::string test_dir() {
-  const std::string dir = testing::TempDir() + "/report-" + testing::UnitTest::GetInstance()->current_test_info()->name();
+  const std::string dir =
+      testing::TempDir() + "/report-" + testing::UnitTest::GetInstance()->current_test_info()->name();
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
@@ -178,13 +181,18 @@ std::string test_dir() {
 TEST(Report, ACompletedCampaignLeavesOnlyTheFilesAskedFor) {
   const std::string d = test_dir();
   const std::string cli = RAYPROOF_CLI;
-  ASSERT_EQ(std::system((cli + " fuzz --families near-origin --shapes sphere --count 300 -o '" + d + "/f.jsonl' 2>/dev/null").c_str()), 0);
+  ASSERT_EQ(
+      std::system((cli + " fuzz --families near-origin --shapes sphere --count 300 -o '" + d + "/f.jsonl' 2>/dev/null")
+                      .c_str()),
+      0);
   std::vector<std::string> files;
   for (const auto& e : std::filesystem::directory_iterator(d)) files.push_back(e.path().filename().string());
   EXPECT_EQ(files, std::vector<std::string>{"f.jsonl"});
-  ASSERT_EQ(std::system((cli + " fuzz --families near-origin --shapes sphere --count 300 --keep-checkpoint --spawn-csv '" + d +
-                         "/spawn.csv' -o '" + d + "/g.jsonl' 2>/dev/null").c_str()),
-            0);
+  ASSERT_EQ(
+      std::system((cli + " fuzz --families near-origin --shapes sphere --count 300 --keep-checkpoint --spawn-csv '" +
+                   d + "/spawn.csv' -o '" + d + "/g.jsonl' 2>/dev/null")
+                      .c_str()),
+      0);
   EXPECT_TRUE(std::filesystem::exists(d + "/g.jsonl.checkpoint"));
   EXPECT_TRUE(std::filesystem::exists(d + "/spawn.csv"));
   EXPECT_FALSE(std::filesystem::exists(d + "/g.jsonl.spawn.csv"));

@@ -20,7 +20,6 @@ namespace {
 
 const std::string kScenes = RAYPROOF_SCENES_DIR;
 
-
 bool is_background(const Image& img, int x, int y) {
   const auto p = img.at(x, y);
   return p[0] == 0 && p[1] == 0 && p[2] == 0;
@@ -105,7 +104,8 @@ Analytic nearest_hit(const Scene& scene, const Ray& r) {
       margin = disc / (b * b);
     } else if (const auto* p = std::get_if<Plane>(&shape)) {
       long double nd = 0, no = 0;
-      for (int k = 0; k < 3; ++k) nd += (long double)p->normal[k] * r.direction[k], no += (long double)p->normal[k] * r.origin[k];
+      for (int k = 0; k < 3; ++k)
+        nd += (long double)p->normal[k] * r.direction[k], no += (long double)p->normal[k] * r.origin[k];
       if (nd == 0) continue;
       t = (p->offset - no) / nd;
     }
@@ -150,7 +150,10 @@ TEST(Shadows, LitSideOfASphereIsLitAndItsDarkSideDarkAtEveryScale) {
           for (int sx = 0; sx < grid; ++sx) {
             const Ray r = scene.camera.ray_through(x + (sx + 0.5) / grid, y + (sy + 0.5) / grid);
             const Analytic h = nearest_hit(scene, r);
-            if (h.t <= 0 || h.discriminant_margin < 1e-3L) { all_hit = false; continue; }
+            if (h.t <= 0 || h.discriminant_margin < 1e-3L) {
+              all_hit = false;
+              continue;
+            }
             long double p[3], n[3], l[3], nn = 0, ll = 0, dot_nl = 0;
             for (int a = 0; a < 3; ++a) {
               p[a] = r.origin[a] + h.t * r.direction[a];
@@ -223,12 +226,13 @@ TEST(Render, WindowCameraFollowsTheSpecFormula) {
   // Window camera at the origin looking down +z: pixel (i, j) leaves along
   // f + sx·r + sy·u with sx = left + (i+½)/W·(right−left), sy = top + (j+½)/H·(bottom−top).
   const Scene scene = parse_scene(R"({"camera": {"eye": [0,0,0], "left": -2, "right": 2, "top": 1,
-      "bottom": -1, "width": 4, "height": 2}, "objects": []})", "inline");
+      "bottom": -1, "width": 4, "height": 2}, "objects": []})",
+                                  "inline");
   const Ray r = scene.camera.ray_through(0.5, 0.5);
   // f = (0,0,1), up default (0,1,0): r = normalize(f × up) = (−1,0,0), u = r × f = (0,1,0).
   EXPECT_DOUBLE_EQ(r.direction.z(), 1.0);
-  EXPECT_DOUBLE_EQ(r.direction.x(), 1.5);   // sx = −1.5 along r = (−1,0,0)
-  EXPECT_DOUBLE_EQ(r.direction.y(), 0.5);   // sy = 0.5 along u = (0,1,0)
+  EXPECT_DOUBLE_EQ(r.direction.x(), 1.5);  // sx = −1.5 along r = (−1,0,0)
+  EXPECT_DOUBLE_EQ(r.direction.y(), 0.5);  // sy = 0.5 along u = (0,1,0)
 }
 
 struct CliResult {
@@ -253,17 +257,23 @@ std::string write_temp(const std::string& name, const std::string& text) {
 }
 
 TEST(Cli, BadScenesGiveAClearErrorAndNonZeroExit) {
-  const std::string camera = R"("camera": {"eye": [-1,0,1], "look_at": [0,0,1], "up": [0,0,1], "fov_deg": 60, "width": 8, "height": 6})";
+  const std::string camera =
+      R"("camera": {"eye": [-1,0,1], "look_at": [0,0,1], "up": [0,0,1], "fov_deg": 60, "width": 8, "height": 6})";
   const std::vector<std::pair<std::string, std::string>> bad = {
-      {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0,"nan"], "radius": 1}]})", "objects[0].center[2]"},
+      {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0,"nan"], "radius": 1}]})",
+       "objects[0].center[2]"},
       {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0,1], "radius": -1}]})", "objects[0].radius"},
-      {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0,1e999], "radius": 1}]})", "objects[0].center[2]"},
-      {"{" + camera + R"(, "objects": [{"type": "triangle", "vertices": [[0,0,0],[1,1,1],[2,2,2]]}]})", "objects[0].vertices"},
+      {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0,1e999], "radius": 1}]})",
+       "objects[0].center[2]"},
+      {"{" + camera + R"(, "objects": [{"type": "triangle", "vertices": [[0,0,0],[1,1,1],[2,2,2]]}]})",
+       "objects[0].vertices"},
       {"{" + camera + R"(, "objects": [{"type": "box", "min": [0,0,0], "max": [0,1,1]}]})", "objects[0].max"},
       {"{" + camera + R"(, "objects": [{"type": "sphere", "center": [1,0], "radius": 1}]})", "objects[0].center"},
       {"{" + camera + R"(, "objects": [], "shiny": true})", "shiny"},
       {"{" + camera + R"(, "objects": [], "shading": "depth"})", "depth"},
-      {R"({"camera": {"eye": [0,0,0], "look_at": [0,0,0], "up": [0,0,1], "fov_deg": 60, "width": 8, "height": 6}, "objects": []})", "camera.look_at"},
+      {R"({"camera": {"eye": [0,0,0], "look_at": [0,0,0], "up": [0,0,1], "fov_deg": 60, "width": 8, "height": 6}, )"
+       R"("objects": []})",
+       "camera.look_at"},
       {"{" + camera + R"(, "objects": [)", "malformed JSON"},
       {"", "empty file"},
   };
@@ -288,14 +298,16 @@ TEST(Hostile, ObjectsAtTheEndsOfTheDoubleRangeBuildABvhAndRender) {
                R"(, {"type": "triangle", "vertices": [[)" + x + R"(,0,0],[0,-1e308,0],[0,0,-1e308]]})";
   objects += R"(, {"type": "sphere", "center": [1e308,1e308,0], "radius": 1e308})";  // bounds overflow to ∞
   const std::string text = R"({"camera": {"eye": [0,0,-7], "look_at": [0,0,0], "up": [0,1,0], "fov_deg": 30,
-      "width": 9, "height": 9}, "shading": "flat", "objects": [)" + objects + "]}";
+      "width": 9, "height": 9}, "shading": "flat", "objects": [)" +
+                           objects + "]}";
   const Scene scene = parse_scene(text, "extreme.json");
   const Image image = render(scene);
   const auto centre = image.at(4, 4);
   EXPECT_EQ(centre[0], 255);
   EXPECT_EQ(centre[1], 0) << "the centre pixel should see the red sphere at the origin";
   const std::string path = write_temp("extreme.json", text);
-  const CliResult r = run_cli("audit " + path + " --variants stable -o " + rayproof::testing_support::test_dir() + "/extreme");
+  const CliResult r =
+      run_cli("audit " + path + " --variants stable -o " + rayproof::testing_support::test_dir() + "/extreme");
   EXPECT_EQ(r.status, 0) << r.output;
 }
 
@@ -304,13 +316,15 @@ TEST(Hostile, ObjectsAtTheEndsOfTheDoubleRangeBuildABvhAndRender) {
 TEST(Hostile, CameraRaysAreFiniteOrTheSceneIsRefused) {
   try {
     parse_scene(R"({"camera": {"eye": [0,0,-5], "left": -1e308, "right": 1e308, "top": 1, "bottom": -1,
-        "width": 8, "height": 8}, "objects": []})", "window.json");
+        "width": 8, "height": 8}, "objects": []})",
+                "window.json");
     ADD_FAILURE() << "a window of width 2e308 was accepted";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("camera.right"), std::string::npos) << e.what();
   }
   const Scene far = parse_scene(R"({"camera": {"eye": [0,0,0], "look_at": [0,0,1e154], "up": [0,1,0], "fov_deg": 60,
-      "width": 8, "height": 8}, "objects": []})", "far.json");
+      "width": 8, "height": 8}, "objects": []})",
+                                "far.json");
   EXPECT_EQ(far.camera.forward, Vec3(0, 0, 1));
   for (double x : {0.0, 8.0})
     for (double y : {0.0, 8.0}) {
@@ -320,9 +334,13 @@ TEST(Hostile, CameraRaysAreFiniteOrTheSceneIsRefused) {
 }
 
 TEST(Cli, IntersectReportsBadLinesAndKeepsTheGoodOnes) {
-  const std::string path = write_temp("mixed-cases.jsonl",
-      R"({"id": "ok", "ray": {"origin": [-3,0,0], "direction": [1,0,0]}, "shape": {"type": "sphere", "center": [0,0,0], "radius": 1}})" "\n"
-      R"({"id": "bad", "ray": {"origin": [-3,0,0], "direction": [1,0,0]}, "shape": {"type": "sphere", "center": [0,0,0], "radius": "0x1p+1024"}})" "\n");
+  const std::string path =
+      write_temp("mixed-cases.jsonl", R"({"id": "ok", "ray": {"origin": [-3,0,0], "direction": [1,0,0]}, )"
+                                      R"("shape": {"type": "sphere", "center": [0,0,0], "radius": 1}})"
+                                      "\n"
+                                      R"({"id": "bad", "ray": {"origin": [-3,0,0], "direction": [1,0,0]}, )"
+                                      R"("shape": {"type": "sphere", "center": [0,0,0], "radius": "0x1p+1024"}})"
+                                      "\n");
   const CliResult r = run_cli("intersect " + path + " --variants stable,textbook");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find(R"("stable":{"class":"enter","t":"0x1p+1"})"), std::string::npos) << r.output;

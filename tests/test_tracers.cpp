@@ -110,7 +110,8 @@ TEST(MeshTruth, RangeEndsAreExclusiveAndExact) {
 
 TEST(MeshTruth, NotNearestMissedAndTracerErrors) {
   // Two parallel squares, z = 0 and z = 1; a ray from above crosses z = 1 first.
-  MeshOracle two(mesh_of({0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1}, {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7}));
+  MeshOracle two(mesh_of({0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1},
+                         {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7}));
   const TracerRay r = ray({0.75, 0.25, 3}, {0, 0, -1});
   const MeshTruth near = two.truth(r, false);
   EXPECT_EQ(two.judge_nearest(r, near, nearest_answer(0, 3), Precision::f64).kind, TraceKind::not_nearest);
@@ -193,8 +194,8 @@ const std::string kExampleTracers = std::string(RAYPROOF_PLUGIN_DIR) + "/naive_f
 
 TEST(TracerCampaign, BuiltInAndPeerTracersOnEveryFamily) {
   const std::string dir = test_dir();
-  const auto run = run_cli("fuzz --tracers all --count 256 --threads 2 --max-findings 4 -o " + dir + "/f.jsonl --summary " +
-                           dir + "/s.json");
+  const auto run = run_cli("fuzz --tracers all --count 256 --threads 2 --max-findings 4 -o " + dir +
+                           "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json s = json::parse(std::ifstream(dir + "/s.json"));
   std::set<std::string> tracers;
@@ -202,7 +203,8 @@ TEST(TracerCampaign, BuiltInAndPeerTracersOnEveryFamily) {
     tracers.insert(key.substr(key.find('\t') + 1));
     EXPECT_EQ(tally.at("cases"), 256) << key;
   }
-  for (const char* t : {"bvh-moller-trumbore", "bvh-watertight", "bvh-watertight-top-left", "bvh-certified-triangle", "cgal-aabb"})
+  for (const char* t :
+       {"bvh-moller-trumbore", "bvh-watertight", "bvh-watertight-top-left", "bvh-certified-triangle", "cgal-aabb"})
     EXPECT_TRUE(tracers.contains(t)) << t;
 #ifdef RAYPROOF_HAVE_EMBREE
   EXPECT_TRUE(tracers.contains("embree") && tracers.contains("embree-robust"));
@@ -214,13 +216,15 @@ TEST(TracerCampaign, BuiltInAndPeerTracersOnEveryFamily) {
     if (key.ends_with("\tbvh-certified-triangle") && key.find("-any") == std::string::npos) {
       EXPECT_EQ(tally.at("hole"), 0) << key;
       EXPECT_EQ(tally.at("false_hit"), 0) << key;
-      if (key.starts_with("fans") || key.starts_with("axis-planes") || key.starts_with("spawned") || key.starts_with("random"))
+      if (key.starts_with("fans") || key.starts_with("axis-planes") || key.starts_with("spawned") ||
+          key.starts_with("random"))
         EXPECT_EQ(tally.at("not_nearest"), 0) << key;
     }
   // The top-left watertight test never reports a shared edge twice, and on exactly built fans
   // it holds the one-hit rule; the closed tests do not. (On full-precision meshes its rounded edge
   // functions can call a point just inside a triangle "on the edge": holes, found and counted.)
-  EXPECT_NE(s.at("one_hit_rule").at("bvh-watertight-top-left").get<std::string>().find(" 0 double hits"), std::string::npos)
+  EXPECT_NE(s.at("one_hit_rule").at("bvh-watertight-top-left").get<std::string>().find(" 0 double hits"),
+            std::string::npos)
       << s.at("one_hit_rule").dump();
   EXPECT_NE(s.at("one_hit_rule").at("bvh-moller-trumbore").get<std::string>().find("fails"), std::string::npos);
   EXPECT_EQ(s.at("tallies").at("fans-any\tbvh-watertight-top-left").at("double_hit"), 0);
@@ -242,17 +246,19 @@ TEST(TracerCampaign, BuiltInAndPeerTracersOnEveryFamily) {
 
 TEST(TracerCampaign, ExampleTracersBugsAreFoundShrunkAndReplayed) {
   const std::string dir = test_dir();
-  const auto run = run_cli("fuzz --tracer " + kExampleTracers +
-                           " --tracers naive-float-bvh,naive-float-bvh-nan,float-bvh-careful-slab,float-bvh-top-left,"
-                           "float-bvh-top-left-1e30 --families shared-edges,fans,needles,spawned --count 2048 --max-findings 5 -o " +
-                           dir + "/f.jsonl --summary " + dir + "/s.json");
+  const auto run =
+      run_cli("fuzz --tracer " + kExampleTracers +
+              " --tracers naive-float-bvh,naive-float-bvh-nan,float-bvh-careful-slab,float-bvh-top-left,"
+              "float-bvh-top-left-1e30 --families shared-edges,fans,needles,spawned --count 2048 --max-findings 5 -o " +
+              dir + "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
   auto count = [&](const std::string& family, const std::string& tracer, const char* kind) {
     return t.at(family + "\t" + tracer).at(kind).get<std::uint64_t>();
   };
   // 0·inf = NaN in the slab test: holes at shared edges on node boundaries, beyond the control's.
-  EXPECT_GT(count("shared-edges", "naive-float-bvh-nan", "hole"), count("shared-edges", "float-bvh-careful-slab", "hole"));
+  EXPECT_GT(count("shared-edges", "naive-float-bvh-nan", "hole"),
+            count("shared-edges", "float-bvh-careful-slab", "hole"));
   // 1/0 → 1e30 skips the node holding the triangle that owns the edge under a tie rule.
   EXPECT_GT(count("shared-edges", "float-bvh-top-left-1e30", "hole") + count("fans", "float-bvh-top-left-1e30", "hole"),
             count("shared-edges", "float-bvh-top-left", "hole") + count("fans", "float-bvh-top-left", "hole"));
@@ -280,7 +286,8 @@ TEST(TracerCampaign, ExecTracerSpeaksTheProtocolInBothModes) {
   const std::string dir = test_dir();
   const auto run = run_cli("fuzz --tracer-exec py-brute=" + std::string(RAYPROOF_SOURCE_DIR) +
                            "/examples/exec/brute_force_tracer.py --tracers py-brute --families shared-edges,spawned "
-                           "--count 128 -o " + dir + "/f.jsonl --summary " + dir + "/s.json");
+                           "--count 128 -o " +
+                           dir + "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
   EXPECT_EQ(t.at("shared-edges\tpy-brute").at("cases"), 128);
@@ -291,8 +298,9 @@ TEST(TracerCampaign, ExecTracerSpeaksTheProtocolInBothModes) {
 
 TEST(TracerCampaign, ResumesToTheSameReport) {
   const std::string dir = test_dir();
-  const std::string common = "fuzz --tracers bvh-watertight,bvh-moller-trumbore --families shared-edges,needles --count 640 "
-                             "--threads 2 --no-shrink ";
+  const std::string common =
+      "fuzz --tracers bvh-watertight,bvh-moller-trumbore --families shared-edges,needles --count 640 "
+      "--threads 2 --no-shrink ";
   ASSERT_EQ(run_cli(common + "-o " + dir + "/whole.jsonl --summary " + dir + "/whole.json").status, 0);
   EXPECT_NE(run_cli(common + "-o " + dir + "/cut.jsonl --crash-after-batches 0").status, 0);
   const auto resumed = run_cli(common + "-o " + dir + "/cut.jsonl --resume --summary " + dir + "/cut.json");
@@ -312,11 +320,12 @@ TEST(TracerCampaign, ResumesToTheSameReport) {
 // ------------------------------------------------------------------ bad input
 TEST(TracerBadInput, MisbehavingTracersAreCountedOrReportedNeverFatal) {
   const std::string dir = test_dir();
-  const auto run = run_cli(std::string("fuzz --tracer ") + MISBEHAVING_TRACER +
-                           " --tracers bad-build-crash,bad-build-null,bad-nan-t,bad-out-of-range,bad-t-outside,"
-                           "bad-crash-later,bad-hang,bad-forks,bvh-watertight --no-shrink --families shared-edges --count 192 "
-                           "--threads 1 --case-timeout 0.5 -o " + dir +
-                           "/f.jsonl --summary " + dir + "/s.json");
+  const auto run =
+      run_cli(std::string("fuzz --tracer ") + MISBEHAVING_TRACER +
+              " --tracers bad-build-crash,bad-build-null,bad-nan-t,bad-out-of-range,bad-t-outside,"
+              "bad-crash-later,bad-hang,bad-forks,bvh-watertight --no-shrink --families shared-edges --count 192 "
+              "--threads 1 --case-timeout 0.5 -o " +
+              dir + "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
   auto n = [&](const std::string& key, const char* kind) { return t.at(key).value(kind, 0); };
@@ -355,16 +364,23 @@ TEST(TracerBadInput, ExecTracersThatMisbehave) {
     return "sh " + dir + "/" + name;
   };
   const std::string echo_mesh = script("bad_mesh.sh", "read line; echo '{\"error\": \"bad mesh\"}'; cat > /dev/null");
-  const std::string wrong_id = script("wrong_id.sh", "read mesh; while read line; do echo '{\"id\": \"nope\", \"triangle\": null}'; done");
+  const std::string wrong_id =
+      script("wrong_id.sh", "read mesh; while read line; do echo '{\"id\": \"nope\", \"triangle\": null}'; done");
   const std::string silent = script("silent.sh", "cat > /dev/null");
   // Answers the mesh line as if it were a ray: every answer after it is one line late.
   // An id with a byte that is not UTF-8: the reason written into the findings must still be
   // valid JSON (it is escaped), and the campaign must finish.
-  const std::string bad_utf8 = script("bad_utf8.sh", "read mesh; while read line; do printf '{\"id\": \"\\377\", \"triangle\": null}\\n'; done");
-  const std::string answers_mesh = script("answers_mesh.sh", "read mesh; echo '{\"id\": \"mesh\", \"triangle\": null}'; while read line; do echo '{\"id\": \"late\", \"triangle\": null}'; done");
+  const std::string bad_utf8 =
+      script("bad_utf8.sh", "read mesh; while read line; do printf '{\"id\": \"\\377\", \"triangle\": null}\\n'; done");
+  const std::string answers_mesh = script("answers_mesh.sh",
+                                          "read mesh; echo '{\"id\": \"mesh\", \"triangle\": null}'; while read line; "
+                                          "do echo '{\"id\": \"late\", \"triangle\": null}'; done");
   const auto run = run_cli("fuzz --tracer-exec bad-mesh=\"" + echo_mesh + "\" --tracer-exec wrong-id=\"" + wrong_id +
-                           "\" --tracer-exec silent=\"" + silent + "\" --tracer-exec answers-mesh=\"" + answers_mesh + "\" --tracer-exec bad-utf8=\"" + bad_utf8 + "\" --tracers bvh-watertight --families fans --count 128 "
-                           "--case-timeout 0.5 --threads 1 -o " + dir + "/f.jsonl --summary " + dir + "/s.json");
+                           "\" --tracer-exec silent=\"" + silent + "\" --tracer-exec answers-mesh=\"" + answers_mesh +
+                           "\" --tracer-exec bad-utf8=\"" + bad_utf8 +
+                           "\" --tracers bvh-watertight --families fans --count 128 "
+                           "--case-timeout 0.5 --threads 1 -o " +
+                           dir + "/f.jsonl --summary " + dir + "/s.json");
   ASSERT_EQ(run.status, 0) << run.err;
   const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
   EXPECT_GT(t.at("fans\tbad-mesh").value("tracer_errors", 0), 0);
@@ -387,12 +403,18 @@ TEST(TracerBadInput, BadMeshCasesNameTheirField) {
   const std::string verts = R"("vertices": [[0, 0, 0], [1, 0, 0], [1, 1, 0]])";
   const std::vector<std::pair<std::string, std::string>> bad = {
       {R"({"id": "a", "mesh": {)" + verts + R"(, "triangles": [[0, 1, 3]]}, )" + ok_ray + "}", "mesh.triangles[0][2]"},
-      {R"({"id": "b", "mesh": {"vertices": [[0, 0, 0], [1, "nan", 0], [1, 1, 0]], )" + tri + "}, " + ok_ray + "}", "mesh.vertices[1][1]"},
-      {R"({"id": "c", "mesh": {"vertices": [[0, 0, 0], [1, 1e999, 0], [1, 1, 0]], )" + tri + "}, " + ok_ray + "}", "mesh.vertices[1][1]"},
+      {R"({"id": "b", "mesh": {"vertices": [[0, 0, 0], [1, "nan", 0], [1, 1, 0]], )" + tri + "}, " + ok_ray + "}",
+       "mesh.vertices[1][1]"},
+      {R"({"id": "c", "mesh": {"vertices": [[0, 0, 0], [1, 1e999, 0], [1, 1, 0]], )" + tri + "}, " + ok_ray + "}",
+       "mesh.vertices[1][1]"},
       {R"({"id": "d", "mesh": {)" + verts + R"(, "triangles": []}, )" + ok_ray + "}", "mesh.triangles"},
-      {R"({"id": "e", "mesh": {)" + verts + R"(, "triangles": [[0, 1, 4294967295]]}, )" + ok_ray + "}", "mesh.triangles[0][2]"},
-      {R"({"id": "f", "mesh": {)" + verts + ", " + tri + R"(}, "ray": {"origin": [0, 0, 1], "direction": [0, 0, 0]}})", "ray"},
-      {R"({"id": "g", "mesh": {)" + verts + ", " + tri + R"(}, "ray": {"origin": [0, 0, 1], "direction": [0, 0, 1], "tmin": 2, "tmax": 1}})", "ray"},
+      {R"({"id": "e", "mesh": {)" + verts + R"(, "triangles": [[0, 1, 4294967295]]}, )" + ok_ray + "}",
+       "mesh.triangles[0][2]"},
+      {R"({"id": "f", "mesh": {)" + verts + ", " + tri + R"(}, "ray": {"origin": [0, 0, 1], "direction": [0, 0, 0]}})",
+       "ray"},
+      {R"({"id": "g", "mesh": {)" + verts + ", " + tri +
+           R"(}, "ray": {"origin": [0, 0, 1], "direction": [0, 0, 1], "tmin": 2, "tmax": 1}})",
+       "ray"},
       {R"({"id": "h", "mesh": {)" + verts + R"(, "triangles": [[0, 1]]}, )" + ok_ray + "}", "mesh.triangles[0]"},
   };
   std::ofstream out(dir + "/bad.jsonl");
@@ -403,7 +425,8 @@ TEST(TracerBadInput, BadMeshCasesNameTheirField) {
   EXPECT_EQ(run.status, 1);
   for (std::size_t i = 0; i < bad.size(); ++i)
     EXPECT_NE(run.err.find("bad.jsonl:" + std::to_string(i + 1) + ": field '" + bad[i].second + "'"), std::string::npos)
-        << bad[i].second << "\n" << run.err;
+        << bad[i].second << "\n"
+        << run.err;
   const std::vector<json> lines = read_lines(dir + "/c.jsonl");
   ASSERT_EQ(lines.size(), 1u);  // the good case was still judged
   EXPECT_EQ(lines[0].at("tracers").at("bvh-watertight").at("kind"), "right");
@@ -413,7 +436,8 @@ TEST(TracerBadInput, LoadingErrorsAreOneLineWithExitCode2) {
   const auto missing = run_cli("fuzz --tracer /nonexistent/tracer.so -o /dev/null");
   EXPECT_EQ(missing.status, 2);
   EXPECT_NE(missing.err.find("--tracer /nonexistent/tracer.so"), std::string::npos) << missing.err;
-  const auto not_a_tracer = run_cli(std::string("fuzz --tracer ") + RAYPROOF_PLUGIN_DIR + "/weekend_sphere.so -o /dev/null");
+  const auto not_a_tracer =
+      run_cli(std::string("fuzz --tracer ") + RAYPROOF_PLUGIN_DIR + "/weekend_sphere.so -o /dev/null");
   EXPECT_EQ(not_a_tracer.status, 2);
   EXPECT_NE(not_a_tracer.err.find("no symbol rayproof_tracers"), std::string::npos) << not_a_tracer.err;
   const auto clash = run_cli("fuzz --tracer-exec cgal-aabb=cat -o /dev/null");
@@ -430,9 +454,11 @@ TEST(TracerBadInput, LoadingErrorsAreOneLineWithExitCode2) {
 // float tracer is audited on float-rounded triangles; headroom covers tracers.
 TEST(TracerAudit, BvhTracerRowsEqualTheirVariantsRows) {
   const std::string dir = test_dir();
-  const auto run = run_cli(std::string("audit ") + RAYPROOF_SOURCE_DIR + "/scenes/audit/edge-grid-tilted.json -o " + dir +
-                           "/a --variants moller-trumbore,watertight --tracers bvh-moller-trumbore,bvh-watertight-top-left "
-                           "--tracer " + kExampleTracers + " --tracers naive-float-bvh --headroom");
+  const auto run =
+      run_cli(std::string("audit ") + RAYPROOF_SOURCE_DIR + "/scenes/audit/edge-grid-tilted.json -o " + dir +
+              "/a --variants moller-trumbore,watertight --tracers bvh-moller-trumbore,bvh-watertight-top-left "
+              "--tracer " +
+              kExampleTracers + " --tracers naive-float-bvh --headroom");
   ASSERT_EQ(run.status, 0) << run.err;
   const json a = json::parse(std::ifstream(dir + "/a/audit.json"));
   std::map<std::string, json> rows;

@@ -15,7 +15,7 @@ namespace rayproof {
 namespace {
 
 const Sphere kUnitSphere{Vec3(0, 0, 0), 1};
-const Plane kFloor{Vec3(0, 0, 1), 1};  // z = 1, front faces +z
+const Plane kFloor{Vec3(0, 0, 1), 1};                                // z = 1, front faces +z
 const Triangle kTri{{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)}};  // front faces +z
 const Box kCube{Vec3(0, 0, 0), Vec3(1, 1, 1)};
 
@@ -44,8 +44,7 @@ TEST(Registry, NamesAreUniqueAndEveryShapeHasVariants) {
     EXPECT_FALSE(variants_for(k).empty()) << to_string(k);
     EXPECT_EQ(default_variant(k).shape, k);
   }
-  for (auto n : {"textbook", "stable", "hearn-baker", "direct", "moller-trumbore", "watertight", "slab",
-                 "robust-slab"})
+  for (auto n : {"textbook", "stable", "hearn-baker", "direct", "moller-trumbore", "watertight", "slab", "robust-slab"})
     EXPECT_NE(find_variant(n), nullptr) << n;
   EXPECT_EQ(find_variant("no-such-variant"), nullptr);
 }
@@ -98,12 +97,11 @@ TEST_P(SphereVariant, EnterOnlyRejectsAnExit) {
   EXPECT_EQ(h.t, 2.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(All, SphereVariant, testing::ValuesIn(names_for(ShapeKind::sphere)),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           std::replace(n.begin(), n.end(), '-', '_');
-                           return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(All, SphereVariant, testing::ValuesIn(names_for(ShapeKind::sphere)), [](const auto& info) {
+  std::string n = info.param;
+  std::replace(n.begin(), n.end(), '-', '_');
+  return n;
+});
 
 TEST(SphereDiscriminant, CancellationInBSquaredMinus4acHidesASmallFarSphere) {
   // Radius 1 at distance 1e9, offset 0.5 from the ray: c = 1e18 − 0.75 rounds to 1e18, so
@@ -127,7 +125,7 @@ TEST(Plane, FrontBackParallelAndInPlane) {
   EXPECT_EQ(h.t, 2.0);
   EXPECT_EQ(run("direct", ray({0, 0, -1}, {0, 0, 1}), kFloor, HitRule::enter_only).cls, HitClass::miss);
   EXPECT_EQ(run("direct", ray({0, 0, 3}, {1, 0, 0}), kFloor).cls, HitClass::miss);  // parallel
-  h = run("direct", ray({0, 0, 1}, {1, 0, 0}), kFloor);  // lies in the plane
+  h = run("direct", ray({0, 0, 1}, {1, 0, 0}), kFloor);                             // lies in the plane
   EXPECT_EQ(h.cls, HitClass::tangent);
   EXPECT_FALSE(h.has_t());
   EXPECT_EQ(run("direct", ray({0, 0, 3}, {0, 0, 1}), kFloor).cls, HitClass::miss);  // behind
@@ -183,12 +181,11 @@ TEST(TopLeftRule, ExactlyOneTriangleOfAFanOwnsEachSharedPoint) {
     }
 }
 
-INSTANTIATE_TEST_SUITE_P(All, TriangleVariant, testing::ValuesIn(names_for(ShapeKind::triangle)),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           std::replace(n.begin(), n.end(), '-', '_');
-                           return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(All, TriangleVariant, testing::ValuesIn(names_for(ShapeKind::triangle)), [](const auto& info) {
+  std::string n = info.param;
+  std::replace(n.begin(), n.end(), '-', '_');
+  return n;
+});
 
 TEST(TriangleWatertight, SharedEdgeIsHitByAtLeastOneOfTwoTriangles) {
   // Two triangles sharing the diagonal of the unit square; rays through points on the
@@ -237,12 +234,11 @@ TEST_P(BoxVariant, DiagonalThroughACornerRegionEnters) {
   EXPECT_EQ(h.t, 1.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(All, BoxVariant, testing::ValuesIn(names_for(ShapeKind::box)),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           std::replace(n.begin(), n.end(), '-', '_');
-                           return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(All, BoxVariant, testing::ValuesIn(names_for(ShapeKind::box)), [](const auto& info) {
+  std::string n = info.param;
+  std::replace(n.begin(), n.end(), '-', '_');
+  return n;
+});
 
 TEST(BoxRobustSlab, AlongAnEdgeStillReportsTheContact) {
   // The ray runs along the cube's edge y = z = 0: 0·inf is NaN on two axes; the NaN-safe
@@ -274,7 +270,9 @@ namespace {
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
-std::string isa_name(BatchIsa isa) { return isa == BatchIsa::sse2 ? "sse2" : isa == BatchIsa::avx2 ? "avx2" : "avx512"; }
+std::string isa_name(BatchIsa isa) {
+  return isa == BatchIsa::sse2 ? "sse2" : isa == BatchIsa::avx2 ? "avx2" : "avx512";
+}
 
 // One run per instruction-set version of the batched kernels (SSE2, AVX2, AVX-512); a version
 // this CPU cannot run is reported as skipped in ctest's summary, never as passed.
@@ -313,7 +311,8 @@ TEST_P(Batched, SphereStableBatchIsBitIdenticalToTheScalarVariant) {
     for (size_t i = 0; i < cases.size(); ++i) {
       const Hit h = sphere_stable(cases[i].first, cases[i].second, HitRule::nearest_contact);
       ASSERT_EQ(out.at(i).cls, h.cls) << i << " isa " << int(isa);
-      ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t))) << i << " isa " << int(isa);
+      ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t)))
+          << i << " isa " << int(isa);
       hits += h.cls != HitClass::miss;
     }
     EXPECT_GT(hits, 2000);
@@ -352,7 +351,8 @@ TEST_P(Batched, MollerTrumboreBatchIsBitIdenticalToTheScalarVariant) {
     for (size_t i = 0; i < cases.size(); ++i) {
       const Hit h = triangle_moller_trumbore(cases[i].first, cases[i].second, HitRule::nearest_contact);
       ASSERT_EQ(out.at(i).cls, h.cls) << i << " isa " << int(isa);
-      ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t))) << i << " isa " << int(isa);
+      ASSERT_TRUE(same_bits(out.at(i).t, h.t) || (std::isnan(out.at(i).t) && std::isnan(h.t)))
+          << i << " isa " << int(isa);
       boundary += h.cls == HitClass::boundary;
     }
     EXPECT_GT(boundary, 100);
@@ -375,24 +375,24 @@ TEST_P(Batched, SphereStableBatchMatchesTheScalarVariantOnOverflowAndNaN) {
       {Ray{Vec3(nan, 0, 0), Vec3(1, 0, 0)}, Sphere{Vec3(5, 0, 0), 1}},
       {Ray{Vec3(0, 0, 0), Vec3(nan, 1, 0)}, Sphere{Vec3(5, 0, 0), 1}},
       {Ray{Vec3(0, 0, 0), Vec3(1, 0, 0)}, Sphere{Vec3(inf, 0, 0), 1}},
-      {Ray{Vec3(0, 0, 0), Vec3(tiny, 0, 0)}, Sphere{Vec3(5, 0, 0), 1}},            // a underflows to 0
-      {Ray{Vec3(0, 0, 0), Vec3(0, 0, 0)}, Sphere{Vec3(5, 0, 0), 1}},               // no direction at all
+      {Ray{Vec3(0, 0, 0), Vec3(tiny, 0, 0)}, Sphere{Vec3(5, 0, 0), 1}},  // a underflows to 0
+      {Ray{Vec3(0, 0, 0), Vec3(0, 0, 0)}, Sphere{Vec3(5, 0, 0), 1}},     // no direction at all
       {Ray{Vec3(-2, 0, 0), Vec3(1, 0, 0)}, Sphere{Vec3(0, 0, 0), 0}},
   };
   RaysSoA rays;
   SpheresSoA spheres;
   for (const auto& [r, s] : cases) rays.push(r), spheres.push(s);
   for (BatchIsa isa : {GetParam()}) {
-  HitsSoA out;
-  sphere_stable_batch(rays, spheres, out, isa);
-  for (size_t i = 0; i < cases.size(); ++i) {
-    const Hit h = sphere_stable(cases[i].first, cases[i].second, HitRule::nearest_contact);
-    EXPECT_EQ(out.at(i).cls, h.cls) << i;
-    std::uint64_t a, b;
-    const double ta = out.at(i).t, tb = h.t;
-    std::memcpy(&a, &ta, 8), std::memcpy(&b, &tb, 8);
-    EXPECT_TRUE(a == b || (std::isnan(ta) && std::isnan(tb))) << i << ": " << ta << " vs " << tb;
-  }
+    HitsSoA out;
+    sphere_stable_batch(rays, spheres, out, isa);
+    for (size_t i = 0; i < cases.size(); ++i) {
+      const Hit h = sphere_stable(cases[i].first, cases[i].second, HitRule::nearest_contact);
+      EXPECT_EQ(out.at(i).cls, h.cls) << i;
+      std::uint64_t a, b;
+      const double ta = out.at(i).t, tb = h.t;
+      std::memcpy(&a, &ta, 8), std::memcpy(&b, &tb, 8);
+      EXPECT_TRUE(a == b || (std::isnan(ta) && std::isnan(tb))) << i << ": " << ta << " vs " << tb;
+    }
   }
 }
 
@@ -412,15 +412,18 @@ std::vector<std::pair<Ray, Shape>> float_batch_cases(ShapeKind kind) {
   std::vector<std::pair<Ray, Shape>> out;
   for (int i = 0; i < 20000; ++i) {
     Ray r{Vec3(u(rng), u(rng), 3), Vec3(u(rng) * 0.3, u(rng) * 0.3, -1)};
-    Shape s = kind == ShapeKind::sphere ? Shape(Sphere{Vec3(u(rng), u(rng), u(rng)), std::abs(u(rng)) + 0.1})
-                                        : Shape(Triangle{{Vec3(-1, -1, u(rng)), Vec3(1, -1, u(rng)), Vec3(u(rng), 1, u(rng))}});
+    Shape s = kind == ShapeKind::sphere
+                  ? Shape(Sphere{Vec3(u(rng), u(rng), u(rng)), std::abs(u(rng)) + 0.1})
+                  : Shape(Triangle{{Vec3(-1, -1, u(rng)), Vec3(1, -1, u(rng)), Vec3(u(rng), 1, u(rng))}});
     if (i % 4 == 0) {  // small integers and halves: exact edges, vertices, tangents, zero discriminants
       r = Ray{Vec3(small(rng) * 0.5, small(rng) * 0.5, small(rng)), Vec3(0, small(rng) == 0 ? -0.0 : 0, -1)};
-      s = kind == ShapeKind::sphere ? Shape(Sphere{Vec3(small(rng), small(rng), small(rng) - 4), double(1 + std::abs(small(rng)))})
-                                    : Shape(Triangle{{Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0)}});
+      s = kind == ShapeKind::sphere
+              ? Shape(Sphere{Vec3(small(rng), small(rng), small(rng) - 4), double(1 + std::abs(small(rng)))})
+              : Shape(Triangle{{Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0)}});
     }
-    if (i % 5 == 1) r.origin *= std::ldexp(1.0, 4 * e(rng)), r.direction *= std::ldexp(1.0, 4 * e(rng));  // overflow, underflow
-    if (i % 97 == 2) r.direction = Vec3(0x1p-140, -0x1p-145, 0x1p-130);  // float subnormals
+    if (i % 5 == 1)
+      r.origin *= std::ldexp(1.0, 4 * e(rng)), r.direction *= std::ldexp(1.0, 4 * e(rng));  // overflow, underflow
+    if (i % 97 == 2) r.direction = Vec3(0x1p-140, -0x1p-145, 0x1p-130);                     // float subnormals
     // Keep only what float can hold: the scalar twin is judged on rounded cases only.
     if (const auto q = rounded_to_float(Query{r, s, {}})) out.push_back({q->ray, q->shape});
   }
@@ -436,14 +439,18 @@ TEST_P(Batched, FloatBatchesAreBitIdenticalToTheirScalarFloatTwins) {
     TrianglesSoAF tris;
     for (const auto& [r, s] : cases) {
       rays.push(r);
-      if (kind == ShapeKind::sphere) spheres.push(std::get<Sphere>(s));
-      else tris.push(std::get<Triangle>(s));
+      if (kind == ShapeKind::sphere)
+        spheres.push(std::get<Sphere>(s));
+      else
+        tris.push(std::get<Triangle>(s));
     }
     const Variant& scalar = *find_variant(kind == ShapeKind::sphere ? "stable-f32" : "moller-trumbore-f32");
     for (BatchIsa isa : {GetParam()}) {
       HitsSoAF out;
-      if (kind == ShapeKind::sphere) sphere_stable_f32_batch(rays, spheres, out, isa);
-      else triangle_moller_trumbore_f32_batch(rays, tris, out, isa);
+      if (kind == ShapeKind::sphere)
+        sphere_stable_f32_batch(rays, spheres, out, isa);
+      else
+        triangle_moller_trumbore_f32_batch(rays, tris, out, isa);
       int hits = 0;
       for (size_t i = 0; i < cases.size(); ++i) {
         const Hit h = scalar.intersect(cases[i].first, cases[i].second, HitRule::nearest_contact);

@@ -12,7 +12,8 @@ Hit certified_intersect(const Ray& ray, const Shape& shape, HitRule rule) {
 
 void register_certified_variants() {
   static const bool registered = [] {
-    static constexpr const char* kSource = "the exact oracle's front end: semi-static filter, then exact stages (verify/)";
+    static constexpr const char* kSource =
+        "the exact oracle's front end: semi-static filter, then exact stages (verify/)";
     register_variant({"certified-sphere", ShapeKind::sphere, kSource, certified_intersect, true});
     register_variant({"certified-plane", ShapeKind::plane, kSource, certified_intersect, true});
     register_variant({"certified-triangle", ShapeKind::triangle, kSource, certified_intersect, true});

@@ -11,7 +11,7 @@ namespace rayproof {
 float exact_t_as_float(const Query& q, HitRule rule, double d) {
   const float f = to_nearest_float(d);
   if (std::isinf(f)) return f;  // beyond float's range either way
-  const double below = std::nextafter(f, -INFINITY), above = std::nextafter(f, INFINITY);
+  const double below = next_down(f), above = next_up(f);
   const double m = d < f ? (f + below) / 2 : (f + above) / 2;  // exact: floats have 24 bits, doubles 53
   if (d != m) return f;
   Oracle rational(Oracle::Options{.keep_exact_parameter = true});
@@ -35,8 +35,10 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
   rounded.clear(), from.clear();
   if (f32) {
     for (size_t i = 0; i < qs.size(); ++i) {
-      if (auto r = rounded_to_float(qs[i])) rounded.push_back(std::move(*r)), from.push_back(i);
-      else out[i].hit = Hit::failure_of(HitFailure::not_representable);
+      if (auto r = rounded_to_float(qs[i]))
+        rounded.push_back(std::move(*r)), from.push_back(i);
+      else
+        out[i].hit = Hit::failure_of(HitFailure::not_representable);
     }
   }
   const std::span<const Query> given = f32 ? std::span<const Query>(rounded) : qs;

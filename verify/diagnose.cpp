@@ -59,7 +59,8 @@ std::vector<KindExample> examples_by_kind(const std::vector<Disagreement>& all) 
   }
   std::vector<KindExample> out;
   for (const auto& key : order) out.push_back(by.at(key));
-  std::stable_sort(out.begin(), out.end(), [](const KindExample& a, const KindExample& b) { return a.count > b.count; });
+  std::stable_sort(out.begin(), out.end(),
+                   [](const KindExample& a, const KindExample& b) { return a.count > b.count; });
   return out;
 }
 
@@ -95,11 +96,14 @@ double size_of(const Case& c) {
   return std::visit(
       [&](const auto& s) -> double {
         using S = std::decay_t<decltype(s)>;
-        if constexpr (std::is_same_v<S, Sphere>) return s.radius;
+        if constexpr (std::is_same_v<S, Sphere>)
+          return s.radius;
         else if constexpr (std::is_same_v<S, Triangle>)
           return std::max({norm(s.v[1] - s.v[0]), norm(s.v[2] - s.v[1]), norm(s.v[0] - s.v[2])});
-        else if constexpr (std::is_same_v<S, Box>) return norm(s.max - s.min);
-        else return std::max(std::abs(s.offset), norm(c.ray.origin));
+        else if constexpr (std::is_same_v<S, Box>)
+          return norm(s.max - s.min);
+        else
+          return std::max(std::abs(s.offset), norm(c.ray.origin));
       },
       c.shape);
 }
@@ -116,7 +120,8 @@ std::optional<Edge> sharp_upper_edge(std::vector<double> v, double least, double
   if (v.size() < 5) return std::nullopt;
   std::sort(v.begin(), v.end());
   auto count_in = [&](double lo, double hi) {  // values in (lo, hi]
-    return static_cast<std::size_t>(std::upper_bound(v.begin(), v.end(), hi) - std::upper_bound(v.begin(), v.end(), lo));
+    return static_cast<std::size_t>(std::upper_bound(v.begin(), v.end(), hi) -
+                                    std::upper_bound(v.begin(), v.end(), lo));
   };
   std::optional<Edge> best;
   for (std::size_t i = 0; i < v.size(); ++i) {
@@ -136,8 +141,9 @@ int underflow_exponent(Precision p) { return p == Precision::f32 ? -37 : -250; }
 // A contact answered as a miss, on a case whose numbers stay clear of overflow and underflow
 // (those are H4's: a threshold seen there would be theirs, not an epsilon's).
 bool contact_missed(const Disagreement& d, Precision p) {
-  if (!(d.failure.empty() && d.answered == HitClass::miss && (d.exact == HitClass::enter || d.exact == HitClass::exit) &&
-        d.exact_t && *d.exact_t > 0 && std::isfinite(*d.exact_t)))
+  if (!(d.failure.empty() && d.answered == HitClass::miss &&
+        (d.exact == HitClass::enter || d.exact == HitClass::exit) && d.exact_t && *d.exact_t > 0 &&
+        std::isfinite(*d.exact_t)))
     return false;
   const auto [hi, lo] = magnitudes(d.c);
   return std::ilogb(hi) < overflow_exponent(p) && (lo == INFINITY || std::ilogb(lo) > underflow_exponent(p));
@@ -157,7 +163,8 @@ struct Explained {
     return *d.exact_t <= t_min || (size > 0 && *d.exact_t * norm(d.c.ray.direction) <= relative_distance * size);
   }
 };
-Explained near_contacts_dropped(const std::vector<const Disagreement*>& ds, Precision precision, std::vector<std::string>& hints) {
+Explained near_contacts_dropped(const std::vector<const Disagreement*>& ds, Precision precision,
+                                std::vector<std::string>& hints) {
   std::vector<double> ts, distances, relative;
   for (const Disagreement* d : ds)
     if (contact_missed(*d, precision)) {
@@ -174,11 +181,14 @@ Explained near_contacts_dropped(const std::vector<const Disagreement*>& ds, Prec
     if (edges[m] && (best < 0 || edges[m]->sharpness > edges[best]->sharpness)) best = m;
   if (best < 0) return {};
   const Edge& e = *edges[best];
-  const std::string counts = std::to_string(e.below) + " of " + std::to_string(ts.size()) + " enter->miss/exit->miss findings";
-  const std::string edge = number(e.threshold) + ", only " + std::to_string(e.just_above) + " between that and 10x more";
+  const std::string counts =
+      std::to_string(e.below) + " of " + std::to_string(ts.size()) + " enter->miss/exit->miss findings";
+  const std::string edge =
+      number(e.threshold) + ", only " + std::to_string(e.just_above) + " between that and 10x more";
   if (best == 2) {
-    hints.push_back(counts + " have their contact within " + number(e.threshold) + " x the shape's size of the origin (only " +
-                    std::to_string(e.just_above) + " between that and 10x more): the " + (p == 24 ? "float" : "double") +
+    hints.push_back(counts + " have their contact within " + number(e.threshold) +
+                    " x the shape's size of the origin (only " + std::to_string(e.just_above) +
+                    " between that and 10x more): the " + (p == 24 ? "float" : "double") +
                     " rounding of the origin (2^-" + std::to_string(p) +
                     " relative) decides them: rays spawned from a surface need an offset (see rayproof spawn)?");
     return {0, e.threshold};
@@ -200,7 +210,8 @@ Explained near_contacts_dropped(const std::vector<const Disagreement*>& ds, Prec
 
 // H2 (triangles): contacts dropped where the determinant e1·(d×e2) is small — an absolute
 // "parallel" epsilon, not scaled with the triangle's size and the direction's length.
-void small_determinants_dropped(const std::vector<const Disagreement*>& ds, Precision precision, std::vector<std::string>& hints) {
+void small_determinants_dropped(const std::vector<const Disagreement*>& ds, Precision precision,
+                                std::vector<std::string>& hints) {
   std::vector<double> dets;
   std::size_t missed = 0;
   for (const Disagreement* d : ds) {
@@ -223,7 +234,8 @@ void small_determinants_dropped(const std::vector<const Disagreement*>& ds, Prec
 // H3: float code on numbers whose rounding to float moves them by 1/16 of the shape or more:
 // the case itself changes before any arithmetic (the float-rounded case's own verdict is what
 // `check` shows as the variant's `exact`).
-void inputs_rounded_away(const std::vector<const Disagreement*>& ds, Precision precision, std::vector<std::string>& hints) {
+void inputs_rounded_away(const std::vector<const Disagreement*>& ds, Precision precision,
+                         std::vector<std::string>& hints) {
   if (precision != Precision::f32) return;
   std::map<std::string, std::pair<std::size_t, std::size_t>> by_kind;  // kind → (rounded away, all)
   for (const Disagreement* d : ds) {
@@ -235,15 +247,17 @@ void inputs_rounded_away(const std::vector<const Disagreement*>& ds, Precision p
   }
   for (const auto& [kind, n] : by_kind)
     if (n.first >= 10 && 4 * n.first >= 3 * n.second)
-      hints.push_back(std::to_string(n.first) + " of " + std::to_string(n.second) + " " + kind +
-                      " findings have coordinates whose rounding to float (2^-24 of their magnitude) is 1/16 of the shape "
-                      "or more: the case changes before any arithmetic; translate the scene near the origin, or compute in "
-                      "double?");
+      hints.push_back(
+          std::to_string(n.first) + " of " + std::to_string(n.second) + " " + kind +
+          " findings have coordinates whose rounding to float (2^-24 of their magnitude) is 1/16 of the shape "
+          "or more: the case changes before any arithmetic; translate the scene near the origin, or compute in "
+          "double?");
 }
 
 // H4: overflow or underflow: most findings of one kind have numbers beyond a magnitude where
 // squares and products of three or four of them leave the format.
-void magnitudes_beyond(const std::vector<const Disagreement*>& ds, Precision precision, std::vector<std::string>& hints) {
+void magnitudes_beyond(const std::vector<const Disagreement*>& ds, Precision precision,
+                       std::vector<std::string>& hints) {
   std::map<std::string, std::vector<std::pair<double, double>>> by_kind;
   for (const Disagreement* d : ds) by_kind[d->kind()].push_back(magnitudes(d->c));
   const bool f32 = precision == Precision::f32;
@@ -287,8 +301,8 @@ void contacts_at_zero(const std::vector<const Disagreement*>& ds, std::vector<st
 // H6 (spheres): exits missed from inside with the centre always behind the origin (none ahead):
 // an early "centre behind the ray: miss" test (tca < 0) made before asking whether the origin is
 // inside. Exits already explained (a t_min, the origin's rounding) are left out.
-void exits_missed_centre_behind(const std::vector<const Disagreement*>& ds, Precision precision, const Explained& explained,
-                                std::vector<std::string>& hints) {
+void exits_missed_centre_behind(const std::vector<const Disagreement*>& ds, Precision precision,
+                                const Explained& explained, std::vector<std::string>& hints) {
   std::size_t behind = 0, ahead = 0;
   for (const Disagreement* d : ds) {
     if (!contact_missed(*d, precision) || d->exact != HitClass::exit || explained.covers(*d)) continue;
@@ -297,18 +311,20 @@ void exits_missed_centre_behind(const std::vector<const Disagreement*>& ds, Prec
     ++(dot(s->center - d->c.ray.origin, d->c.ray.direction) < 0 ? behind : ahead);
   }
   if (behind >= 10 && ahead == 0)
-    hints.push_back("all " + std::to_string(behind) +
-                    " exit->miss findings start inside the sphere with its centre behind the origin (none with it ahead): "
-                    "an early \"centre behind the ray: miss\" test (tca < 0) rejects rays that leave the sphere?");
+    hints.push_back(
+        "all " + std::to_string(behind) +
+        " exit->miss findings start inside the sphere with its centre behind the origin (none with it ahead): "
+        "an early \"centre behind the ray: miss\" test (tca < 0) rejects rays that leave the sphere?");
 }
 
 // H7 (triangles): holes where the ray crosses an edge the case's fan shares (the campaign counts
 // them): not watertight.
 void shared_edge_holes_found(std::uint64_t holes, std::vector<std::string>& hints) {
   if (holes > 0)
-    hints.push_back(std::to_string(holes) +
-                    " holes where the ray crosses an edge shared with another triangle of the case's fan: not watertight "
-                    "(both triangles can miss their shared edge); see the watertight variants");
+    hints.push_back(
+        std::to_string(holes) +
+        " holes where the ray crosses an edge shared with another triangle of the case's fan: not watertight "
+        "(both triangles can miss their shared edge); see the watertight variants");
 }
 
 }  // namespace
@@ -332,7 +348,8 @@ std::string loading_flags(const Variant& v) {
   if (origin.rfind("answers: ", 0) == 0) return "";
   if (origin.rfind("exec: ", 0) == 0) {
     const std::string shapes = shapes_answered(v);
-    return "--exec " + shell_quoted(std::string(v.name) + (shapes == "any" ? "" : ":" + shapes) + "=" + origin.substr(6));
+    return "--exec " +
+           shell_quoted(std::string(v.name) + (shapes == "any" ? "" : ":" + shapes) + "=" + origin.substr(6));
   }
   return "--plugin " + shell_quoted(origin);
 }
@@ -344,18 +361,22 @@ std::string describe(const Disagreement& d) {
   std::visit(
       [&](const auto& s) {
         using S = std::decay_t<decltype(s)>;
-        if constexpr (std::is_same_v<S, Sphere>) shape = "sphere centre " + vec(s.center) + " radius " + number(s.radius);
-        else if constexpr (std::is_same_v<S, Plane>) shape = "plane normal " + vec(s.normal) + " offset " + number(s.offset);
-        else if constexpr (std::is_same_v<S, Triangle>) shape = "triangle " + vec(s.v[0]) + " " + vec(s.v[1]) + " " + vec(s.v[2]);
-        else shape = "box " + vec(s.min) + " to " + vec(s.max);
+        if constexpr (std::is_same_v<S, Sphere>)
+          shape = "sphere centre " + vec(s.center) + " radius " + number(s.radius);
+        else if constexpr (std::is_same_v<S, Plane>)
+          shape = "plane normal " + vec(s.normal) + " offset " + number(s.offset);
+        else if constexpr (std::is_same_v<S, Triangle>)
+          shape = "triangle " + vec(s.v[0]) + " " + vec(s.v[1]) + " " + vec(s.v[2]);
+        else
+          shape = "box " + vec(s.min) + " to " + vec(s.max);
       },
       d.c.shape);
   std::string truth = std::string(to_string(d.exact)) + (d.exact_t ? " at t = " + number(*d.exact_t) : "");
-  std::string answer = d.failure.empty()
-                           ? std::string(to_string(d.answered)) + (d.answered_t ? " at t = " + number(*d.answered_t) : "")
-                           : d.failure;
-  return printable(d.c.id) + ": ray from " + vec(d.c.ray.origin) + " along " + vec(d.c.ray.direction) + " (|d| = " +
-         number(norm(d.c.ray.direction)) + "), " + shape + "; exact " + truth + ", answered " + answer;
+  std::string answer =
+      d.failure.empty() ? std::string(to_string(d.answered)) + (d.answered_t ? " at t = " + number(*d.answered_t) : "")
+                        : d.failure;
+  return printable(d.c.id) + ": ray from " + vec(d.c.ray.origin) + " along " + vec(d.c.ray.direction) +
+         " (|d| = " + number(norm(d.c.ray.direction)) + "), " + shape + "; exact " + truth + ", answered " + answer;
 }
 }  // namespace
 
@@ -363,7 +384,9 @@ void print_examples_and_hints(std::ostream& out, const std::vector<Disagreement>
                               const std::function<std::string(const Disagreement&)>& replay, std::size_t max_examples,
                               const std::vector<std::string>& variants,
                               const std::function<std::uint64_t(const std::string&)>& shared_edge_holes) {
-  auto shown = [&](const std::string& v) { return variants.empty() || std::count(variants.begin(), variants.end(), v) > 0; };
+  auto shown = [&](const std::string& v) {
+    return variants.empty() || std::count(variants.begin(), variants.end(), v) > 0;
+  };
   std::vector<KindExample> examples = examples_by_kind(all);
   std::erase_if(examples, [&](const KindExample& e) { return !shown(e.variant); });
   if (examples.empty()) return;

@@ -9,7 +9,7 @@ namespace {
 // The exact t of the pruning bound: a contact whose rounded t is `best` has its exact t below
 // the next double up (rounding to nearest moves it by at most half an ulp), so boxes entered
 // beyond next_up(best) cannot hold a nearer exact contact.
-double prune_limit(double best) { return std::nextafter(best, std::numeric_limits<double>::infinity()); }
+double prune_limit(double best) { return next_up(best); }
 
 bool is_contact(const Verdict& v) { return v.cls != HitClass::miss && v.t.has_value(); }
 
@@ -68,8 +68,10 @@ bool ExactTracer::blocks(ShapeKind kind, const Ray& segment, std::int32_t self) 
     const Verdict v = filtered_.judge(segment, shape);
     if (!is_contact(v)) return false;
     // Rounding is monotone and 1 is a double: rounded t < 1 means exact t < 1, > 1 means > 1.
-    if (*v.t < 1) blocked = true;
-    else if (*v.t == 1) blocked = compare(exact_parameter(segment, id), mpq_class(1)) < 0;
+    if (*v.t < 1)
+      blocked = true;
+    else if (*v.t == 1)
+      blocked = compare(exact_parameter(segment, id), mpq_class(1)) < 0;
     return blocked;
   });
   return blocked;

@@ -118,7 +118,8 @@ int MeshOracle::compare_t(const Ray& ray, const MeshContact& a, const MeshContac
   // Rounding to nearest is monotone: different rounded values order the exact ones.
   if (a.t != b.t) return a.t < b.t ? -1 : 1;
   if (a.triangle == b.triangle) return 0;
-  if (a.crossing && b.crossing) return compare_crossing_parameters(ray, mesh_->triangle(a.triangle), mesh_->triangle(b.triangle));
+  if (a.crossing && b.crossing)
+    return compare_crossing_parameters(ray, mesh_->triangle(a.triangle), mesh_->triangle(b.triangle));
   return compare(exact_t(ray, a.triangle), exact_t(ray, b.triangle));
 }
 
@@ -138,7 +139,7 @@ std::optional<MeshContact> MeshOracle::contact(const TracerRay& r, std::uint32_t
   const Verdict v = oracle_.judge(r.ray, mesh_->triangle(triangle));
   if (v.cls == HitClass::miss) return std::nullopt;
   if (v.cls == HitClass::tangent) {  // the ray lies in the plane: optional
-    c.t = v.t.value_or(0);  // no t: it starts on the triangle at the origin
+    c.t = v.t.value_or(0);           // no t: it starts on the triangle at the origin
     if (v.t && !(*v.t < r.tmax)) {
       if (*v.t > r.tmax || compare(exact_t(r.ray, triangle), mpq_class(r.tmax)) >= 0) return std::nullopt;
     }
@@ -230,7 +231,7 @@ MeshTruth MeshOracle::truth(const TracerRay& r, bool complete) {
     truth.contacts.push_back(*c);
     if (!complete && c->crossing && !c->boundary && c->t < best_interior) {
       best_interior = c->t;
-      t_limit = std::min(t_limit, std::nextafter(best_interior, std::numeric_limits<double>::infinity()));
+      t_limit = std::min(t_limit, next_up(best_interior));
     }
     return false;
   });
@@ -258,7 +259,8 @@ MeshTruth MeshOracle::truth(const TracerRay& r, bool complete) {
     const CrossingPoint* req = truth.first_required();
     if (req) {
       const MeshContact limit = *truth.contact_of(req->triangles.front());
-      std::erase_if(truth.contacts, [&](const MeshContact& c) { return !std::isnan(c.t) && compare_t(r.ray, c, limit) > 0; });
+      std::erase_if(truth.contacts,
+                    [&](const MeshContact& c) { return !std::isnan(c.t) && compare_t(r.ray, c, limit) > 0; });
       truth.points.resize(static_cast<std::size_t>(req - truth.points.data()) + 1);
     }
   }
@@ -274,14 +276,16 @@ std::optional<std::uint64_t> t_error(double reported, double exact_rounded, Prec
 }
 }  // namespace
 
-TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& truth, const TraceAnswer& a, Precision p) {
+TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& truth, const TraceAnswer& a,
+                                         Precision p) {
   TraceJudgement j;
   const CrossingPoint* req = truth.first_required();
   j.edge_ray = req && req->one_hit_rule && req == &truth.points.front();
   auto done = [&](TraceKind k) {
     j.kind = k;
     if (j.edge_ray) {
-      const bool reported_one = a.hit() && std::find(req->triangles.begin(), req->triangles.end(), a.triangle) != req->triangles.end();
+      const bool reported_one =
+          a.hit() && std::find(req->triangles.begin(), req->triangles.end(), a.triangle) != req->triangles.end();
       j.edge_hole = !reported_one && (k == TraceKind::hole || k == TraceKind::not_nearest);
     }
     return j;
@@ -292,7 +296,8 @@ TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& tr
     return done(TraceKind::right);
   }
   if (a.triangle >= mesh_->triangle_count()) {
-    j.detail = "triangle " + std::to_string(a.triangle) + " out of range (" + std::to_string(mesh_->triangle_count()) + " triangles)";
+    j.detail = "triangle " + std::to_string(a.triangle) + " out of range (" + std::to_string(mesh_->triangle_count()) +
+               " triangles)";
     return done(TraceKind::tracer_error);
   }
   if (std::isnan(a.t)) {
@@ -306,12 +311,15 @@ TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& tr
     return done(TraceKind::tracer_error);
   }
   std::optional<MeshContact> c;
-  if (const MeshContact* known = truth.contact_of(a.triangle)) c = *known;
-  else c = contact(r, a.triangle);
+  if (const MeshContact* known = truth.contact_of(a.triangle))
+    c = *known;
+  else
+    c = contact(r, a.triangle);
   if (!c) return done(TraceKind::false_hit);
   if (std::isnan(c->t)) return done(TraceKind::right);  // a degenerate triangle: optional
   if (!c->crossing) {
-    const bool before = truth.points.empty() || compare_t(r.ray, *c, *truth.contact_of(truth.points.front().triangles.front())) <= 0;
+    const bool before =
+        truth.points.empty() || compare_t(r.ray, *c, *truth.contact_of(truth.points.front().triangles.front())) <= 0;
     return done(before ? TraceKind::right : TraceKind::not_nearest);
   }
   if (req && compare_t(r.ray, *c, *truth.contact_of(req->triangles.front())) > 0) return done(TraceKind::not_nearest);
@@ -324,7 +332,8 @@ TraceJudgement MeshOracle::judge_all_hits(const TracerRay& r, const MeshTruth& t
   std::set<std::uint32_t> reported;
   for (std::uint32_t t : a.triangles) {
     if (t >= mesh_->triangle_count()) {
-      j.detail = "triangle " + std::to_string(t) + " out of range (" + std::to_string(mesh_->triangle_count()) + " triangles)";
+      j.detail =
+          "triangle " + std::to_string(t) + " out of range (" + std::to_string(mesh_->triangle_count()) + " triangles)";
       j.kind = TraceKind::tracer_error;
       return j;
     }
@@ -351,11 +360,16 @@ TraceJudgement MeshOracle::judge_all_hits(const TracerRay& r, const MeshTruth& t
   if (reported.empty() && truth.first_required()) hole = true;
   for (std::uint32_t t : reported)
     if (!truth.contact_of(t)) false_hit = true;
-  if (hole) j.kind = TraceKind::hole;
-  else if (false_hit) j.kind = TraceKind::false_hit;
-  else if (doubled) j.kind = TraceKind::double_hit;
-  else if (missed) j.kind = TraceKind::missed_in_any_hit;
-  else if (reported.empty() && truth.points.empty() && !truth.contacts.empty()) j.kind = TraceKind::in_plane;
+  if (hole)
+    j.kind = TraceKind::hole;
+  else if (false_hit)
+    j.kind = TraceKind::false_hit;
+  else if (doubled)
+    j.kind = TraceKind::double_hit;
+  else if (missed)
+    j.kind = TraceKind::missed_in_any_hit;
+  else if (reported.empty() && truth.points.empty() && !truth.contacts.empty())
+    j.kind = TraceKind::in_plane;
   return j;
 }
 

@@ -89,9 +89,13 @@ ParameterOf<NT> ratio_parameter(const NT& num, const NT& den) {
 // The driver below (decide_filtered, judge_with) layers the stages over any policy.
 struct NoSpecialCase {
   template <class Decision>
-  static bool special_case_needed(const Decision&) { return false; }
+  static bool special_case_needed(const Decision&) {
+    return false;
+  }
   template <class... Any>
-  static std::optional<Verdict> special_case(const Any&...) { return std::nullopt; }
+  static std::optional<Verdict> special_case(const Any&...) {
+    return std::nullopt;
+  }
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -226,8 +230,10 @@ struct TrianglePolicy {
       on_edge = on_edge || *se == 0;
     }
     const bool front = *sd < 0;
-    return Decision<Source>{on_edge ? HitClass::boundary : front ? HitClass::enter : HitClass::exit, front,
-                            Source::plane_crossing};
+    return Decision<Source>{on_edge ? HitClass::boundary
+                            : front ? HitClass::enter
+                                    : HitClass::exit,
+                            front, Source::plane_crossing};
   }
 
   template <class NT>
@@ -331,7 +337,8 @@ struct BoxPolicy : NoSpecialCase {
 
   // sign(a/da − b/db) for positive denominators.
   template <class NT>
-  [[gnu::always_inline]] static std::optional<int> compare_ratios(const NT& a, const NT& da, const NT& b, const NT& db) {
+  [[gnu::always_inline]] static std::optional<int> compare_ratios(const NT& a, const NT& da, const NT& b,
+                                                                  const NT& db) {
     return sign_of(NT(a * db - b * da));
   }
 
@@ -445,24 +452,6 @@ template <class NT>
   return sign_plus_root(r, t.s, NT(t.radicand * NT(4.0)));
 }
 
-// The neighbouring doubles of x, by the bits for positive finite x (the fast paths' case).
-[[gnu::always_inline]] inline double next_down(double x) {
-  if (!(x > 0) || std::isinf(x)) return std::nextafter(x, -INFINITY);
-  std::uint64_t bits;
-  std::memcpy(&bits, &x, sizeof bits);
-  --bits;
-  std::memcpy(&x, &bits, sizeof bits);
-  return x;
-}
-[[gnu::always_inline]] inline double next_up(double x) {
-  if (!(x > 0) || std::isinf(x)) return std::nextafter(x, INFINITY);
-  std::uint64_t bits;
-  std::memcpy(&bits, &x, sizeof bits);
-  ++bits;
-  std::memcpy(&x, &bits, sizeof bits);
-  return x;
-}
-
 double even_of(double a, double b) {
   std::uint64_t bits;
   std::memcpy(&bits, &a, sizeof bits);
@@ -485,11 +474,17 @@ std::optional<double> walk_to_nearest(const Parameter& t, double x, int max_step
     const double below = next_down(x), above = next_up(x);
     const auto low = twice_t_minus(t, below, x);
     if (!low) return std::nullopt;
-    if (*low < 0) { x = below; continue; }
+    if (*low < 0) {
+      x = below;
+      continue;
+    }
     if (*low == 0) return even_of(below, x);
     const auto high = twice_t_minus(t, x, above);
     if (!high) return std::nullopt;
-    if (*high > 0) { x = above; continue; }
+    if (*high > 0) {
+      x = above;
+      continue;
+    }
     if (*high == 0) return even_of(x, above);
     return x;
   }
@@ -608,8 +603,7 @@ double round_to_nearest(const ExactParameter& t, RoundingStats& stats) {
 namespace {
 Verdict apply_rule(Verdict v, HitRule rule) {
   // Enter-only keeps a contact only where the ray enters: an entry, or an edge hit from the front.
-  if (rule == HitRule::enter_only &&
-      !(v.cls == HitClass::enter || (v.cls == HitClass::boundary && v.front)))
+  if (rule == HitRule::enter_only && !(v.cls == HitClass::enter || (v.cls == HitClass::boundary && v.front)))
     return Verdict{};
   return v;
 }
@@ -625,9 +619,12 @@ Verdict judge_with(const Ray& ray, const typename P::ShapeType& shape, const Ora
   v.front = r.decision.front;
   if (!r.decision.source) return v;
   const auto source = *r.decision.source;
-  auto exact_parameter = [&] { return P::parameter(r.exact ? *r.exact : P::template terms<Exact>(ray, shape), source); };
+  auto exact_parameter = [&] {
+    return P::parameter(r.exact ? *r.exact : P::template terms<Exact>(ray, shape), source);
+  };
   std::optional<double> t;
-  if (options.filter && options.double_double) t = round_fast(P::parameter(P::template terms<FilteredDD>(ray, shape), source));
+  if (options.filter && options.double_double)
+    t = round_fast(P::parameter(P::template terms<FilteredDD>(ray, shape), source));
   if (!t && options.filter && options.expansions) {
     t = round_fast(P::parameter(r.expansion ? *r.expansion : P::template terms<Expansion>(ray, shape), source));
     if (t) ++stats.rounding.expansion;
@@ -659,11 +656,24 @@ HitClass classify_with(const Ray& ray, const typename P::ShapeType& shape, HitRu
   return cls;
 }
 
-template <class S> struct PolicyOf;
-template <> struct PolicyOf<Sphere> { using type = SpherePolicy; };
-template <> struct PolicyOf<Plane> { using type = PlanePolicy; };
-template <> struct PolicyOf<Triangle> { using type = TrianglePolicy; };
-template <> struct PolicyOf<Box> { using type = BoxPolicy; };
+template <class S>
+struct PolicyOf;
+template <>
+struct PolicyOf<Sphere> {
+  using type = SpherePolicy;
+};
+template <>
+struct PolicyOf<Plane> {
+  using type = PlanePolicy;
+};
+template <>
+struct PolicyOf<Triangle> {
+  using type = TrianglePolicy;
+};
+template <>
+struct PolicyOf<Box> {
+  using type = BoxPolicy;
+};
 
 }  // namespace
 
@@ -699,27 +709,35 @@ struct Scaler {
 
 std::optional<Normalized> normalized(const Ray& ray, const Shape& shape) {
   double pos = max_abs(ray.origin), normal = 0;
-  std::visit([&](const auto& s) {
-    using S = std::decay_t<decltype(s)>;
-    if constexpr (std::is_same_v<S, Sphere>) pos = std::max({pos, max_abs(s.center), std::abs(s.radius)});
-    if constexpr (std::is_same_v<S, Plane>) pos = std::max(pos, std::abs(s.offset) / max_abs(s.normal)), normal = max_abs(s.normal);
-    if constexpr (std::is_same_v<S, Triangle>) pos = std::max({pos, max_abs(s.v[0]), max_abs(s.v[1]), max_abs(s.v[2])});
-    if constexpr (std::is_same_v<S, Box>) pos = std::max({pos, max_abs(s.min), max_abs(s.max)});
-  }, shape);
+  std::visit(
+      [&](const auto& s) {
+        using S = std::decay_t<decltype(s)>;
+        if constexpr (std::is_same_v<S, Sphere>) pos = std::max({pos, max_abs(s.center), std::abs(s.radius)});
+        if constexpr (std::is_same_v<S, Plane>)
+          pos = std::max(pos, std::abs(s.offset) / max_abs(s.normal)), normal = max_abs(s.normal);
+        if constexpr (std::is_same_v<S, Triangle>)
+          pos = std::max({pos, max_abs(s.v[0]), max_abs(s.v[1]), max_abs(s.v[2])});
+        if constexpr (std::is_same_v<S, Box>) pos = std::max({pos, max_abs(s.min), max_abs(s.max)});
+      },
+      shape);
   const double dir = max_abs(ray.direction);
   auto comfortable = [](double x) { return x == 0 || (x >= 0x1p-60 && x <= 0x1p+60); };
-  if (!(pos >= DBL_MIN && dir >= DBL_MIN && pos <= DBL_MAX) || (comfortable(pos) && comfortable(dir) && comfortable(normal)))
+  if (!(pos >= DBL_MIN && dir >= DBL_MIN && pos <= DBL_MAX) ||
+      (comfortable(pos) && comfortable(dir) && comfortable(normal)))
     return std::nullopt;
   const int a = exponent_of(pos), b = exponent_of(dir), c = normal > 0 && normal >= DBL_MIN ? exponent_of(normal) : 0;
   Scaler scale;
   Normalized n{Ray{scale(ray.origin, a), scale(ray.direction, b)}, shape, a - b};
-  std::visit([&](const auto& s) {
-    using S = std::decay_t<decltype(s)>;
-    if constexpr (std::is_same_v<S, Sphere>) n.shape = Sphere{scale(s.center, a), scale(s.radius, a)};
-    if constexpr (std::is_same_v<S, Plane>) n.shape = Plane{scale(s.normal, c), scale(s.offset, a + c)};
-    if constexpr (std::is_same_v<S, Triangle>) n.shape = Triangle{{scale(s.v[0], a), scale(s.v[1], a), scale(s.v[2], a)}};
-    if constexpr (std::is_same_v<S, Box>) n.shape = Box{scale(s.min, a), scale(s.max, a)};
-  }, shape);
+  std::visit(
+      [&](const auto& s) {
+        using S = std::decay_t<decltype(s)>;
+        if constexpr (std::is_same_v<S, Sphere>) n.shape = Sphere{scale(s.center, a), scale(s.radius, a)};
+        if constexpr (std::is_same_v<S, Plane>) n.shape = Plane{scale(s.normal, c), scale(s.offset, a + c)};
+        if constexpr (std::is_same_v<S, Triangle>)
+          n.shape = Triangle{{scale(s.v[0], a), scale(s.v[1], a), scale(s.v[2], a)}};
+        if constexpr (std::is_same_v<S, Box>) n.shape = Box{scale(s.min, a), scale(s.max, a)};
+      },
+      shape);
   if (!scale.exact) return std::nullopt;
   return n;
 }
@@ -755,7 +773,9 @@ Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
 Verdict Oracle::judge_as_given(const Ray& ray, const Shape& shape) {
   OracleStats& stats = stats_[shape.index()];
   return std::visit(
-      [&](const auto& s) { return judge_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(ray, s, options_, stats); },
+      [&](const auto& s) {
+        return judge_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(ray, s, options_, stats);
+      },
       shape);
 }
 
@@ -778,7 +798,8 @@ int compare_crossing_parameters(const Ray& ray, const Triangle& a, const Triangl
     if (!sa || !sb || !s) return std::nullopt;
     return *s * *sa * *sb;
   };
-  if (const auto r = decide(TrianglePolicy::terms<Expansion>(ray, a), TrianglePolicy::terms<Expansion>(ray, b))) return *r;
+  if (const auto r = decide(TrianglePolicy::terms<Expansion>(ray, a), TrianglePolicy::terms<Expansion>(ray, b)))
+    return *r;
   return *decide(TrianglePolicy::terms<Exact>(ray, a), TrianglePolicy::terms<Exact>(ray, b));
 }
 
@@ -796,17 +817,48 @@ TriangleSides triangle_sides(const Ray& ray, const Triangle& tri) {
   return out;
 }
 
+namespace {
+// Every counter of OracleStats with its JSON name: merge and to_json walk this one list.
+struct StatsCounter {
+  const char* key;
+  std::uint64_t OracleStats::*member;             // a counter of the class decision ...
+  std::uint64_t RoundingStats::*rounding_member;  // ... or of the rounding of t
+  std::uint64_t& of(OracleStats& s) const { return member ? s.*member : s.rounding.*rounding_member; }
+  std::uint64_t of(const OracleStats& s) const { return member ? s.*member : s.rounding.*rounding_member; }
+};
+constexpr StatsCounter kStatsCounters[] = {
+    {"queries", &OracleStats::queries, nullptr},
+    {"class_interval", &OracleStats::class_interval, nullptr},
+    {"class_expansion", &OracleStats::class_expansion, nullptr},
+    {"class_exact", &OracleStats::class_exact, nullptr},
+    {"t_rounded", nullptr, &RoundingStats::rounded},
+    {"t_expansion", nullptr, &RoundingStats::expansion},
+    {"t_rational", nullptr, &RoundingStats::rational},
+    {"t_exact_fallbacks", nullptr, &RoundingStats::exact_fallbacks},
+};
+}  // namespace
+
+void OracleStats::merge(const OracleStats& o) {
+  for (const StatsCounter& c : kStatsCounters) c.of(*this) += c.of(o);
+}
+
 void Oracle::merge_stats(const Oracle& other) {
-  for (size_t i = 0; i < stats_.size(); ++i) {
-    stats_[i].queries += other.stats_[i].queries;
-    stats_[i].class_interval += other.stats_[i].class_interval;
-    stats_[i].class_expansion += other.stats_[i].class_expansion;
-    stats_[i].rounding.expansion += other.stats_[i].rounding.expansion;
-    stats_[i].class_exact += other.stats_[i].class_exact;
-    stats_[i].rounding.rational += other.stats_[i].rounding.rational;
-    stats_[i].rounding.rounded += other.stats_[i].rounding.rounded;
-    stats_[i].rounding.exact_fallbacks += other.stats_[i].rounding.exact_fallbacks;
-  }
+  for (size_t i = 0; i < stats_.size(); ++i) stats_[i].merge(other.stats_[i]);
+}
+
+json OracleStats::to_json() const {
+  json j = json::object();
+  for (const StatsCounter& c : kStatsCounters) j[c.key] = c.of(*this);
+  return j;
+}
+
+std::string OracleStats::describe() const {
+  const std::uint64_t beyond_static = class_interval + class_expansion + class_exact;
+  return std::to_string(queries) + " queries; class beyond the static filter " + std::to_string(beyond_static) +
+         " (intervals " + std::to_string(class_interval) + ", expansions " + std::to_string(class_expansion) +
+         ", rationals " + std::to_string(class_exact) + "); t rounded " + std::to_string(rounding.rounded) +
+         " (expansions " + std::to_string(rounding.expansion) + ", rationals " + std::to_string(rounding.rational) +
+         ", exact midpoint test " + std::to_string(rounding.exact_fallbacks) + ")";
 }
 
 }  // namespace rayproof

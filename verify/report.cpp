@@ -23,6 +23,19 @@ json bits_json(const UlpHistogram& ulps) {
           {"max", round1(bits_of_error(ulps.max()))}};
 }
 
+json check_summary_json(ShapeKind shape, const Tally& t) {
+  json j = t.to_json();
+  j.erase("shared_edge_holes");  // not in check's summary (one case is no pair)
+  j.erase("ulp");
+  j["shape"] = std::string(to_string(shape));
+  j["ulp"] = {{"count", t.ulps.count()},
+              {"median", t.ulps.quantile(0.5)},
+              {"p99", t.ulps.quantile(0.99)},
+              {"max", t.ulps.max()}};
+  j["bits"] = bits_json(t);
+  return j;
+}
+
 std::string disagreement_kinds(const Tally& t, size_t top) {
   std::vector<std::pair<std::uint64_t, std::string>> kinds;
   for (const auto& [kind, n] : t.confusion) kinds.push_back({n, kind});
@@ -57,8 +70,8 @@ std::string notes_of(const Tally& t) {
   add(t.plugin_errors, "plugin errors");
   add(t.not_representable, "not representable in float");
   if (t.ulps_own.count() > 0)
-    notes = (notes == "-" ? "" : notes + "; ") + "float ulps p99 " + std::to_string(t.ulps_own.quantile(0.99)) + ", max " +
-            std::to_string(t.ulps_own.max());
+    notes = (notes == "-" ? "" : notes + "; ") + "float ulps p99 " + std::to_string(t.ulps_own.quantile(0.99)) +
+            ", max " + std::to_string(t.ulps_own.max());
   return notes;
 }
 
@@ -67,9 +80,9 @@ std::vector<std::string> cells_of(const TallyRow& r) {
   std::vector<std::string> c;
   if (!r.family.empty()) c.push_back(r.family);
   for (const std::string& x :
-       {r.variant, std::string(to_string(r.shape)), std::to_string(t.cases), std::to_string(t.agree), std::to_string(t.wrong),
-        std::to_string(t.cannot_tell), std::to_string(t.shared_edge_holes), bits_cell(t, 0.5), bits_cell(t, 0.99),
-        bits_cell(t, 1.0), notes_of(t)})
+       {r.variant, std::string(to_string(r.shape)), std::to_string(t.cases), std::to_string(t.agree),
+        std::to_string(t.wrong), std::to_string(t.cannot_tell), std::to_string(t.shared_edge_holes), bits_cell(t, 0.5),
+        bits_cell(t, 0.99), bits_cell(t, 1.0), notes_of(t)})
     c.push_back(x);
   return c;
 }
@@ -84,13 +97,13 @@ void write_text(const std::vector<std::vector<std::string>>& lines, bool markdow
     for (size_t i = 0; i < lines[n].size(); ++i) {
       const bool last = i + 1 == lines[n].size(), left = i < text_columns || last;
       const std::string pad(last && !markdown ? 0 : width[i] - lines[n][i].size(), ' ');
-      row += (markdown ? " " : (i ? "  " : "")) + (left ? lines[n][i] + pad : pad + lines[n][i]) + (markdown ? " |" : "");
+      row +=
+          (markdown ? " " : (i ? "  " : "")) + (left ? lines[n][i] + pad : pad + lines[n][i]) + (markdown ? " |" : "");
     }
     out << row << "\n";
     if (markdown && n == 0) {
       out << "|";
-      for (size_t i = 0; i < width.size(); ++i)
-        out << (i < text_columns || i + 1 == width.size() ? "---|" : "---:|");
+      for (size_t i = 0; i < width.size(); ++i) out << (i < text_columns || i + 1 == width.size() ? "---|" : "---:|");
       out << "\n";
     }
   }
@@ -113,8 +126,10 @@ void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostr
     for (const TallyRow& r : rows) {
       json row = r.tally.to_json();
       row.erase("ulp");
-      row["ulp"] = {{"count", r.tally.ulps.count()}, {"p50", r.tally.ulps.quantile(0.5)},
-                    {"p99", r.tally.ulps.quantile(0.99)}, {"max", r.tally.ulps.max()}};
+      row["ulp"] = {{"count", r.tally.ulps.count()},
+                    {"p50", r.tally.ulps.quantile(0.5)},
+                    {"p99", r.tally.ulps.quantile(0.99)},
+                    {"max", r.tally.ulps.max()}};
       if (!r.family.empty()) row["family"] = r.family;
       row["variant"] = r.variant;
       row["shape"] = std::string(to_string(r.shape));
@@ -125,13 +140,23 @@ void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostr
   }
   const bool with_family = !rows.empty() && !rows[0].family.empty();
   std::vector<std::vector<std::string>> lines;
-  std::vector<std::string> header = {"variant", "shape", "cases", "agree", "wrong", "cannot-tell", "holes",
-                                     "bits-p50", "bits-p99", "bits-max", "commonest disagreements (exact->variant)"};
+  std::vector<std::string> header = {"variant",
+                                     "shape",
+                                     "cases",
+                                     "agree",
+                                     "wrong",
+                                     "cannot-tell",
+                                     "holes",
+                                     "bits-p50",
+                                     "bits-p99",
+                                     "bits-max",
+                                     "commonest disagreements (exact->variant)"};
   if (with_family) header.insert(header.begin(), "family");
   lines.push_back(header);
   for (const TallyRow& r : rows) lines.push_back(cells_of(r));
   write_text(lines, format == TableFormat::markdown, out);
-  const std::string legend = "t error in bits, log2(ulps + 1), over the cases whose class agrees (0: correctly rounded)";
+  const std::string legend =
+      "t error in bits, log2(ulps + 1), over the cases whose class agrees (0: correctly rounded)";
   out << (format == TableFormat::markdown ? "\n" + legend + ".\n" : legend + "\n");
 }
 

@@ -63,7 +63,8 @@ UlpHistogram UlpHistogram::from_json(const json& j) {
     if (n > h.count_ - std::min(h.count_, total)) throw FieldError("buckets", "hold more than count");
     h.buckets_[b] = n, total += n;
   }
-  if (total != h.count_) throw FieldError("count", std::to_string(h.count_) + " but the buckets hold " + std::to_string(total));
+  if (total != h.count_)
+    throw FieldError("count", std::to_string(h.count_) + " but the buckets hold " + std::to_string(total));
   if (h.count_ > 0 && bucket(h.max_) != h.buckets_.rbegin()->first)
     throw FieldError("max", std::to_string(h.max_) + " is not in the highest bucket");
   return h;
@@ -109,36 +110,51 @@ Agreement Tally::add_answer(const Verdict& exact, const Hit& h) {
   return a;
 }
 
+namespace {
+// Every count of a Tally with its JSON name, the one list merge, to_json and from_json walk. The
+// failures of external code are written only where they happened (and read as 0 where absent).
+struct TallyCount {
+  const char* key;
+  std::uint64_t Tally::*member;
+  bool written_when_zero;
+};
+constexpr TallyCount kTallyCounts[] = {
+    {"cases", &Tally::cases, true},
+    {"agree", &Tally::agree, true},
+    {"wrong", &Tally::wrong, true},
+    {"cannot_tell", &Tally::cannot_tell, true},
+    {"shared_edge_holes", &Tally::shared_edge_holes, true},
+    {"crashes", &Tally::crashes, false},
+    {"timeouts", &Tally::timeouts, false},
+    {"protocol_errors", &Tally::protocol_errors, false},
+    {"plugin_errors", &Tally::plugin_errors, false},
+    {"not_representable", &Tally::not_representable, false},
+};
+}  // namespace
+
 void Tally::merge(const Tally& o) {
-  cases += o.cases, agree += o.agree, wrong += o.wrong, cannot_tell += o.cannot_tell;
-  shared_edge_holes += o.shared_edge_holes, crashes += o.crashes, timeouts += o.timeouts;
-  protocol_errors += o.protocol_errors, plugin_errors += o.plugin_errors, not_representable += o.not_representable;
+  for (const TallyCount& c : kTallyCounts) this->*c.member += o.*c.member;
   for (const auto& [k, n] : o.confusion) confusion[k] += n;
   ulps.merge(o.ulps);
   ulps_own.merge(o.ulps_own);
 }
 
 json Tally::to_json() const {
-  json j = {{"cases", cases}, {"agree", agree}, {"wrong", wrong}, {"cannot_tell", cannot_tell},
-            {"shared_edge_holes", shared_edge_holes}, {"disagreements", confusion}, {"ulp", ulps.to_json()}};
-  for (const auto& [key, n] : {std::pair{"crashes", crashes}, {"timeouts", timeouts}, {"protocol_errors", protocol_errors},
-                               {"plugin_errors", plugin_errors}, {"not_representable", not_representable}})
-    if (n > 0) j[key] = n;
+  json j = {{"disagreements", confusion}, {"ulp", ulps.to_json()}};
+  for (const TallyCount& c : kTallyCounts)
+    if (c.written_when_zero || this->*c.member > 0) j[c.key] = this->*c.member;
   if (ulps_own.count() > 0) j["ulp_own"] = ulps_own.to_json();
   return j;
 }
 
 Tally Tally::from_json(const json& j) {
   Tally t;
-  auto count = [&](const char* key) { return read_count(j.at(key), key); };
-  auto optional = [&](const char* key) { return j.contains(key) ? read_count(j.at(key), key) : 0; };
-  t.cases = count("cases"), t.agree = count("agree"), t.wrong = count("wrong"), t.cannot_tell = count("cannot_tell");
-  t.shared_edge_holes = count("shared_edge_holes");
-  t.crashes = optional("crashes"), t.timeouts = optional("timeouts"), t.protocol_errors = optional("protocol_errors");
-  t.plugin_errors = optional("plugin_errors"), t.not_representable = optional("not_representable");
+  for (const TallyCount& c : kTallyCounts)
+    t.*c.member = c.written_when_zero || j.contains(c.key) ? read_count(j.at(c.key), c.key) : 0;
   if (t.agree > t.cases || t.wrong > t.cases - t.agree || t.cannot_tell != t.cases - t.agree - t.wrong)
     throw FieldError("cases", "agree + wrong + cannot_tell must equal cases (" + std::to_string(t.agree) + " + " +
-                                  std::to_string(t.wrong) + " + " + std::to_string(t.cannot_tell) + " vs " + std::to_string(t.cases) + ")");
+                                  std::to_string(t.wrong) + " + " + std::to_string(t.cannot_tell) + " vs " +
+                                  std::to_string(t.cases) + ")");
   std::uint64_t disagreements = 0;
   for (auto it = j.at("disagreements").begin(); it != j.at("disagreements").end(); ++it) {
     const std::uint64_t n = read_count(it.value(), "disagreements." + printable_prefix(it.key(), 40));
@@ -154,15 +170,17 @@ Tally Tally::from_json(const json& j) {
   } catch (const FieldError& e) {
     throw FieldError("ulp." + e.field, e.what());
   }
-  if (t.ulps.count() > t.agree || t.ulps_own.count() > t.agree) throw FieldError("ulp.count", "more t errors than agreeing cases");
+  if (t.ulps.count() > t.agree || t.ulps_own.count() > t.agree)
+    throw FieldError("ulp.count", "more t errors than agreeing cases");
   return t;
 }
 
 // ------------------------------------------------------------------------------- TracerTally
 namespace {
 // The spec's count fields, in its order; each is written even when zero.
-constexpr const char* kTracerKinds[] = {"right", "hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit",
-                                        "in_plane", "unsupported", "tracer_errors", "crash", "timeout"};
+constexpr const char* kTracerKinds[] = {
+    "right",    "hole",        "false_hit",     "not_nearest", "double_hit", "missed_in_any_hit",
+    "in_plane", "unsupported", "tracer_errors", "crash",       "timeout"};
 std::string kind_key(std::string_view kind) { return kind == "tracer_error" ? "tracer_errors" : std::string(kind); }
 }  // namespace
 
@@ -178,7 +196,8 @@ void TracerTally::add(std::string_view kind) {
 
 std::uint64_t TracerTally::disagreements() const {
   std::uint64_t n = 0;
-  for (const char* k : {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit", "tracer_errors", "crash", "timeout"})
+  for (const char* k :
+       {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit", "tracer_errors", "crash", "timeout"})
     n += count(k);
   return n;
 }
@@ -217,7 +236,8 @@ TracerTally TracerTally::from_json(const json& j) {
     if (n > 0) t.kinds[k] = n;
     total += n;
   }
-  if (total != t.cases) throw FieldError("cases", std::to_string(t.cases) + " but the kinds count " + std::to_string(total));
+  if (total != t.cases)
+    throw FieldError("cases", std::to_string(t.cases) + " but the kinds count " + std::to_string(total));
   t.edge_rays = read_count(j.at("edge_rays"), "edge_rays");
   t.edge_holes = read_count(j.at("edge_holes"), "edge_holes");
   t.edge_double_hits = read_count(j.at("edge_double_hits"), "edge_double_hits");
@@ -228,7 +248,8 @@ TracerTally TracerTally::from_json(const json& j) {
   } catch (const FieldError& e) {
     throw FieldError("ulp." + e.field, e.what());
   }
-  if (!j.at("seconds").is_number() || !(j.at("seconds").get<double>() >= 0)) throw FieldError("seconds", "expected a number >= 0");
+  if (!j.at("seconds").is_number() || !(j.at("seconds").get<double>() >= 0))
+    throw FieldError("seconds", "expected a number >= 0");
   t.seconds = j.at("seconds").get<double>();
   t.timed_rays = read_count(j.at("timed_rays"), "timed_rays");
   return t;

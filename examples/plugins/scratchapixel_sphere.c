@@ -18,7 +18,11 @@ static int scratchapixel_sphere(const double ray[6], const double s[], double* t
   if (d2 > radius2) return RAYPROOF_MISS;
   const double thc = sqrt(radius2 - d2);
   double t0 = tca - thc, t1 = tca + thc;
-  if (t0 > t1) { const double x = t0; t0 = t1; t1 = x; }
+  if (t0 > t1) {
+    const double x = t0;
+    t0 = t1;
+    t1 = x;
+  }
   if (t0 < 0) {
     t0 = t1; /* if t0 is negative, use t1 instead */
     if (t0 < 0) return RAYPROOF_MISS;

@@ -39,8 +39,8 @@ static int wikipedia_mt(const float ray[6], const float v[], float* t) {
 }
 
 static const struct rayproof_variant variants[] = {
-    {"wikipedia-mt", "triangle", "nearest", "Wikipedia, Moller-Trumbore intersection algorithm (float, EPSILON 1e-7)", 0,
-     wikipedia_mt},
+    {"wikipedia-mt", "triangle", "nearest", "Wikipedia, Moller-Trumbore intersection algorithm (float, EPSILON 1e-7)",
+     0, wikipedia_mt},
 };
 
 const struct rayproof_variant* rayproof_plugin(int abi, int* count) {

@@ -26,14 +26,17 @@
 
 #include "rayproof/tracer.h"
 
-typedef struct { float lo[3], hi[3]; int left, count, first; } Node; /* leaf: count > 0 */
 typedef struct {
-  float* v;          /* 9 floats per triangle, in the order of `ids` */
-  uint32_t* ids;     /* the mesh's triangle index of each */
+  float lo[3], hi[3];
+  int left, count, first;
+} Node; /* leaf: count > 0 */
+typedef struct {
+  float* v;      /* 9 floats per triangle, in the order of `ids` */
+  uint32_t* ids; /* the mesh's triangle index of each */
   Node* nodes;
   int node_count;
-  int slab_kind;     /* which slab test (which tracer): 0 1e30, 1 fminf NaN, 2 careful */
-  int top_left;      /* triangle test: 0 Möller–Trumbore, 1 watertight with a top-left rule */
+  int slab_kind; /* which slab test (which tracer): 0 1e30, 1 fminf NaN, 2 careful */
+  int top_left;  /* triangle test: 0 Möller–Trumbore, 1 watertight with a top-left rule */
 } Scene;
 
 static void grow(float lo[3], float hi[3], const float* p) {
@@ -108,14 +111,18 @@ static void release(void* scene) {
   free(s->v), free(s->ids), free(s->nodes), free(s);
 }
 
-typedef struct { float o[3], d[3], inv[3], tmin, tmax; } FRay;
+typedef struct {
+  float o[3], d[3], inv[3], tmin, tmax;
+} FRay;
 
 static FRay make_ray(const struct rayproof_ray* r, int slab_kind) {
   FRay f;
   for (int k = 0; k < 3; ++k) {
     f.o[k] = (float)r->origin[k], f.d[k] = (float)r->direction[k];
-    if (slab_kind != 0) f.inv[k] = 1.0f / f.d[k];
-    else f.inv[k] = f.d[k] != 0 ? 1.0f / f.d[k] : 1e30f; /* "avoid the division by zero" */
+    if (slab_kind != 0)
+      f.inv[k] = 1.0f / f.d[k];
+    else
+      f.inv[k] = f.d[k] != 0 ? 1.0f / f.d[k] : 1e30f; /* "avoid the division by zero" */
   }
   f.tmin = (float)r->tmin, f.tmax = (float)r->tmax;
   return f;
@@ -141,7 +148,8 @@ static int slab(const FRay* r, const Node* n, float tfar_limit, int slab_kind) {
 /* Möller–Trumbore, Wikipedia's form; inclusive edges. */
 static int triangle(const FRay* r, const float* v, float* t) {
   const float e1[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]}, e2[3] = {v[6] - v[0], v[7] - v[1], v[8] - v[2]};
-  const float h[3] = {r->d[1] * e2[2] - r->d[2] * e2[1], r->d[2] * e2[0] - r->d[0] * e2[2], r->d[0] * e2[1] - r->d[1] * e2[0]};
+  const float h[3] = {r->d[1] * e2[2] - r->d[2] * e2[1], r->d[2] * e2[0] - r->d[0] * e2[2],
+                      r->d[0] * e2[1] - r->d[1] * e2[0]};
   const float det = e1[0] * h[0] + e1[1] * h[1] + e1[2] * h[2];
   if (det > -1e-7f && det < 1e-7f) return 0;
   const float f = 1.0f / det;
@@ -163,7 +171,11 @@ static int triangle_top_left(const FRay* r, const float* v, float* t) {
   if (fabsf(r->d[1]) > fabsf(r->d[kz])) kz = 1;
   if (fabsf(r->d[2]) > fabsf(r->d[kz])) kz = 2;
   int kx = (kz + 1) % 3, ky = (kx + 1) % 3;
-  if (r->d[kz] < 0) { const int k = kx; kx = ky; ky = k; }
+  if (r->d[kz] < 0) {
+    const int k = kx;
+    kx = ky;
+    ky = k;
+  }
   const float sx = r->d[kx] / r->d[kz], sy = r->d[ky] / r->d[kz], sz = 1.0f / r->d[kz];
   float p[3][3];
   for (int j = 0; j < 3; ++j)
@@ -188,7 +200,8 @@ static int triangle_top_left(const FRay* r, const float* v, float* t) {
 }
 
 /* Visits the nodes the slab test accepts; `all` collects every hit, else keeps the nearest. */
-static size_t trace(const Scene* s, const FRay* r, int all, uint32_t* out, size_t capacity, struct rayproof_trace* best) {
+static size_t trace(const Scene* s, const FRay* r, int all, uint32_t* out, size_t capacity,
+                    struct rayproof_trace* best) {
   int stack[128], top = 0;
   size_t found = 0;
   float nearest = r->tmax;
@@ -232,14 +245,14 @@ static size_t all_hits(void* scene, const struct rayproof_ray* ray, uint32_t* tr
 }
 
 static const struct rayproof_tracer kTracers[] = {
-    {"naive-float-bvh", "float", "example: tutorial float BVH, 1/0 -> 1e30, |det| < 1e-7, inclusive MT",
-     build_1e30, nearest, all_hits, release},
+    {"naive-float-bvh", "float", "example: tutorial float BVH, 1/0 -> 1e30, |det| < 1e-7, inclusive MT", build_1e30,
+     nearest, all_hits, release},
     {"naive-float-bvh-nan", "float", "example: tutorial float BVH, fminf/fmaxf slab with 0*inf = NaN, inclusive MT",
      build_nan, nearest, all_hits, release},
     {"float-bvh-careful-slab", "float", "example: the same float BVH with a slab test that survives 1/0 (the control)",
      build_careful, nearest, all_hits, release},
-    {"float-bvh-top-left", "float", "example: careful slab + float watertight with a top-left tie rule",
-     build_top_left, nearest, all_hits, release},
+    {"float-bvh-top-left", "float", "example: careful slab + float watertight with a top-left tie rule", build_top_left,
+     nearest, all_hits, release},
     {"float-bvh-top-left-1e30", "float", "example: float watertight with a top-left tie rule, 1/0 -> 1e30 slab",
      build_top_left_1e30, nearest, all_hits, release},
 };

@@ -22,8 +22,7 @@ void expect_only_reader_errors(Read read) {
     read();
   } catch (const rayproof::FieldError&) {
   } catch (const nlohmann::json::exception&) {
-  } catch (const std::runtime_error&) {
-  }
+  } catch (const std::runtime_error&) {}
 }
 }  // namespace
 

@@ -16,7 +16,7 @@ enum rayproof_answer {
   RAYPROOF_EXIT = 2,
   RAYPROOF_TANGENT = 3,
   RAYPROOF_BOUNDARY = 4,
-  RAYPROOF_HIT = 5  /* a contact whose kind the code does not say (bool + t code) */
+  RAYPROOF_HIT = 5 /* a contact whose kind the code does not say (bool + t code) */
 };
 
 /* ray = origin[3], direction[3]. shape = the numbers of cases.md in order:

@@ -15,7 +15,7 @@ extern "C" {
 
 /* A triangle mesh. Triangle i has vertices indices[3i], indices[3i+1], indices[3i+2]. */
 struct rayproof_mesh {
-  const double* vertices;   /* x, y, z of each vertex */
+  const double* vertices; /* x, y, z of each vertex */
   uint32_t vertex_count;
   const uint32_t* indices;
   uint32_t triangle_count;
@@ -34,18 +34,16 @@ struct rayproof_trace {
 };
 
 struct rayproof_tracer {
-  const char* name;       /* [a-z0-9-]+, unique among the tracers and variants in use */
-  const char* precision;  /* "double" or "float" */
-  const char* source;     /* one line: the project, paper or code it comes from */
+  const char* name;      /* [a-z0-9-]+, unique among the tracers and variants in use */
+  const char* precision; /* "double" or "float" */
+  const char* source;    /* one line: the project, paper or code it comes from */
   /* Builds the tracer's structure over a mesh; NULL if it cannot (reported, not fatal). */
   void* (*build)(const struct rayproof_mesh* mesh);
   /* Nearest hit of each of count rays. */
-  void (*nearest)(void* scene, const struct rayproof_ray* rays, size_t count,
-                  struct rayproof_trace* out);
+  void (*nearest)(void* scene, const struct rayproof_ray* rays, size_t count, struct rayproof_trace* out);
   /* Optional (may be NULL): every triangle the ray hits, as the tracer's any-hit traversal
      would report them; returns how many, writing at most capacity of them. */
-  size_t (*all_hits)(void* scene, const struct rayproof_ray* ray, uint32_t* triangles,
-                     size_t capacity);
+  size_t (*all_hits)(void* scene, const struct rayproof_ray* ray, uint32_t* triangles, size_t capacity);
   void (*release)(void* scene);
 };
 

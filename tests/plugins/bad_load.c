@@ -9,8 +9,14 @@
 
 #include "rayproof/plugin.h"
 
-static int answer(const double r[6], const double s[], double* t) { (void)r, (void)s, (void)t; return 0; }
-static int answer_f(const float r[6], const float s[], float* t) { (void)r, (void)s, (void)t; return 0; }
+static int answer(const double r[6], const double s[], double* t) {
+  (void)r, (void)s, (void)t;
+  return 0;
+}
+static int answer_f(const float r[6], const float s[], float* t) {
+  (void)r, (void)s, (void)t;
+  return 0;
+}
 
 #if defined(FORKING)
 /* A correct enough sphere answer (miss or enter at the near root), computed after a fork(). */
@@ -35,7 +41,8 @@ static const struct rayproof_variant v[] = {{"stable", "sphere", "nearest", "", 
 #elif defined(BAD_NAME)
 static const struct rayproof_variant v[] = {{"Bad Name", "sphere", "nearest", "", answer, 0}};
 #elif defined(ESC_SOURCE)
-static const struct rayproof_variant v[] = {{"esc-source", "sphere", "nearest", "\x1b[2J\x1b]0;owned\x07line\nbreak", answer, 0}};
+static const struct rayproof_variant v[] = {
+    {"esc-source", "sphere", "nearest", "\x1b[2J\x1b]0;owned\x07line\nbreak", answer, 0}};
 #else
 static struct rayproof_variant v[] = {{"other-abi", "sphere", "nearest", "", answer, 0}};
 #endif

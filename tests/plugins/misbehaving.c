@@ -26,7 +26,8 @@ static int sphere_hit(const double r[6], const double s[], double* t) {
 static int crashing(const double r[6], const double s[], double* t) {
   if (s[3] == 13) *(volatile int*)0 = 1;
   if (s[3] == 17) abort();
-  if (s[3] == 19) for (;;) pause();
+  if (s[3] == 19)
+    for (;;) pause();
   if (s[3] == 23) { /* closes the worker's response pipe (descriptor 101) and runs on */
     close(101);
     for (;;) pause();
@@ -79,7 +80,8 @@ static int sphere_float(const float r[6], const float s[], float* t) {
 }
 
 static const struct rayproof_variant variants[] = {
-    {"test-crashing", "sphere", "nearest", "tests: crashes on radius 13 and 17, hangs on 19, closes its pipe and hangs on 23", crashing, 0},
+    {"test-crashing", "sphere", "nearest",
+     "tests: crashes on radius 13 and 17, hangs on 19, closes its pipe and hangs on 23", crashing, 0},
     {"test-garbage", "sphere", "nearest", "tests: plugin errors on radius 3, 5, 7", garbage, 0},
     {"test-float", "sphere", "nearest", "tests: the textbook quadratic in float", 0, sphere_float},
     {"test-crash-often", "sphere", "nearest", "tests: segfaults when origin.x > 0.5", crash_often, 0},

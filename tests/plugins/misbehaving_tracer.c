@@ -8,9 +8,19 @@
 #include "rayproof/tracer.h"
 
 static int scene_token;
-static void* build_ok(const struct rayproof_mesh* mesh) { (void)mesh; return &scene_token; }
-static void* build_crash(const struct rayproof_mesh* mesh) { (void)mesh; raise(SIGSEGV); return NULL; }
-static void* build_null(const struct rayproof_mesh* mesh) { (void)mesh; return NULL; }
+static void* build_ok(const struct rayproof_mesh* mesh) {
+  (void)mesh;
+  return &scene_token;
+}
+static void* build_crash(const struct rayproof_mesh* mesh) {
+  (void)mesh;
+  raise(SIGSEGV);
+  return NULL;
+}
+static void* build_null(const struct rayproof_mesh* mesh) {
+  (void)mesh;
+  return NULL;
+}
 static void release(void* scene) { (void)scene; }
 
 /* Every ray: triangle 0 with t = NaN. */

@@ -25,11 +25,11 @@ struct AuditOptions {
   std::string families = "all";  // comma separated: random, tangent, grazing, near-origin, exit-entry, extremes
   std::uint64_t count = 10000;   // cases per family
   std::uint64_t seed = 1;
-  HitRule rule = HitRule::nearest_contact;       // the contact your function reports
-  Precision precision = Precision::f64;          // f32: your function is given float-rounded cases
-  std::size_t keep = 5;                          // disagreements kept (shrunk) in the report
-  std::string name = "yours";                    // how the report names your function
-  std::string shape;                             // for a function of `const Shape&`: which shape to generate
+  HitRule rule = HitRule::nearest_contact;  // the contact your function reports
+  Precision precision = Precision::f64;     // f32: your function is given float-rounded cases
+  std::size_t keep = 5;                     // disagreements kept (shrunk) in the report
+  std::string name = "yours";               // how the report names your function
+  std::string shape;                        // for a function of `const Shape&`: which shape to generate
 };
 
 struct AuditReport {
@@ -56,7 +56,9 @@ template <class F>
 std::pair<ShapeKind, UserIntersector> erase(F fn, const std::string& shape_option) {
   if constexpr (takes<F, Shape>) {
     const auto k = shape_kind_from_string(shape_option);
-    if (!k) throw std::invalid_argument("rayproof::audit: a function of const Shape& needs options.shape (sphere, plane, triangle or box)");
+    if (!k)
+      throw std::invalid_argument(
+          "rayproof::audit: a function of const Shape& needs options.shape (sphere, plane, triangle or box)");
     return {*k, [fn](const Ray& r, const Shape& s) { return fn(r, s); }};
   } else if constexpr (takes<F, Sphere>) {
     return {ShapeKind::sphere, [fn](const Ray& r, const Shape& s) { return fn(r, std::get<Sphere>(s)); }};
@@ -65,7 +67,8 @@ std::pair<ShapeKind, UserIntersector> erase(F fn, const std::string& shape_optio
   } else if constexpr (takes<F, Triangle>) {
     return {ShapeKind::triangle, [fn](const Ray& r, const Shape& s) { return fn(r, std::get<Triangle>(s)); }};
   } else {
-    static_assert(takes<F, Box>, "rayproof::audit takes a callable Hit(const Ray&, const Sphere|Plane|Triangle|Box|Shape&)");
+    static_assert(takes<F, Box>,
+                  "rayproof::audit takes a callable Hit(const Ray&, const Sphere|Plane|Triangle|Box|Shape&)");
     return {ShapeKind::box, [fn](const Ray& r, const Shape& s) { return fn(r, std::get<Box>(s)); }};
   }
 }

@@ -31,7 +31,7 @@ struct CampaignOptions {
   unsigned shard = 0, shards = 1;
   int threads = 1;
   HitRule rule = HitRule::nearest_contact;
-  std::string output;           // findings, JSON Lines; a checkpoint goes to output + ".checkpoint"
+  std::string output;  // findings, JSON Lines; a checkpoint goes to output + ".checkpoint"
   bool resume = false;
   bool keep_checkpoint = false;  // a completed campaign removes its checkpoint unless asked to keep it
   bool shrink = true;
@@ -58,13 +58,13 @@ struct ReportKey {
 };
 
 struct CampaignReport {
-  std::map<ReportKey, Tally> tallies;             // family × variant
-  std::map<ReportKey, double> seconds;            // family × shape: generating and judging
-  std::map<ReportKey, double> shrink_seconds;     // family × shape: shrinking and writing findings
-  std::map<ReportKey, std::uint64_t> cases;       // family × shape
+  std::map<ReportKey, Tally> tallies;          // family × variant
+  std::map<ReportKey, double> seconds;         // family × shape: generating and judging
+  std::map<ReportKey, double> shrink_seconds;  // family × shape: shrinking and writing findings
+  std::map<ReportKey, std::uint64_t> cases;    // family × shape
   std::uint64_t findings_written = 0;
   std::uint64_t findings_unshrunk = 0;  // written as found: beyond max_shrunk, or code that stopped
-  ShardOf shard_of;  // the campaign and the share of it this report holds
+  ShardOf shard_of;                     // the campaign and the share of it this report holds
   // Per variant: {"found": {"exact->reported": {family: count}}, "never_found": [kinds]}, the
   // kinds of disagreement each family finds, and those none found.
   json coverage() const;

@@ -1,8 +1,8 @@
 // Deterministic, seeded families of cases for every shape. The interesting geometry (a
 // tangent, an edge, a point on a surface) is built in one of two constructions (below): exactly,
 // from small integers and dyadic fractions nudged by a chosen number of ULPs, or at full
-// precision, computed in double from random 53-bit coordinates. Case `index` of a family is a pure function of (seed, family, shape,
-// index): any shard, thread count or machine produces the same case.
+// precision, computed in double from random 53-bit coordinates. Case `index` of a family is a pure function of (seed,
+// family, shape, index): any shard, thread count or machine produces the same case.
 #pragma once
 
 #include <cstdint>
@@ -40,12 +40,13 @@ struct GeneratedCase : Query {
   GeneratedCase() = default;
   GeneratedCase(const Ray& r, const Shape& s, std::string how) : Query{r, s, {}}, detail(std::move(how)) {}
   std::string detail;  // how it was built, e.g. "edge+2ulp"; goes into the finding's "found"
+  // A grazing-triangle case that is half of a pair of triangles sharing the edge its ray passes
+  // through (rather than a vertex, where the rest of the fan is absent and missing both is fair).
+  // Case 2k and 2k + 1 of the family form the pair.
+  bool shared_edge = false;
 };
 
-// Whether a grazing-triangle case is half of a pair of triangles sharing the edge its ray passes
-// through (rather than a vertex, where the rest of the fan is absent and missing both is fair).
-// Case 2k and 2k + 1 of the family form the pair.
-bool is_shared_edge_pair(const GeneratedCase& c);
+inline bool is_shared_edge_pair(const GeneratedCase& c) { return c.shared_edge; }
 
 GeneratedCase generate(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index,
                        Construction construction = Construction::exact);

@@ -38,7 +38,7 @@ struct TracerCampaignOptions {
 };
 
 struct TracerCampaignReport {
-  std::map<ReportKey, TracerTally> tallies;  // "FAMILY\tTRACER", "FAMILY-any\tTRACER"
+  std::map<ReportKey, TracerTally> tallies;   // "FAMILY\tTRACER", "FAMILY-any\tTRACER"
   std::map<std::string, double> seconds;      // per family: generating, judging and tracing
   std::map<std::string, std::uint64_t> rays;  // per family
   std::uint64_t findings_written = 0;
@@ -59,9 +59,9 @@ std::string one_hit_rule_line(const TracerCampaignReport& report, const std::str
 struct TracerOutcome {
   TraceKind kind = TraceKind::right;
   TraceJudgement judgement;
-  TraceAnswer answer;       // nearest mode
-  AllHitsAnswer all;        // any-hit mode
-  std::string reason;       // build failures, tracer errors, crashes: why
+  TraceAnswer answer;  // nearest mode
+  AllHitsAnswer all;   // any-hit mode
+  std::string reason;  // build failures, tracer errors, crashes: why
 };
 // The case as the tracer sees it (float: rounded; nullopt: not representable) ...
 std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c);

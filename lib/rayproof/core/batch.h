@@ -17,16 +17,19 @@ namespace rayproof {
 
 // Rays and shapes, one lane per query; every array has size() elements. T: double, or float for
 // the float batches (each number rounded to the nearest float, as the scalar float variants see it).
-template <class T> struct RaysSoAOf {
+template <class T>
+struct RaysSoAOf {
   std::vector<T> ox, oy, oz, dx, dy, dz;
   void push(const Ray& r);
   size_t size() const { return ox.size(); }
 };
-template <class T> struct SpheresSoAOf {
+template <class T>
+struct SpheresSoAOf {
   std::vector<T> cx, cy, cz, r;
   void push(const Sphere& s);
 };
-template <class T> struct TrianglesSoAOf {
+template <class T>
+struct TrianglesSoAOf {
   std::vector<T> x0, y0, z0, x1, y1, z1, x2, y2, z2;
   void push(const Triangle& t);
 };
@@ -38,7 +41,8 @@ using SpheresSoAF = SpheresSoAOf<float>;
 using TrianglesSoAF = TrianglesSoAOf<float>;
 
 // Results: class (HitClass as a byte) and t (NaN where there is none), in T.
-template <class T> struct HitsSoAOf {
+template <class T>
+struct HitsSoAOf {
   std::vector<std::uint8_t> cls;
   std::vector<T> t;
   void resize(size_t n) { cls.resize(n), t.resize(n); }

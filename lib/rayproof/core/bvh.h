@@ -88,7 +88,7 @@ struct SlabRay {
 class Bvh {
  public:
   struct Node {
-    Bounds box;  // double: a float box rounded outward would grow by 2^17 at 2^40 (headroom)
+    Bounds box;              // double: a float box rounded outward would grow by 2^17 at 2^40 (headroom)
     std::int32_t first = 0;  // leaf: first index into order(); inner: the second child (the first is next)
     std::int32_t count = 0;  // leaf: number of primitives (> 0); inner: 0
   };

@@ -42,8 +42,7 @@ json case_to_json(const Case& c);
 // Lines holding a "mesh" (docs/spec/tracer.md: mesh cases) go to on_mesh_case, read by
 // read_mesh_case (core/mesh_case.h); without it they are errors.
 struct MeshCase;
-bool read_case_file(const std::string& path,
-                    const std::function<void(const Case&, long line)>& on_case,
+bool read_case_file(const std::string& path, const std::function<void(const Case&, long line)>& on_case,
                     const std::function<void(const CaseError&)>& on_error,
                     const std::function<void(const MeshCase&, long line)>& on_mesh_case = {});
 

@@ -13,23 +13,16 @@ namespace rayproof {
 using Vec3 = Eigen::Vector3d;
 
 // a·b summed left to right: x, then y, then z.
-inline double dot(const Vec3& a, const Vec3& b) {
-  return a.x() * b.x() + a.y() * b.y() + a.z() * b.z();
-}
+inline double dot(const Vec3& a, const Vec3& b) { return a.x() * b.x() + a.y() * b.y() + a.z() * b.z(); }
 
 inline Vec3 cross(const Vec3& a, const Vec3& b) {
-  return Vec3(a.y() * b.z() - a.z() * b.y(), a.z() * b.x() - a.x() * b.z(),
-              a.x() * b.y() - a.y() * b.x());
+  return Vec3(a.y() * b.z() - a.z() * b.y(), a.z() * b.x() - a.x() * b.z(), a.x() * b.y() - a.y() * b.x());
 }
 
 inline double length(const Vec3& a) { return std::sqrt(dot(a, a)); }
 inline Vec3 normalized(const Vec3& a) { return a / length(a); }
-inline bool all_finite(const Vec3& a) {
-  return std::isfinite(a.x()) && std::isfinite(a.y()) && std::isfinite(a.z());
-}
-inline double max_abs(const Vec3& a) {
-  return std::max({std::abs(a.x()), std::abs(a.y()), std::abs(a.z())});
-}
+inline bool all_finite(const Vec3& a) { return std::isfinite(a.x()) && std::isfinite(a.y()) && std::isfinite(a.z()); }
+inline double max_abs(const Vec3& a) { return std::max({std::abs(a.x()), std::abs(a.y()), std::abs(a.z())}); }
 
 // The ray o + t·d for t > 0. The direction is kept exactly as given: t is measured in units of
 // the user's direction, never of a renormalised one.
@@ -37,8 +30,7 @@ struct Ray {
   Vec3 origin;
   Vec3 direction;
   Vec3 at(double t) const {
-    return Vec3(origin.x() + t * direction.x(), origin.y() + t * direction.y(),
-                origin.z() + t * direction.z());
+    return Vec3(origin.x() + t * direction.x(), origin.y() + t * direction.y(), origin.z() + t * direction.z());
   }
 };
 

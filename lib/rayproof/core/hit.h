@@ -43,7 +43,7 @@ inline bool stops_variant(HitFailure f) {
 struct Hit {
   HitClass cls = HitClass::miss;
   double t = std::numeric_limits<double>::quiet_NaN();  // NaN where there is no t
-  HitFailure failure = HitFailure::none;                 // not none: no answer; cls and t mean nothing
+  HitFailure failure = HitFailure::none;                // not none: no answer; cls and t mean nothing
   bool has_t() const { return !std::isnan(t); }
   bool failed() const { return failure != HitFailure::none; }
   static Hit miss() { return {}; }

@@ -17,8 +17,7 @@ using nlohmann::json;
 
 // A malformed field: `field` is its path, e.g. "shape.center[2]".
 struct FieldError : std::runtime_error {
-  FieldError(std::string field, const std::string& message)
-      : std::runtime_error(message), field(std::move(field)) {}
+  FieldError(std::string field, const std::string& message) : std::runtime_error(message), field(std::move(field)) {}
   std::string field;
 };
 
@@ -53,7 +52,6 @@ std::string shell_quoted(std::string_view text);
 std::string json_text(const json& j, int indent = -1);
 std::string json_text(const nlohmann::ordered_json& j, int indent = -1);  // keys kept in insertion order
 
-
 // A count from a summary or checkpoint: a JSON integer >= 0, never a float (1e308), a negative
 // number (-5 would wrap to 18446744073709551611) or text.
 std::uint64_t read_count(const json& j, const std::string& field);
@@ -67,8 +65,7 @@ void check_keys(const json& obj, const std::string& field, std::initializer_list
 const json& require_object(const json& j, const std::string& field);
 // A shape object of the case format. `extra_keys` are allowed besides the shape's own
 // (scene objects add "color" and "id"). Degenerate shapes are errors.
-Shape read_shape(const json& j, const std::string& field,
-                 std::initializer_list<std::string_view> extra_keys = {});
+Shape read_shape(const json& j, const std::string& field, std::initializer_list<std::string_view> extra_keys = {});
 json shape_to_json(const Shape& s);
 
 }  // namespace rayproof

@@ -37,7 +37,7 @@ struct Intersectors {
 
 struct RenderOptions {
   Intersectors intersectors = Intersectors::defaults();
-  int threads = 0;                                    // 0: one per hardware thread
+  int threads = 0;                                        // 0: one per hardware thread
   std::function<void(int rows_done, int rows)> progress;  // called from worker threads
 };
 
@@ -86,7 +86,8 @@ Vec3 shade(const SceneIndex& index, const Intersectors& isect, const Ray& ray);
 double diffuse_cosine(const Vec3& p, const Vec3& n, const PointLight& light);
 // The colour of a hit at p on an object of colour `color` (scene.md's shading rules); for
 // diffuse shading light_terms[l] is light l's cosine where it reaches p, else 0.
-Vec3 shade_point(const Scene& scene, const Vec3& color, const Vec3& p, const Ray& ray, std::span<const double> light_terms);
+Vec3 shade_point(const Scene& scene, const Vec3& color, const Vec3& p, const Ray& ray,
+                 std::span<const double> light_terms);
 
 Image render(const Scene& scene, const RenderOptions& options = {});
 

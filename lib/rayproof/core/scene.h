@@ -44,7 +44,7 @@ struct Scene {
   std::vector<PointLight> lights;
   std::vector<SceneObject> objects;
   double depth_near = 0, depth_far = 1;
-  int samples = 1;  // per pixel, a perfect square: a √n × √n grid of sub-pixel centres
+  int samples = 1;                    // per pixel, a perfect square: a √n × √n grid of sub-pixel centres
   std::vector<std::string> warnings;  // e.g. degenerate mesh triangles skipped, naming the file
 };
 

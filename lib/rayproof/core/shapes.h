@@ -36,8 +36,8 @@ struct Box {
 using Shape = std::variant<Sphere, Plane, Triangle, Box>;
 
 enum class ShapeKind { sphere = 0, plane = 1, triangle = 2, box = 3 };
-inline constexpr std::array<ShapeKind, 4> kAllShapeKinds = {ShapeKind::sphere, ShapeKind::plane,
-                                                            ShapeKind::triangle, ShapeKind::box};
+inline constexpr std::array<ShapeKind, 4> kAllShapeKinds = {ShapeKind::sphere, ShapeKind::plane, ShapeKind::triangle,
+                                                            ShapeKind::box};
 
 inline ShapeKind kind_of(const Shape& s) { return static_cast<ShapeKind>(s.index()); }
 std::string_view to_string(ShapeKind k);

@@ -32,7 +32,9 @@ struct TriangleMesh {
   Triangle triangle(std::size_t i) const {
     return Triangle{{vertex(indices[3 * i]), vertex(indices[3 * i + 1]), vertex(indices[3 * i + 2])}};
   }
-  std::array<std::uint32_t, 3> corners(std::size_t i) const { return {indices[3 * i], indices[3 * i + 1], indices[3 * i + 2]}; }
+  std::array<std::uint32_t, 3> corners(std::size_t i) const {
+    return {indices[3 * i], indices[3 * i + 1], indices[3 * i + 2]};
+  }
   // Whether triangle i is exactly collinear (degenerate): its contacts are optional (tracer.md).
   bool degenerate(std::size_t i) const;
 };

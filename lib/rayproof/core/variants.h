@@ -53,16 +53,16 @@ class ExternalIntersector {
 };
 
 struct Variant {
-  std::string_view name;    // unique over all shapes, e.g. "stable"
+  std::string_view name;  // unique over all shapes, e.g. "stable"
   ShapeKind shape;
-  std::string_view source;  // paper or formula it follows
+  std::string_view source;                                     // paper or formula it follows
   Hit (*kernel)(const Ray&, const Shape&, HitRule) = nullptr;  // built-in code: the type-erased entry point
   bool is_oracle = false;  // the exact oracle's own answer (certified-*): campaigns skip it unless named
   Precision precision = Precision::f64;
-  std::optional<HitRule> fixed_rule;      // external code reports one rule, whatever --rule asks
+  std::optional<HitRule> fixed_rule;        // external code reports one rule, whatever --rule asks
   ExternalIntersector* external = nullptr;  // set instead of kernel for plugins and --exec
   std::string_view origin = "built-in";     // where the code comes from: "built-in", a plugin path, "exec: CMD"
-  bool all_shapes = false;   // an --exec command or answers file answers several shapes (`shape` is then nominal)
+  bool all_shapes = false;  // an --exec command or answers file answers several shapes (`shape` is then nominal)
   unsigned shape_mask = 0;  // with all_shapes: bit k set for each ShapeKind it declared (0: every shape)
 
   bool handles(ShapeKind k) const {

@@ -122,8 +122,7 @@ inline int end_child(pid_t pid, double grace, bool* killed = nullptr) {
   if (killed) *killed = !ended;
   ::kill(-pid, SIGKILL);
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
   child_detail::forget(pid);
   return status;
 }
@@ -138,8 +137,8 @@ struct WorkerReport {
   bool killed = false;  // it had to be killed (too slow or too much output)
 };
 
-inline WorkerReport run_reporting_worker(const char* env_name, const std::string& value, const char* arg0, double seconds,
-                                         std::size_t max_bytes = 1 << 20) {
+inline WorkerReport run_reporting_worker(const char* env_name, const std::string& value, const char* arg0,
+                                         double seconds, std::size_t max_bytes = 1 << 20) {
   int out[2];
   if (::pipe2(out, O_CLOEXEC) != 0) throw std::runtime_error("cannot create a pipe for " + std::string(arg0));
   pid_t pid;
@@ -153,7 +152,8 @@ inline WorkerReport run_reporting_worker(const char* env_name, const std::string
   WorkerReport report;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
     pollfd p{out[0], POLLIN, 0};
     if (left <= 0 || ::poll(&p, 1, static_cast<int>(std::min<long long>(left, 100))) < 0) {
       if (errno == EINTR && left > 0) continue;
@@ -163,7 +163,8 @@ inline WorkerReport run_reporting_worker(const char* env_name, const std::string
     char buffer[65536];
     const ssize_t n = ::read(out[0], buffer, sizeof buffer);
     if (n <= 0) break;
-    report.text.append(buffer, static_cast<std::size_t>(std::min<std::size_t>(static_cast<std::size_t>(n), max_bytes - std::min(max_bytes, report.text.size()))));
+    report.text.append(buffer, static_cast<std::size_t>(std::min<std::size_t>(
+                                   static_cast<std::size_t>(n), max_bytes - std::min(max_bytes, report.text.size()))));
     if (report.text.size() >= max_bytes) break;
   }
   ::close(out[0]);

@@ -20,7 +20,8 @@ class CrashBudget {
     last_ = why;
     const int n = ++crashes_;
     if (n < max_ || !stop_reason_.empty()) return !stop_reason_.empty();
-    stop_reason_ = why + (max_ > 1 ? " (crash " + std::to_string(n) + ", --max-crashes " + std::to_string(max_) + ")" : "");
+    stop_reason_ =
+        why + (max_ > 1 ? " (crash " + std::to_string(n) + ", --max-crashes " + std::to_string(max_) + ")" : "");
     stopped_ = true;
     return true;
   }

@@ -68,14 +68,17 @@ class ExecProcess {
       if (ready < 0 && errno != EINTR) return kind = HitFailure::crash, "poll failed";
       if (p[1].revents & (POLLOUT | POLLERR)) {
         const ssize_t n = ::write(to_, payload.data() + sent, payload.size() - sent);
-        if (n > 0) sent += static_cast<std::size_t>(n), last_progress = std::chrono::steady_clock::now();
-        else if (n < 0 && errno != EAGAIN) return kind = HitFailure::crash, ended("stopped reading its input", case_timeout);
+        if (n > 0)
+          sent += static_cast<std::size_t>(n), last_progress = std::chrono::steady_clock::now();
+        else if (n < 0 && errno != EAGAIN)
+          return kind = HitFailure::crash, ended("stopped reading its input", case_timeout);
       }
       if (p[0].revents & (POLLIN | POLLHUP | POLLERR)) {
         const std::size_t before = lines.size();
         const ssize_t n = read_lines(expected, lines, max_line_bytes);
         if (lines.size() > before) last_progress = std::chrono::steady_clock::now();
-        if (n == 0 && lines.size() < expected) return kind = HitFailure::crash, ended("closed its standard output", case_timeout);
+        if (n == 0 && lines.size() < expected)
+          return kind = HitFailure::crash, ended("closed its standard output", case_timeout);
       }
       if (pending_.size() > max_line_bytes) {
         kind = HitFailure::protocol;

@@ -12,7 +12,7 @@
 namespace rayproof::peers {
 
 struct ExternalOptions {
-  double case_timeout_seconds = 10;  // --case-timeout: no answer to a case within this is a `timeout`
+  double case_timeout_seconds = 10;           // --case-timeout: no answer to a case within this is a `timeout`
   Precision exec_precision = Precision::f64;  // --exec-precision float: exec commands are sent float-rounded cases
   int max_crashes = 10;  // --max-crashes: crashes or hangs before a variant is stopped (a fresh worker after each)
 };

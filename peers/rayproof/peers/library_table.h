@@ -23,8 +23,8 @@
 
 namespace rayproof::peers {
 
-inline constexpr std::size_t kMaxNameBytes = 64;      // a variant's or tracer's name
-inline constexpr std::size_t kMaxSourceBytes = 1000;  // its source line, as shown by `variants`
+inline constexpr std::size_t kMaxNameBytes = 64;         // a variant's or tracer's name
+inline constexpr std::size_t kMaxSourceBytes = 1000;     // its source line, as shown by `variants`
 inline constexpr std::size_t kMaxReportedString = 4096;  // of a library's strings, the bytes the table worker copies
 
 // ------------------------------------------------------------------------- the worker's side
@@ -48,8 +48,8 @@ inline bool is_copy = false, forked = false;
 inline void mark_parent() { forked = true; }
 inline void mark_child() { is_copy = true; }
 }  // namespace worker_detail
-inline bool is_forked_copy() { return worker_detail::is_copy; }    // this process is a copy: it must never answer
-inline bool library_forked() { return worker_detail::forked; }     // the library forked in this worker
+inline bool is_forked_copy() { return worker_detail::is_copy; }  // this process is a copy: it must never answer
+inline bool library_forked() { return worker_detail::forked; }   // the library forked in this worker
 
 inline WorkerStart start_worker(const std::string& setting) {
   ::pthread_atfork(nullptr, worker_detail::mark_parent, worker_detail::mark_child);
@@ -63,18 +63,21 @@ inline WorkerStart start_worker(const std::string& setting) {
 // Loads the library and calls its table function `symbol` (see `header`); null with `error`
 // set when there is no usable table. `what`: "variants" or "tracers".
 template <class Row>
-const Row* load_library_table(const std::string& path, const char* symbol, int abi, const char* header, const char* what,
-                              int& count, std::string& error) {
+const Row* load_library_table(const std::string& path, const char* symbol, int abi, const char* header,
+                              const char* what, int& count, std::string& error) {
   void* lib = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (!lib) return error = ::dlerror(), nullptr;
   using Entry = const Row* (*)(int, int*);
   const auto entry = reinterpret_cast<Entry>(::dlsym(lib, symbol));
-  if (!entry) return error = std::string("no symbol ") + symbol + " (export it with C linkage: see " + header + ")", nullptr;
+  if (!entry)
+    return error = std::string("no symbol ") + symbol + " (export it with C linkage: see " + header + ")", nullptr;
   count = 0;
   const Row* table = entry(abi, &count);
-  if (!table) error = std::string(symbol) + " returned NULL for ABI " + std::to_string(abi) + " (built for another ABI?)";
+  if (!table)
+    error = std::string(symbol) + " returned NULL for ABI " + std::to_string(abi) + " (built for another ABI?)";
   else if (count <= 0 || count > 64)
-    error = std::string(symbol) + " gave " + std::to_string(count) + " " + what + " (1 to 64 expected)", table = nullptr;
+    error = std::string(symbol) + " gave " + std::to_string(count) + " " + what + " (1 to 64 expected)",
+    table = nullptr;
   return table;
 }
 
@@ -113,7 +116,8 @@ inline json read_table_in_worker(const char* env_name, const std::string& file, 
                (r.text.empty() ? "" : " (it wrote '" + printable_prefix(r.text, 80) + "')"));
   }
   if (!table.is_object()) throw fail("the table worker wrote '" + printable_prefix(r.text, 80) + "'");
-  if (table.contains("error")) throw fail(printable_prefix(table.at("error").is_string() ? table.at("error").get<std::string>() : "", 1000));
+  if (table.contains("error"))
+    throw fail(printable_prefix(table.at("error").is_string() ? table.at("error").get<std::string>() : "", 1000));
   return table;
 }
 
@@ -134,6 +138,8 @@ inline bool bounded_name(const json& entry, const char* key) {
 }
 
 // The source line, escaped for terminals and cut to kMaxSourceBytes.
-inline std::string table_source(const json& entry) { return printable_prefix(table_string(entry, "source"), kMaxSourceBytes); }
+inline std::string table_source(const json& entry) {
+  return printable_prefix(table_string(entry, "source"), kMaxSourceBytes);
+}
 
 }  // namespace rayproof::peers

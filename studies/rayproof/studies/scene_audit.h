@@ -55,8 +55,8 @@ struct PixelCounts {
 // point, and so the shadow ray's start, is where the variant went wrong). One per pixel and light.
 struct WrongPixelCase {
   int x = 0, y = 0;
-  std::string kind;  // "hole", "false_hit", "acne", "wrongly_shadowed", "wrongly_lit"
-  int light = -1;    // the light of a shadow error (scene.md's lights, from 0), else −1
+  std::string kind;         // "hole", "false_hit", "acne", "wrongly_shadowed", "wrongly_lit"
+  int light = -1;           // the light of a shadow error (scene.md's lights, from 0), else −1
   bool shadow_ray = false;  // `ray` is the shadow ray, else the pixel's primary ray
   Ray ray;
   std::int32_t primitive = -1;  // the scene's primitive (audit's index) and its shape
@@ -66,8 +66,8 @@ struct WrongPixelCase {
 inline constexpr std::size_t kMaxCasesPerVariant = 256;
 
 struct VariantAudit {
-  const Variant* variant = nullptr;  // or
-  const Tracer* tracer = nullptr;    // a whole tracer, drawing the triangles
+  const Variant* variant = nullptr;     // or
+  const Tracer* tracer = nullptr;       // a whole tracer, drawing the triangles
   std::string name, precision, origin;  // the variant's or tracer's
   ShapeKind shape = ShapeKind::sphere;  // the shape it drew (an --exec command answers several)
   // The row's name: the variant's, with "@shape" for an --exec command audited on several
@@ -83,10 +83,10 @@ struct VariantAudit {
   double round_trip_ns_per_ray = 0;
   bool timed_in_worker = false;
   bool users_code() const { return origin != "built-in"; }
-  Image render, diff;         // the variant's render; wrong pixels over the dimmed exact render
+  Image render, diff;                 // the variant's render; wrong pixels over the dimmed exact render
   std::vector<WrongPixelCase> cases;  // variants only (a tracer's triangles are judged as a mesh)
   long cases_left_out = 0;
-  std::string stopped;        // external code that stopped: why (its later answers are misses)
+  std::string stopped;  // external code that stopped: why (its later answers are misses)
   // A variant that stopped (crash, hang, protocol error) left pixels unjudged: never exact.
   bool exact_for_scene() const { return counts.any_wrong() == 0 && stopped.empty(); }
   // Headroom: pixels wrong or shadow wrong (what exact_for_scene counts) per exponent of
@@ -129,7 +129,8 @@ struct SceneAudit {
 
 // Per shape: the cheapest row exact for the scene, and the other exact rows within 10% of its
 // cost (pointers into `rows`).
-std::vector<SceneAudit::Recommendation> recommend(const std::vector<VariantAudit>& rows, const std::vector<ShapeKind>& shapes);
+std::vector<SceneAudit::Recommendation> recommend(const std::vector<VariantAudit>& rows,
+                                                  const std::vector<ShapeKind>& shapes);
 
 // Throws std::runtime_error for a scene the audit cannot take (more than 64 lights).
 SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options);

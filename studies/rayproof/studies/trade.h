@@ -53,13 +53,15 @@ struct TradeRow {
   ShapeKind shape;
   Family family;
   double ns_per_test = 0;
-  Tally tally;          // against the oracle on the contender's effective inputs
-  bool pareto = false;      // no other contender on this shape and family is both as fast and as accurate
-  bool users_code = false;  // a plugin's or an --exec command's: ringed in the plot
+  Tally tally;                       // against the oracle on the contender's effective inputs
+  bool pareto = false;               // no other contender on this shape and family is both as fast and as accurate
+  bool users_code = false;           // a plugin's or an --exec command's: ringed in the plot
   std::string precision = "double";  // the contender's: float hollow, exact dotted in the plot
   // t's error in the contender's own precision: float ulps for float code (against the exact t
   // rounded to float), double ulps otherwise.
-  const UlpHistogram& t_error() const { return precision == "float" && tally.ulps_own.count() ? tally.ulps_own : tally.ulps; }
+  const UlpHistogram& t_error() const {
+    return precision == "float" && tally.ulps_own.count() ? tally.ulps_own : tally.ulps;
+  }
   // Whether the row means something: cases were judged and the code did not stop on one (a
   // crash, timeout or protocol error leaves a time and a rate of nothing). Others stay out of
   // the plot and the Pareto front.

@@ -29,7 +29,8 @@ inline Agreement agreement_of(HitClass exact, HitClass reported) {
   if (reported == exact) return Agreement::agrees;
   if (reported == HitClass::hit) return exact == HitClass::miss ? Agreement::wrong : Agreement::agrees;
   const bool exact_is_a_touch = exact == HitClass::tangent || exact == HitClass::boundary;
-  const bool reported_is_plain = reported == HitClass::enter || reported == HitClass::exit || reported == HitClass::miss;
+  const bool reported_is_plain =
+      reported == HitClass::enter || reported == HitClass::exit || reported == HitClass::miss;
   return exact_is_a_touch && reported_is_plain ? Agreement::cannot_tell : Agreement::wrong;
 }
 

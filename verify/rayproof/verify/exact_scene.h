@@ -49,7 +49,7 @@ class ExactTracer {
  private:
   ExactParameter exact_parameter(const Ray& ray, std::int32_t primitive);
   const SceneIndex* index_;
-  Oracle filtered_;                                     // classes and rounded t
+  Oracle filtered_;                                        // classes and rounded t
   Oracle with_parameter_{{.keep_exact_parameter = true}};  // exact t for ties and points
 };
 

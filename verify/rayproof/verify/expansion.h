@@ -19,9 +19,11 @@ class Expansion {
   static constexpr int kCapacity = 64;
 
   Expansion() = default;
-  Expansion(double x) {  // NOLINT: implicit, so templated formulas take doubles
-    if (!std::isfinite(x)) valid_ = false;
-    else if (x != 0) c_[n_++] = x;
+  Expansion(double x) {  // NOLINT(google-explicit-constructor): implicit, so templated formulas take doubles
+    if (!std::isfinite(x))
+      valid_ = false;
+    else if (x != 0)
+      c_[n_++] = x;
   }
   Expansion(const Expansion& o) : n_(o.n_), valid_(o.valid_) { std::memcpy(c_, o.c_, sizeof(double) * n_); }
   Expansion& operator=(const Expansion& o) {
@@ -70,8 +72,10 @@ class Expansion {
  private:
   void push(double x) {
     if (x == 0) return;
-    if (n_ == kCapacity) valid_ = false;
-    else c_[n_++] = x;
+    if (n_ == kCapacity)
+      valid_ = false;
+    else
+      c_[n_++] = x;
   }
 
   // this + x, in place (Shewchuk's GROW-EXPANSION with zero elimination): each output

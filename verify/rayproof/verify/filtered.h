@@ -61,7 +61,9 @@ inline bool product_in_range(double ma, double mb, double m, double lo, double h
 class FilteredDouble {
  public:
   FilteredDouble() = default;
-  FilteredDouble(double x) : v_(x), m_(std::isfinite(x) ? std::abs(x) : INFINITY), k_(0) {}  // NOLINT: terms lift doubles
+  // Implicit, so that terms lift doubles.
+  FilteredDouble(double x)  // NOLINT(google-explicit-constructor)
+      : v_(x), m_(std::isfinite(x) ? std::abs(x) : INFINITY), k_(0) {}
 
   [[gnu::always_inline]] friend FilteredDouble operator+(const FilteredDouble& a, const FilteredDouble& b) {
     return {a.v_ + b.v_, a.m_ + b.m_, (a.k_ > b.k_ ? a.k_ : b.k_) + 1};
@@ -104,8 +106,15 @@ class FilteredDouble {
 // argument above absorbs.
 class FilteredDD {
  public:
+  // The magnitudes a double-double may reach: Veltkamp splitting (a multiply by 2^27 + 1) cannot
+  // overflow below 2^+800, and the low parts (~2^-106 of the high) stay clear of underflow above
+  // 2^-800 but for the absorbed few 2^-1075 of the argument above.
+  static constexpr double kMagnitudeMin = 0x1p-800, kMagnitudeMax = 0x1p+800;
+
   FilteredDD() = default;
-  FilteredDD(double x) : hi_(x), lo_(0), m_(std::abs(x)), k_(0), valid_(std::isfinite(x)) {}  // NOLINT: terms lift doubles
+  // Implicit, so that terms lift doubles.
+  FilteredDD(double x)  // NOLINT(google-explicit-constructor)
+      : hi_(x), lo_(0), m_(std::abs(x)), k_(0), valid_(std::isfinite(x)) {}
 
   [[gnu::always_inline]] friend FilteredDD operator+(const FilteredDD& a, const FilteredDD& b) {
     return sum(a, b.hi_, b.lo_, b);
@@ -127,16 +136,16 @@ class FilteredDD {
     r.m_ = a.m_ * b.m_;
     r.k_ = a.k_ + b.k_ + 1;
     r.valid_ = a.valid_ && b.valid_ && std::isfinite(r.hi_) &&
-               filter_detail::product_in_range(a.m_, b.m_, r.m_, 0x1p-800, 0x1p+800);
+               filter_detail::product_in_range(a.m_, b.m_, r.m_, kMagnitudeMin, kMagnitudeMax);
     return r;
   }
 
-  bool valid() const { return valid_ && m_ <= 0x1p+800 && k_ < 64; }
+  bool valid() const { return valid_ && m_ <= kMagnitudeMax && k_ < 64; }
   double estimate() const { return hi_ + lo_; }
   [[gnu::always_inline]] std::optional<int> sign() const {
     if (!valid()) return std::nullopt;
     if (m_ == 0) return 0;
-    if (m_ < 0x1p-800) return std::nullopt;
+    if (m_ < kMagnitudeMin) return std::nullopt;
     const double bound = filter_detail::kGammaDD[k_] * m_;
     // |lo| ≤ ulp(hi)/2, so |hi + lo| ≥ |hi|·(1 − 2^-52).
     if (std::abs(hi_) * (1 - 0x1p-52) > bound) return hi_ > 0 ? 1 : -1;

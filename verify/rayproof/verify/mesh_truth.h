@@ -30,12 +30,19 @@
 namespace rayproof {
 
 enum class TraceKind {
-  right, hole, false_hit, not_nearest, double_hit, missed_in_any_hit,
-  in_plane,       // a miss where every contact is optional: cannot tell
-  tracer_error,   // NaN t, a triangle out of range, a repeated index
-  unsupported,    // any-hit asked of a tracer without it
+  right,
+  hole,
+  false_hit,
+  not_nearest,
+  double_hit,
+  missed_in_any_hit,
+  in_plane,           // a miss where every contact is optional: cannot tell
+  tracer_error,       // NaN t, a triangle out of range, a repeated index
+  unsupported,        // any-hit asked of a tracer without it
   not_representable,  // a float tracer's case that overflows float (or the far family beyond 2^40)
-  crash, timeout, build_failed,
+  crash,
+  timeout,
+  build_failed,
 };
 std::string_view to_string(TraceKind k);
 bool is_disagreement(TraceKind k);  // the table's kinds and tracer errors, crashes and timeouts
@@ -43,9 +50,9 @@ bool is_disagreement(TraceKind k);  // the table's kinds and tracer errors, cras
 // One triangle's contact with the ray inside (tmin, tmax).
 struct MeshContact {
   std::uint32_t triangle = 0;
-  double t = 0;            // the exact t rounded to double (in-plane: the first point; NaN: unknown)
-  bool crossing = false;   // false: optional (in-plane, or a degenerate triangle)
-  bool boundary = false;   // a crossing on an edge or a vertex
+  double t = 0;           // the exact t rounded to double (in-plane: the first point; NaN: unknown)
+  bool crossing = false;  // false: optional (in-plane, or a degenerate triangle)
+  bool boundary = false;  // a crossing on an edge or a vertex
   bool front = false;
 };
 
@@ -64,17 +71,17 @@ struct MeshTruth {
   bool complete = false;
   const CrossingPoint* first_required() const;
   const MeshContact* contact_of(std::uint32_t triangle) const;
-  std::optional<double> t_star() const;  // the nearest crossing, rounded
-  std::vector<std::uint32_t> touched() const;        // sorted
-  std::vector<std::uint32_t> nearest() const;        // the triangles crossed at the first required point (else t*)
+  std::optional<double> t_star() const;        // the nearest crossing, rounded
+  std::vector<std::uint32_t> touched() const;  // sorted
+  std::vector<std::uint32_t> nearest() const;  // the triangles crossed at the first required point (else t*)
 };
 
 struct TraceJudgement {
   TraceKind kind = TraceKind::right;
-  bool edge_ray = false;                 // the ray meets a point under the one-hit rule
+  bool edge_ray = false;  // the ray meets a point under the one-hit rule
   bool edge_hole = false, edge_double = false;
-  std::optional<std::uint64_t> ulp;      // right answers: t's error in the tracer's precision
-  std::string detail;                    // for tracer errors: what was wrong
+  std::optional<std::uint64_t> ulp;  // right answers: t's error in the tracer's precision
+  std::string detail;                // for tracer errors: what was wrong
 };
 
 // One per thread and mesh (it owns an oracle, which counts its stages).

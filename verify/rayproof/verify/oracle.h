@@ -17,8 +17,10 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <string>
 
 #include "rayproof/core/hit.h"
+#include "rayproof/core/json_fields.h"
 #include "rayproof/core/shapes.h"
 
 namespace rayproof {
@@ -52,9 +54,9 @@ double round_to_nearest(const ExactParameter& t, RoundingStats& stats);
 
 struct Verdict {
   HitClass cls = HitClass::miss;
-  std::optional<double> t;               // correctly rounded; absent for miss and t-less tangents
+  std::optional<double> t;  // correctly rounded; absent for miss and t-less tangents
   std::optional<ExactParameter> exact_t;
-  bool front = false;                    // the contact is on the front side (plane, triangle)
+  bool front = false;  // the contact is on the front side (plane, triangle)
 };
 
 struct OracleStats {
@@ -63,6 +65,12 @@ struct OracleStats {
   std::uint64_t class_expansion = 0;  // the interval filter failed; exact expansions decided
   std::uint64_t class_exact = 0;      // ... and GMP rationals had to (expansions under/overflowed)
   RoundingStats rounding;
+
+  // merge and to_json walk one list of the counters (oracle.cpp).
+  void merge(const OracleStats& o);
+  json to_json() const;  // check --summary's "oracle", per shape
+  // One line: queries, how many needed more than the static filter, and how t was rounded.
+  std::string describe() const;
 };
 
 // Where a ray passes a triangle, exactly: the signs of TrianglePolicy's terms — `plane`, of
@@ -82,10 +90,10 @@ int compare_crossing_parameters(const Ray& ray, const Triangle& a, const Triangl
 class Oracle {
  public:
   struct Options {
-    bool filter = true;         // false: every class and t decided in GMP rationals (tests, benchmarks)
-    bool expansions = true;     // the exact floating-point expansion stage between interval and GMP
-    bool static_filter = true;  // the semi-static double filter in front of the intervals
-    bool double_double = true;  // t's midpoint tests in double-double before expansions
+    bool filter = true;                 // false: every class and t decided in GMP rationals (tests, benchmarks)
+    bool expansions = true;             // the exact floating-point expansion stage between interval and GMP
+    bool static_filter = true;          // the semi-static double filter in front of the intervals
+    bool double_double = true;          // t's midpoint tests in double-double before expansions
     bool keep_exact_parameter = false;  // fill Verdict::exact_t (in rationals) for audits and tests
   };
   Oracle() = default;

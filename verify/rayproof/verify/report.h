@@ -28,6 +28,11 @@ double bits_of_error(std::uint64_t ulps);
 json bits_json(const Tally& t);
 json bits_json(const UlpHistogram& ulps);
 
+// One variant's entry in `check --summary` (docs/spec/cases.md): its shape, the tally's counts
+// and disagreements (failures of external code where there were any), the ULP error as
+// quantiles (count, median, p99, max) rather than the mergeable histogram, and bits_json.
+json check_summary_json(ShapeKind shape, const Tally& t);
+
 // "exact->reported N" for the `top` commonest disagreements, then "+N more" kinds.
 std::string disagreement_kinds(const Tally& t, size_t top = 3);
 

@@ -39,10 +39,10 @@ struct Tally {
   std::uint64_t shared_edge_holes = 0;  // see crosses_shared_edge (verify/compare.h)
   // Answers external code failed to give (plugin.md), not among `cases`; serialised when > 0.
   std::uint64_t crashes = 0, timeouts = 0, protocol_errors = 0;  // each stops the variant
-  std::uint64_t plugin_errors = 0;      // a return outside 0..5, a NaN t, a contact without t
-  std::uint64_t not_representable = 0;  // f32 code: cases that overflow float or degenerate when rounded
+  std::uint64_t plugin_errors = 0;                               // a return outside 0..5, a NaN t, a contact without t
+  std::uint64_t not_representable = 0;             // f32 code: cases that overflow float or degenerate when rounded
   std::map<std::string, std::uint64_t> confusion;  // "exact->reported", disagreements only
-  UlpHistogram ulps;  // t error, where the class agrees and both t exist (a wrong class's t is no error of t)
+  UlpHistogram ulps;      // t error, where the class agrees and both t exist (a wrong class's t is no error of t)
   UlpHistogram ulps_own;  // the same in the variant's own precision (f32 code only)
 
   // `exact`: the case's verdict class (the outcome's own_exact, where it has one, wins).
@@ -66,11 +66,11 @@ struct TracerTally {
   std::map<std::string, std::uint64_t> kinds;  // to_string(TraceKind) → count (every ray once)
   std::uint64_t cases = 0;
   std::uint64_t edge_rays = 0, edge_holes = 0, edge_double_hits = 0;
-  UlpHistogram ulps;  // right answers' t error, in the tracer's precision
+  UlpHistogram ulps;   // right answers' t error, in the tracer's precision
   double seconds = 0;  // inside the tracer's calls (round trips included for external code)
   std::uint64_t timed_rays = 0;
   std::uint64_t count(std::string_view kind) const;
-  void add(std::string_view kind);  // one ray of that kind (to_string(TraceKind)): cases and its count
+  void add(std::string_view kind);      // one ray of that kind (to_string(TraceKind)): cases and its count
   std::uint64_t disagreements() const;  // the kinds of the spec's table plus tracer errors, crashes, timeouts
   double ns_per_ray() const { return timed_rays ? seconds * 1e9 / static_cast<double>(timed_rays) : 0; }
   void merge(const TracerTally& o);
