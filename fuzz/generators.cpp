@@ -53,6 +53,14 @@ struct Rng : SplitMix64 {
 
 Vec3 scaled(const Vec3& v, int k) { return v * std::ldexp(1.0, k); }
 Shape scaled(const Shape& s, int k) { return rayproof::scaled(s, std::ldexp(1.0, k)); }
+// The case with its shape and ray origin moved to scale 2^k and its direction to 2^k_direction
+// (exact: powers of two, while nothing under- or overflows); its detail is the caller's to extend.
+GeneratedCase at_scale(GeneratedCase c, int k, int k_direction) {
+  c.ray = Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k_direction)};
+  c.shape = scaled(c.shape, k);
+  return c;
+}
+GeneratedCase at_scale(GeneratedCase c, int k) { return at_scale(std::move(c), k, k); }
 
 // One case under construction: exact geometry first, then `nudges` applied to the origin.
 struct Builder {
@@ -312,8 +320,7 @@ struct Builder {
 
   // The exact construction c at scale 2^k, its origin then nudged; detail "what/2^k/nudge".
   GeneratedCase scaled_and_nudged(GeneratedCase c, int k) {
-    c.ray = Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)};
-    c.shape = scaled(c.shape, k);
+    c = at_scale(std::move(c), k);
     const std::string n = nudge_origin(c.ray);
     c.detail += "/2^" + std::to_string(k) + "/" + n;
     return c;
@@ -466,9 +473,7 @@ struct Builder {
     const Variant& v = *variants[index % variants.size()];
     for (int attempt = 0; attempt < 64; ++attempt) {
       const int k = static_cast<int>(rng.integer(-40, 40));
-      GeneratedCase primary = random(kind);
-      primary.ray = Ray{scaled(primary.ray.origin, k), scaled(primary.ray.direction, k)};
-      primary.shape = scaled(primary.shape, k);
+      const GeneratedCase primary = at_scale(random(kind), k);
       const Hit h = v.intersect(primary.ray, primary.shape, HitRule::nearest_contact);
       if (h.cls == HitClass::miss || !h.has_t()) continue;
       const Vec3 p = primary.ray.at(h.t);
@@ -496,9 +501,10 @@ struct Builder {
     return scaled_by(back_side(), k);
   }
 
-  static GeneratedCase scaled_by(const GeneratedCase& c, int k) {
-    return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k),
-            c.detail + "/2^" + std::to_string(k)};
+  static GeneratedCase scaled_by(GeneratedCase c, int k) {
+    c = at_scale(std::move(c), k);
+    c.detail += "/2^" + std::to_string(k);
+    return c;
   }
 
   GeneratedCase origin_at_sphere(int k) {
@@ -557,14 +563,16 @@ struct Builder {
     if (mode == 0) {  // the tangent family at 2^±500
       GeneratedCase c = tangent(kind);
       const int k = static_cast<int>(rng.integer(-460, 460));
-      return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k),
-              c.detail + "/x2^" + std::to_string(k)};
+      c = at_scale(std::move(c), k);
+      c.detail += "/x2^" + std::to_string(k);
+      return c;
     }
     if (mode == 1) {  // the random family at 2^±500
       GeneratedCase c = random(kind);
       const int k = static_cast<int>(rng.integer(-500, 500));
-      return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k)}, scaled(c.shape, k),
-              "random/2^" + std::to_string(k)};
+      c = at_scale(std::move(c), k);
+      c.detail = "random/2^" + std::to_string(k);
+      return c;
     }
     if (mode == 2) {  // subnormal and −0.0 direction components
       GeneratedCase c = random(kind);
@@ -599,8 +607,9 @@ struct Builder {
     // b² and |o − m|² beyond the double range
     GeneratedCase c = random(kind);
     const int k = static_cast<int>(rng.integer(560, 1000));
-    return {Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k - 200)}, scaled(c.shape, k),
-            "overflow/2^" + std::to_string(k)};
+    c = at_scale(std::move(c), k, k - 200);
+    c.detail = "overflow/2^" + std::to_string(k);
+    return c;
   }
 };
 
