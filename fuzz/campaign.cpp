@@ -372,17 +372,24 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         edge.variant_hit.resize(variants.size());
         edge.own.assign(variants.size(), std::nullopt);
       }
+      // Variant vi's answer h to case k, counted in its tally already: the case's first finding
+      // (a disagreement, or a failure that is one) and the shared-edge evidence.
+      auto note = [&](size_t k, size_t vi, const Hit& h, bool finding) {
+        if (finding && !first[k]) first[k] = variants[vi], failure[k] = h.failure, reported[k] = h.cls;
+        if (pairs_of_triangles)
+          judged.edges[chunk + k - b.start].variant_hit[vi] = !h.failed() && h.cls != HitClass::miss;
+      };
+      auto failure_is_finding = [](HitFailure f) { return stops_variant(f) || is_plugin_error(f); };
       for (size_t vi = 0; vi < variants.size(); ++vi) {
         // Built-in double code is judged case by case as it answers (nothing stored: the
         // campaign's hot loop); external code answers the chunk in one call first.
         const Variant& v = *variants[vi];
+        Tally& tally = me.tallies[vi];
         const bool direct = v.kernel && v.precision == Precision::f64 && !v.fixed_rule;
         if (direct) {
           for (size_t k = 0; k < n; ++k) {
             const Hit h = v.kernel(cases[k].ray, cases[k].shape, o.rule);
-            if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k])
-              first[k] = &v, reported[k] = h.cls;
-            if (pairs_of_triangles) judged.edges[chunk + k - b.start].variant_hit[vi] = h.cls != HitClass::miss;
+            note(k, vi, h, tally.add_answer(exact[k], h) != Agreement::agrees);
           }
           continue;
         }
@@ -392,28 +399,19 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           v.intersect_all(queries, o.rule, me.hits);
           for (size_t k = 0; k < n; ++k) {
             const Hit& h = me.hits[k];
-            if (h.failed()) {
-              me.tallies[vi].add(exact[k].cls, VariantOutcome{&v, h});
-              if ((stops_variant(h.failure) || is_plugin_error(h.failure)) && !first[k])
-                first[k] = &v, failure[k] = h.failure;
-            } else if (me.tallies[vi].add_answer(exact[k], h) != Agreement::agrees && !first[k]) {
-              first[k] = &v, reported[k] = h.cls;
-            }
-            if (pairs_of_triangles)
-              judged.edges[chunk + k - b.start].variant_hit[vi] = !h.failed() && h.cls != HitClass::miss;
+            if (h.failed()) tally.add(exact[k].cls, VariantOutcome{&v, h});
+            note(k, vi, h,
+                 h.failed() ? failure_is_finding(h.failure) : tally.add_answer(exact[k], h) != Agreement::agrees);
           }
           continue;
         }
         judge_variant_all(me.oracle, v, queries, exact, o.rule, outcomes);
         for (size_t k = 0; k < n; ++k) {
           const VariantOutcome& r = outcomes[k];
-          me.tallies[vi].add(exact[k].cls, r);
-          const bool finding = r.hit.failed() ? stops_variant(r.hit.failure) || is_plugin_error(r.hit.failure)
-                                              : r.agreement != Agreement::agrees;
-          if (finding && !first[k]) first[k] = variants[vi], failure[k] = r.hit.failure, reported[k] = r.hit.cls;
+          tally.add(exact[k].cls, r);
+          note(k, vi, r.hit, r.hit.failed() ? failure_is_finding(r.hit.failure) : r.agreement != Agreement::agrees);
           if (pairs_of_triangles) {
             EdgeEvidence& edge = judged.edges[chunk + k - b.start];
-            edge.variant_hit[vi] = !r.hit.failed() && r.hit.cls != HitClass::miss;
             if (r.own_exact)
               edge.own[vi] = Verdict{r.own_exact->cls, r.own_exact->t, std::nullopt, r.own_exact->front};
             else if (r.hit.failure == HitFailure::not_representable)

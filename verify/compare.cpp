@@ -1,6 +1,7 @@
 #include "rayproof/verify/compare.h"
 
 #include <cmath>
+#include <limits>
 #include <cstring>
 
 namespace rayproof {
@@ -11,7 +12,9 @@ namespace rayproof {
 float exact_t_as_float(const Query& q, HitRule rule, double d) {
   const float f = to_nearest_float(d);
   if (std::isinf(f)) return f;  // beyond float's range either way
-  const double below = next_down(f), above = next_up(f);
+  // The neighbouring floats (not doubles: fp.h's next_up and next_down are of double).
+  const double below = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  const double above = std::nextafter(f, std::numeric_limits<float>::infinity());
   const double m = d < f ? (f + below) / 2 : (f + above) / 2;  // exact: floats have 24 bits, doubles 53
   if (d != m) return f;
   Oracle rational(Oracle::Options{.keep_exact_parameter = true});
