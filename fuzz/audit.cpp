@@ -15,7 +15,7 @@ namespace {
 class InProcess final : public ExternalIntersector {
  public:
   explicit InProcess(const UserIntersector& fn) : fn_(fn) {}
-  void answer_all(std::span<const Query> qs, std::span<Hit> out) override {
+  void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming*) override {
     for (size_t i = 0; i < qs.size(); ++i) out[i] = fn_(qs[i].ray, qs[i].shape);
   }
 

@@ -47,7 +47,7 @@ class AnswersFile final : public ExternalIntersector {
 
   Precision precision() const { return precision_; }
 
-  void answer_all(std::span<const Query> qs, std::span<Hit> out) override {
+  void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming*) override {
     std::lock_guard lock(mutex_);
     for (size_t i = 0; i < qs.size(); ++i) {
       auto it = by_id_.find(qs[i].id);

@@ -247,7 +247,7 @@ class ExecVariant final : public ExternalIntersector {
   ExecVariant(std::string command, const ExternalOptions& options)
       : command_(std::move(command)), options_(options), budget_(options.max_crashes) {}
 
-  void answer_all(std::span<const Query> qs, std::span<Hit> out) override {
+  void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming*) override {
     for (std::size_t done = 0; done < qs.size();) {
       if (budget_.stopped()) return std::fill(out.begin() + done, out.end(), Hit::failure_of(HitFailure::stopped));
       done += answer_until_failure(qs.subspan(done), out.subspan(done));

@@ -250,7 +250,7 @@ class PluginVariant final : public ExternalIntersector {
   PluginVariant(Plugin& plugin, std::uint32_t index, ShapeKind shape, const ExternalOptions& options)
       : plugin_(plugin), index_(index), shape_(shape), options_(options), budget_(options.max_crashes) {}
 
-  void answer_all(std::span<const Query> qs, std::span<Hit> out) override {
+  void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming* timing) override {
     double inside = 0;
     for (std::size_t start = 0; start < qs.size();) {
       const std::size_t n = std::min(kBatchCapacity, qs.size() - start);
@@ -261,7 +261,8 @@ class PluginVariant final : public ExternalIntersector {
       }
       std::unique_ptr<WorkerProcess> worker = plugin_.take();
       SharedBatch& b = worker->batch();
-      b.variant = index_, b.count = static_cast<std::uint32_t>(n), b.repeats = timing_repeats_;
+      b.variant = index_, b.count = static_cast<std::uint32_t>(n),
+      b.repeats = timing ? static_cast<std::uint32_t>(std::max(1, timing->repeats)) : 1;
       for (std::size_t i = 0; i < n; ++i) {
         const Query& q = qs[start + i];
         double* x = b.queries[i].numbers;
@@ -294,10 +295,8 @@ class PluginVariant final : public ExternalIntersector {
       inside = -1;  // a batch with a crash times nothing
       start += answered + 1;
     }
-    last_inner_seconds_ = inside;
+    if (timing) timing->inner_seconds = inside;
   }
-  double inner_seconds() const override { return last_inner_seconds_; }
-  void set_timing_repeats(int repeats) override { timing_repeats_ = static_cast<std::uint32_t>(std::max(1, repeats)); }
   std::string stop_reason() const override { return budget_.stop_reason(); }
   std::string last_failure() const override { return budget_.last_failure(); }
 
@@ -307,11 +306,7 @@ class PluginVariant final : public ExternalIntersector {
   ShapeKind shape_;
   ExternalOptions options_;
   CrashBudget budget_;
-  static thread_local double last_inner_seconds_;
-  static thread_local std::uint32_t timing_repeats_;
 };
-thread_local double PluginVariant::last_inner_seconds_ = -1;
-thread_local std::uint32_t PluginVariant::timing_repeats_ = 1;
 
 // Plugins and their variants live for the whole process (registered variants point into them).
 std::deque<Plugin>& loaded_plugins() {

@@ -262,9 +262,10 @@ class Auditor {
           checksum += trace_kind_with(index_, c.kind, cam.ray_through(x + 0.5, y + 0.5), [&](const Shape& shape) {
                         const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
                         const auto t0 = std::chrono::steady_clock::now();
-                        const Hit h = v.intersect(ray, shape, HitRule::nearest_contact);
+                        AnswerTiming timing;
+                        const Hit h = v.intersect(ray, shape, HitRule::nearest_contact, &timing);
                         trips += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-                        const double in = v.external->inner_seconds();
+                        const double in = timing.inner_seconds;
                         if (in >= 0)
                           inside += in;
                         else

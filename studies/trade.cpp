@@ -25,7 +25,12 @@ std::vector<Contender> variant_contenders() {
                   auto hits = std::make_shared<std::vector<Hit>>(qs.size());
                   if (p->external)  // one round trip for the batch, run repeatedly where the code runs, timed there
                     return Prepared{[p, &qs, hits] { p->intersect_all(qs, HitRule::nearest_contact, *hits); },
-                                    [hits](size_t i) { return (*hits)[i]; }, p->external};
+                                    [hits](size_t i) { return (*hits)[i]; },
+                                    [p, &qs, hits](int repeats) {
+                                      AnswerTiming timing{repeats};
+                                      p->intersect_all(qs, HitRule::nearest_contact, *hits, &timing);
+                                      return timing.inner_seconds;
+                                    }};
                   return Prepared{[p, &qs, hits] {
                                     for (size_t i = 0; i < qs.size(); ++i)
                                       (*hits)[i] = p->intersect(qs[i].ray, qs[i].shape, HitRule::nearest_contact);
@@ -81,11 +86,9 @@ double time_per_query(const Contender& c, const std::vector<Query>& all) {
   const std::vector<Query> qs(all.begin(), all.begin() + std::min<size_t>(all.size(), 4096));
   const Prepared p = c.prepare(qs);
   const int repeats = static_cast<int>(std::max<size_t>(1, 200000 / qs.size()));
-  if (p.external) {  // external code repeats the batch where it runs: one round trip per pass (exec cannot: -1)
-    double best = INFINITY;
-    p.external->set_timing_repeats(repeats);
-    for (int pass = 0; pass < 5 && best >= 0; ++pass) p.run(), best = std::min(best, p.external->inner_seconds());
-    p.external->set_timing_repeats(1);
+  if (p.time_where_it_runs) {  // external code repeats the batch where it runs: one round trip per pass
+    double best = INFINITY;    // (exec cannot: -1)
+    for (int pass = 0; pass < 5 && best >= 0; ++pass) best = std::min(best, p.time_where_it_runs(repeats));
     if (best >= 0) return best * 1e9 / std::max<size_t>(1, qs.size());
   }
   double best = INFINITY;

@@ -35,17 +35,20 @@ std::string_view to_string(Precision p);
 // Code rayproof did not write (a plugin in a worker process, an --exec command): it answers
 // queries in batches, because each call crosses a process boundary, and it may fail (a Hit's
 // `failure`). After a failure that stops it, it answers every later query with `stopped`.
+// How one call of external code is timed where the code runs (`trade`, `audit`): it runs each
+// batch `repeats` times there, on inputs then in its cache, and `inner_seconds` gets the time of
+// one pass measured there (no transport), or stays negative where only the round trip can be
+// timed (an --exec command, a batch with a crash). Per call, so threads never share it.
+struct AnswerTiming {
+  int repeats = 1;
+  double inner_seconds = -1;
+};
+
 class ExternalIntersector {
  public:
   virtual ~ExternalIntersector() = default;
-  // out[i] = the answer to qs[i], in the variant's own rule. Thread-safe.
-  virtual void answer_all(std::span<const Query> qs, std::span<Hit> out) = 0;
-  // Seconds the code itself spent on the last answer_all on this thread, measured where it
-  // ran (no transport), or a negative number when only the round trip can be timed.
-  virtual double inner_seconds() const { return -1; }
-  // Timing (`trade`): on this thread, answer_all runs each batch this many times where the code
-  // runs, on inputs then in its cache, and inner_seconds gives the mean pass. 1: normal use.
-  virtual void set_timing_repeats(int repeats) { (void)repeats; }
+  // out[i] = the answer to qs[i], in the variant's own rule. Thread-safe. `timing`: may be null.
+  virtual void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming* timing) = 0;
   // One line: why it stopped (signal, exit status, the unreadable line), empty while it runs.
   virtual std::string stop_reason() const { return {}; }
   // Why the last crash, hang or protocol error happened, also when a fresh worker went on after it.
@@ -71,10 +74,11 @@ struct Variant {
 
   // The rule this variant's answers follow when `asked` is requested.
   HitRule rule_for(HitRule asked) const { return fixed_rule.value_or(asked); }
-  // One query (external code: a batch of one, so prefer intersect_all in loops).
-  Hit intersect(const Ray& ray, const Shape& shape, HitRule rule) const;
+  // One query (external code: a batch of one, so prefer intersect_all in loops). `timing`: for
+  // external code, see AnswerTiming; built-in code ignores it.
+  Hit intersect(const Ray& ray, const Shape& shape, HitRule rule, AnswerTiming* timing = nullptr) const;
   // Every query, in order; external code answers in one round trip.
-  void intersect_all(std::span<const Query> qs, HitRule rule, std::span<Hit> out) const;
+  void intersect_all(std::span<const Query> qs, HitRule rule, std::span<Hit> out, AnswerTiming* timing = nullptr) const;
 };
 
 // The shapes a variant answers as `rayproof variants` lists them: "sphere", "sphere,box" (an

@@ -25,9 +25,10 @@ using fuzz::Family;
 struct Prepared {
   std::function<void()> run;
   std::function<Hit(size_t)> answer;
-  // Code behind a process boundary: it repeats the batch and times itself where it runs, so the
-  // transport is not charged to the formula (ExternalIntersector::set_timing_repeats).
-  ExternalIntersector* external = nullptr;
+  // Code behind a process boundary: one run that repeats the batch `repeats` times where the code
+  // runs and returns one pass's seconds timed there (negative where it cannot), so the transport
+  // is not charged to the formula (AnswerTiming). Empty for code rayproof times itself.
+  std::function<double(int repeats)> time_where_it_runs;
 };
 
 // Something to measure: readies a whole batch of queries of one shape in its own layout (so
