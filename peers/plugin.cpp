@@ -138,6 +138,7 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
   ::_exit(0);
 }
 
+// Becomes a worker before main when asked to (peers/external.h says why this is a static initializer).
 [[maybe_unused]] const bool kIsWorker = [] {
   if (const char* setting = std::getenv(kWorkerEnv)) run_worker(setting);
   return false;

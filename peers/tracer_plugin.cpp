@@ -160,6 +160,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
   ::_exit(0);
 }
 
+// Becomes a worker before main when asked to (peers/external.h says why this is a static initializer).
 [[maybe_unused]] const bool kIsWorker = [] {
   if (const char* setting = std::getenv(kWorkerEnv)) run_worker(setting);
   return false;

@@ -2,6 +2,13 @@
 // run in worker processes so a crash or a hang costs one variant and nothing already found, and
 // commands in any language spoken to over pipes (--exec). Each becomes a registered Variant
 // (core/variants.h) whose ExternalIntersector answers in batches.
+//
+// Process start: linking the plugin and tracer-plugin code installs a static initializer each
+// (plugin.cpp, tracer_plugin.cpp). A process whose environment holds RAYPROOF_PLUGIN_WORKER or
+// RAYPROOF_TRACER_WORKER becomes a worker before main runs and never returns to main: that is how
+// plugins run isolated, rayproof re-executing its own binary (/proc/self/exe) with one of them
+// set. A static initializer, not a call in main, so that every binary that loads plugins (the
+// CLI, the tests, the benchmarks) can serve as its own worker. Never set them yourself.
 #pragma once
 
 #include <string>
