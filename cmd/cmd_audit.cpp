@@ -11,6 +11,7 @@
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/json_fields.h"
 #include "rayproof/studies/scene_audit.h"
+#include "rayproof/studies/markup.h"
 #include "rayproof/studies/svg.h"
 
 namespace rayproof::cli {
@@ -105,7 +106,7 @@ void add_audit_command(CLI::App& app, int& exit_code) {
       std::string headroom;
       if (audit.headroom)
         headroom = va.exact_up_to_log2_translate ? "  " + std::to_string(*va.exact_up_to_log2_translate) : "  none";
-      const std::string cost = std::isnan(va.ns_per_ray) ? "-" : studies::svg::format("%.1f", va.ns_per_ray);
+      const std::string cost = std::isnan(va.ns_per_ray) ? "-" : studies::markup::format("%.1f", va.ns_per_ray);
       std::fprintf(stderr, "%-24s %-9s %9s %7ld %7ld %7ld %7ld %6ld %s%s\n", va.label.c_str(),
                    std::string(to_string(va.shape)).c_str(), cost.c_str(), va.counts.wrong, va.counts.holes,
                    va.counts.false_hits, va.counts.shadow_wrong, va.counts.acne, va.exact_for_scene() ? "yes" : "no ",

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The outputs a refactoring must leave byte for byte as they were: `check` on the bundled suite,
-# a fixed-seed campaign (findings and summary), renders of the bundled scenes, and an audit (its
-# JSON without the timings). Writes them under OUT with one SHA-256 per file in OUT/SHA256SUMS;
+# a fixed-seed campaign (findings and summary), renders of the bundled scenes, an audit (its
+# JSON without the timings) and stability maps of every shape (CSV and SVG). Writes them under OUT with one SHA-256 per file in OUT/SHA256SUMS;
 # compare two builds with `diff A/SHA256SUMS B/SHA256SUMS`.
 # Usage: scripts/same-outputs.sh RAYPROOF_BINARY OUT
 set -euo pipefail
@@ -14,6 +14,7 @@ for scene in scenes/seed1-sphere.json scenes/seed2-diffuse.json scenes/all-shape
   "$bin" render "$scene" -o "$out/$(basename "$scene" .json).png" > /dev/null 2>&1
 done
 "$bin" audit scenes/audit/edge-grid-tilted.json -o "$out/audit" > /dev/null 2>&1
+"$bin" stability --shapes all --from -100 --to 100 --step 50 --count 50 -o "$out/stability" > /dev/null 2>&1
 # Timings differ run to run: drop every key that holds one (and the audit's recommendation, which
 # picks the cheapest exact variant by its timing).
 python3 - "$out" <<'PY'
@@ -28,5 +29,7 @@ def strip(x):
 for path in [out / "fuzz-summary.json", out / "check-summary.json", *sorted((out / "audit").glob("*.json"))]:
     path.write_text(json.dumps(strip(json.load(open(path))), sort_keys=True, indent=1))
 PY
-(cd "$out" && find . -type f ! -name SHA256SUMS ! -name '*.html' ! -name '*.svg' | sort | xargs sha256sum > SHA256SUMS)
+# The audit's report and plots hold timings; the stability heatmaps do not.
+(cd "$out" && find . -type f ! -name SHA256SUMS ! -name '*.html' \( ! -name '*.svg' -o -path './stability/*' \) | sort |
+  xargs sha256sum > SHA256SUMS)
 wc -l < "$out/SHA256SUMS"

@@ -12,6 +12,7 @@
 #include "rayproof/core/casefile.h"
 #include "rayproof/core/json_fields.h"
 #include "rayproof/studies/scene_audit.h"
+#include "rayproof/studies/markup.h"
 #include "rayproof/studies/svg.h"
 #include "rayproof/verify/diagnose.h"
 
@@ -102,18 +103,18 @@ std::vector<std::string> users_code_verdicts(const SceneAudit& a) {
     if (!va.stopped.empty()) {
       line += " stopped (" + va.stopped + "): not exact for this scene";
     } else if (va.exact_for_scene()) {
-      line += " is exact for this scene: " + svg::format("%.1f", va.ns_per_ray) + " ns per primary ray";
+      line += " is exact for this scene: " + markup::format("%.1f", va.ns_per_ray) + " ns per primary ray";
       if (va.tracer)
         line += " (the whole tracer, timed in rayproof's process)";
       else if (va.timed_in_worker)
         line += " (rayproof's traversal plus the code's own time in its worker; " +
-                svg::format("%.1f", va.round_trip_ns_per_ray) + " ns with the round trips to the worker)";
+                markup::format("%.1f", va.round_trip_ns_per_ray) + " ns with the round trips to the worker)";
       else
         line += " (timed through its pipe: an --exec command cannot be timed where it runs)";
       for (const auto& r : a.recommendation)
         if (r.shape == va.shape && r.best && r.best != &va)
           line += "; the cheapest exact " + std::string(to_string(r.shape)) + " variant is " + r.best->label + " (" +
-                  svg::format("%.1f", r.best->ns_per_ray) + " ns)";
+                  markup::format("%.1f", r.best->ns_per_ray) + " ns)";
     } else {
       line += " is not exact for this scene: " + std::to_string(va.counts.wrong) + " pixels wrong, " +
               std::to_string(va.counts.shadow_wrong) + " shadow wrong";
@@ -166,8 +167,7 @@ std::string base64(const std::string& bytes) {
 }
 
 // HTML text and attributes need the same escapes as SVG's.
-std::string html_escape(std::string_view s) { return svg::escape(s); }
-std::string fixed(double x, int digits) { return svg::format("%.*f", digits, x); }
+std::string fixed(double x, int digits) { return markup::format("%.*f", digits, x); }
 
 json audit_json(const SceneAudit& a, const std::string& scene_path) {
   json j;
@@ -254,7 +254,7 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
 int enlargement(const Image& img) { return std::max(1, 240 / std::max(1, img.width)); }
 std::string img_tag(const Image& img, const std::string& alt) {
   const int factor = enlargement(img);
-  return "<img alt=\"" + html_escape(alt) + "\" width=\"" + std::to_string(img.width * factor) + "\" height=\"" +
+  return "<img alt=\"" + markup::escape(alt) + "\" width=\"" + std::to_string(img.width * factor) + "\" height=\"" +
          std::to_string(img.height * factor) + "\" src=\"data:image/png;base64," + base64(encode_png(img)) + "\">";
 }
 
@@ -274,8 +274,8 @@ std::string diff_tag(const Image& diff, const std::string& alt) {
                     "\" height=\"" + std::to_string(h) + "\" aria-hidden=\"true\">";
   for (const auto& [x, y] : marks) {
     const auto c = diff.at(x, y);
-    out += svg::format("<circle cx='%.1f' cy='%.1f' r='%d' fill='none' stroke='rgb(%d,%d,%d)' stroke-width='1.5'/>",
-                       (x + 0.5) * factor, (y + 0.5) * factor, std::max(7, 3 * factor), c[0], c[1], c[2]);
+    out += markup::format("<circle cx='%.1f' cy='%.1f' r='%d' fill='none' stroke='rgb(%d,%d,%d)' stroke-width='1.5'/>",
+                          (x + 0.5) * factor, (y + 0.5) * factor, std::max(7, 3 * factor), c[0], c[1], c[2]);
   }
   return out + "</svg></span>";
 }
@@ -353,7 +353,7 @@ std::string acne_words(const std::vector<ShapeKind>& shapes) {
 std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path) {
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>rayproof audit: "
-    << html_escape(scene_path) << "</title><style>"
+    << markup::escape(scene_path) << "</title><style>"
     << "body{font-family:sans-serif;margin:2em;max-width:1400px;color:#222}"
     << "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
     << "td:first-child,th:first-child{text-align:left}tr.exact td{background:#eef8ee}"
@@ -364,17 +364,17 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     << ".circled svg{position:absolute;left:1px;top:1px;pointer-events:none}.key "
        "span{display:inline-block;width:1em;height:1em;"
     << "margin:0 .3em 0 1em;vertical-align:middle}code{background:#f4f4f4;padding:1px 4px}</style></head><body>\n";
-  h << "<h1>Which intersector does this scene require?</h1>\n<p>Scene <code>" << html_escape(scene_path) << "</code>, "
-    << a.width << "×" << a.height << " pixels, shapes: ";
+  h << "<h1>Which intersector does this scene require?</h1>\n<p>Scene <code>" << markup::escape(scene_path)
+    << "</code>, " << a.width << "×" << a.height << " pixels, shapes: ";
   for (size_t i = 0; i < a.shapes.size(); ++i) h << (i ? ", " : "") << to_string(a.shapes[i]);
   h << ".</p>\n<h2>Recommendation</h2>\n<ul id=\"recommendation\">";
   for (const auto& r : a.recommendation) {
     h << "<li><b>" << to_string(r.shape) << "</b>: ";
     if (r.best) {
-      h << "<b>" << html_escape(r.best->name) << "</b>, the cheapest variant that renders this scene exactly ("
+      h << "<b>" << markup::escape(r.best->name) << "</b>, the cheapest variant that renders this scene exactly ("
         << fixed(r.best->ns_per_ray, 1) << " ns per primary ray)";
       for (size_t i = 0; i < r.close.size(); ++i)
-        h << (i == 0 ? "; within 10%, as good a choice: " : ", ") << html_escape(r.close[i]->label) << " ("
+        h << (i == 0 ? "; within 10%, as good a choice: " : ", ") << markup::escape(r.close[i]->label) << " ("
           << fixed(r.close[i]->ns_per_ray, 1) << " ns)";
     } else if (r.audited)
       h << "<b>none</b> of the audited variants renders this scene exactly";
@@ -383,7 +383,7 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     h << "</li>";
   }
   for (const std::string& v : users_code_verdicts(a))
-    h << "<li class=\"yours\">Your code: " << html_escape(v) << "</li>";
+    h << "<li class=\"yours\">Your code: " << markup::escape(v) << "</li>";
   h << "</ul>\n<h2>Every variant on this scene</h2>\n"
     << "<p>Each variant draws its own shape; the other shapes are judged exactly, so each count belongs to that "
        "variant alone. <i>wrong</i>: the visible object differs from the exact one (<i>holes</i>: it sees something "
@@ -400,14 +400,14 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   h << "</tr>\n";
   for (const VariantAudit& va : a.variants) {
     const PixelCounts& c = va.counts;
-    h << "<tr" << (va.exact_for_scene() ? " class=\"exact\"" : "") << "><td>" << html_escape(va.label)
-      << (va.origin != "built-in" ? " <small>(" + html_escape(va.origin) + ")</small>" : "")
+    h << "<tr" << (va.exact_for_scene() ? " class=\"exact\"" : "") << "><td>" << markup::escape(va.label)
+      << (va.origin != "built-in" ? " <small>(" + markup::escape(va.origin) + ")</small>" : "")
       << (va.tracer ? " <small>[tracer]</small>" : "") << "</td><td>" << to_string(va.shape) << "</td><td>"
       << va.precision << "</td><td>" << (std::isnan(va.ns_per_ray) ? std::string("–") : fixed(va.ns_per_ray, 1))
       << "</td><td>" << c.wrong << "</td><td>" << c.holes << "</td><td>" << c.false_hits << "</td><td>"
       << c.shadow_wrong << "</td><td>" << c.wrongly_shadowed << "</td><td>" << c.wrongly_lit << "</td><td>" << c.acne
       << "</td><td>" << (va.exact_for_scene() ? "yes" : "no")
-      << (va.stopped.empty() ? "" : " (stopped: " + html_escape(va.stopped) + ")") << "</td>";
+      << (va.stopped.empty() ? "" : " (stopped: " + markup::escape(va.stopped) + ")") << "</td>";
     if (a.headroom) {
       auto k = [](const std::optional<int>& x) { return x ? std::to_string(*x) : std::string("–"); };
       h << "<td>" << k(va.exact_up_to_log2_translate) << "</td><td>" << k(va.first_wrong_log2_translate) << "</td>";
@@ -442,17 +442,17 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   auto pair = [&](const VariantAudit& va) {
     const std::string& name = va.label;
     h << "<div class=\"pair\"><figure>" << exact_tag << "<figcaption>exact</figcaption></figure><figure>"
-      << img_tag(va.render, name + " render") << "<figcaption>" << html_escape(name) << "</figcaption></figure><figure>"
-      << diff_tag(va.diff, name + " diff") << "<figcaption>" << html_escape(name) << " vs exact: " << va.counts.holes
-      << " holes, " << va.counts.false_hits << " false hits, " << va.counts.shadow_wrong << " shadow wrong ("
-      << va.counts.wrongly_shadowed << " wrongly shadowed, " << va.counts.wrongly_lit
-      << " wrongly lit)</figcaption></figure>";
+      << img_tag(va.render, name + " render") << "<figcaption>" << markup::escape(name)
+      << "</figcaption></figure><figure>" << diff_tag(va.diff, name + " diff") << "<figcaption>" << markup::escape(name)
+      << " vs exact: " << va.counts.holes << " holes, " << va.counts.false_hits << " false hits, "
+      << va.counts.shadow_wrong << " shadow wrong (" << va.counts.wrongly_shadowed << " wrongly shadowed, "
+      << va.counts.wrongly_lit << " wrongly lit)</figcaption></figure>";
     if (has_cases_file(va)) {  // under the three images, as wide as they are
       const std::string file = stems[&va - a.variants.data()] + "-cases.jsonl";
       h << "<p class=\"cases\">" << va.cases.size() << " wrong pixels as cases" << (va.cases_left_out ? " (of " : "")
         << (va.cases_left_out ? std::to_string(va.cases.size() + va.cases_left_out) + ")" : "") << ": <a href=\""
-        << html_escape(file) << "\">" << html_escape(file) << "</a>, replayed in this directory by <code>"
-        << html_escape(cases_replay_command(va, file)) << "</code></p>";
+        << markup::escape(file) << "\">" << markup::escape(file) << "</a>, replayed in this directory by <code>"
+        << markup::escape(cases_replay_command(va, file)) << "</code></p>";
     }
     h << "</div>\n";
   };
@@ -470,10 +470,10 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   }
   if (!a.warnings.empty()) {
     h << "<h2>Warnings</h2>\n<ul id=\"warnings\">";
-    for (const std::string& w : a.warnings) h << "<li>" << html_escape(w) << "</li>";
+    for (const std::string& w : a.warnings) h << "<li>" << markup::escape(w) << "</li>";
     h << "</ul>\n";
   }
-  h << "<p>Reproduce: <code>" << html_escape(reproduce_command(a, scene_path)) << "</code></p>\n";
+  h << "<p>Reproduce: <code>" << markup::escape(reproduce_command(a, scene_path)) << "</code></p>\n";
   // For automated checks (a headless browser dumps the DOM after load): how many images decoded.
   h << "<script>window.addEventListener('load',function(){var n=0,imgs=document.images;for(var i=0;i<imgs.length;i++)"
        "if(imgs[i].complete&&imgs[i].naturalWidth>0)n++;document.body.setAttribute('data-images-decoded',n+'/"

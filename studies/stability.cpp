@@ -1,4 +1,5 @@
 #include "rayproof/studies/stability.h"
+#include "rayproof/studies/markup.h"
 
 #include <algorithm>
 #include <cmath>
@@ -135,9 +136,9 @@ void write_stability_svg(const std::string& title, const std::vector<StabilityCe
   for (const StabilityCell& c : cells) {
     const int col = (c.log2_scale - grid.lo) / grid.step, row = (c.log2_size - grid.lo) / grid.step;
     const std::string tip =
-        svg::format("distance 2^%d, size 2^%d: %llu of %llu disagree, ULP p99 %llu", c.log2_scale, c.log2_size,
-                    (unsigned long long)c.tally.disagreements(), (unsigned long long)c.tally.cases,
-                    (unsigned long long)c.tally.ulps.quantile(0.99));
+        markup::format("distance 2^%d, size 2^%d: %llu of %llu disagree, ULP p99 %llu", c.log2_scale, c.log2_size,
+                       (unsigned long long)c.tally.disagreements(), (unsigned long long)c.tally.cases,
+                       (unsigned long long)c.tally.ulps.quantile(0.99));
     out << svg::rect(left + col * cell, top + (n - 1 - row) * cell, cell, cell, colour_of(c.tally.disagreement_rate()),
                      tip)
         << "\n";
@@ -149,7 +150,7 @@ void write_stability_svg(const std::string& title, const std::vector<StabilityCe
         << svg::text(left - 6, top + (n - 1 - i + 0.5) * cell + 4, k, "text-anchor='end'") << "\n";
   }
   out << svg::text(left + plot / 2, top + plot + 40, "log2 of the distance from the ray origin", "text-anchor='middle'")
-      << svg::format("<text transform='translate(24 %.1f) rotate(-90)' text-anchor='middle'>", top + plot / 2)
+      << markup::format("<text transform='translate(24 %.1f) rotate(-90)' text-anchor='middle'>", top + plot / 2)
       << "log2 of the size (sphere radius, triangle or box extent)</text>\n";
   const double lx = left + plot + 30;  // legend
   out << svg::text(lx, top + 4, "disagreement rate") << "\n";

@@ -1,4 +1,5 @@
 #include "rayproof/studies/trade.h"
+#include "rayproof/studies/markup.h"
 
 #include <algorithm>
 #include <chrono>
@@ -203,14 +204,15 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
            "|\n"
         << "|---|---|---|---:|---:|---:|---:|---:|:---:|\n";
   else
-    out << svg::format("%-9s %-12s %-22s %9s %11s %9s %20s %20s  %s\n", "shape", "family", "variant", "ns/test",
-                       "disagree", "bits-p99", "ulp-p99", "ulp-max", "pareto");
+    out << markup::format("%-9s %-12s %-22s %9s %11s %9s %20s %20s  %s\n", "shape", "family", "variant", "ns/test",
+                          "disagree", "bits-p99", "ulp-p99", "ulp-max", "pareto");
   for (const TradeRow& r : rows) {
-    const std::string bits = r.t_error().count() ? svg::format("%.1f", bits_of_error(r.t_error().quantile(0.99))) : "-";
-    out << svg::format(row_format, std::string(to_string(r.shape)).c_str(), std::string(to_string(r.family)).c_str(),
-                       r.variant.c_str(), r.ns_per_test, 100 * r.tally.disagreement_rate(), bits.c_str(),
-                       static_cast<unsigned long long>(r.t_error().quantile(0.99)),
-                       static_cast<unsigned long long>(r.t_error().max()), r.pareto ? "★" : "");
+    const std::string bits =
+        r.t_error().count() ? markup::format("%.1f", bits_of_error(r.t_error().quantile(0.99))) : "-";
+    out << markup::format(row_format, std::string(to_string(r.shape)).c_str(), std::string(to_string(r.family)).c_str(),
+                          r.variant.c_str(), r.ns_per_test, 100 * r.tally.disagreement_rate(), bits.c_str(),
+                          static_cast<unsigned long long>(r.t_error().quantile(0.99)),
+                          static_cast<unsigned long long>(r.t_error().max()), r.pareto ? "★" : "");
   }
   out << (md ? "\n" : "")
       << "Disagreement: the class differs from the exact one; t error (ULPs, bits = log2(ulps + 1)) "
@@ -254,17 +256,18 @@ struct TradeFrame {
     for (int e = static_cast<int>(lx0); e <= static_cast<int>(lx1); ++e) {  // x grid
       const double gx = x(std::pow(10, e));
       out << svg::line(gx, top, gx, bottom_y(), "stroke='#ddd'")
-          << svg::text(gx, bottom_y() + 18, svg::format("%g", std::pow(10, e)), "text-anchor='middle'") << "\n";
+          << svg::text(gx, bottom_y() + 18, markup::format("%g", std::pow(10, e)), "text-anchor='middle'") << "\n";
     }
     for (int e = static_cast<int>(ly_floor) + 1; e <= 0; ++e) {  // y grid
       const double gy = y(std::pow(10, e));
       out << svg::line(left, gy, W - right, gy, "stroke='#ddd'")
-          << svg::text(left - 6, gy + 4, svg::format("%g%%", 100 * std::pow(10, e)), "text-anchor='end'") << "\n";
+          << svg::text(left - 6, gy + 4, markup::format("%g%%", 100 * std::pow(10, e)), "text-anchor='end'") << "\n";
     }
     out << svg::line(left, y(0), W - right, y(0), "stroke='#999' stroke-dasharray='4 3'")
         << svg::text(left - 6, y(0) + 4, "0", "text-anchor='end'") << "\n"
         << svg::text((left + W - right) / 2, bottom_y() + 38, "ns per test (log)", "text-anchor='middle'")
-        << svg::format("<text transform='translate(22 %.1f) rotate(-90)' text-anchor='middle'>", (top + bottom_y()) / 2)
+        << markup::format("<text transform='translate(22 %.1f) rotate(-90)' text-anchor='middle'>",
+                          (top + bottom_y()) / 2)
         << "class disagreement rate (log)</text>\n";
   }
 };
@@ -274,22 +277,22 @@ struct TradeFrame {
 // colour), exact ones with a black dot in the middle, double ones solid.
 std::string trade_marker(double x, double y, size_t family, const std::string& colour, const std::string& precision) {
   const char* c = colour.c_str();
-  const std::string paint =
-      precision == "float" ? svg::format("fill='#fff' stroke='%s' stroke-width='2'", c) : svg::format("fill='%s'", c);
+  const std::string paint = precision == "float" ? markup::format("fill='#fff' stroke='%s' stroke-width='2'", c)
+                                                 : markup::format("fill='%s'", c);
   std::string m;
   switch (family % 6) {
-    case 0: m = svg::format("<circle cx='%.1f' cy='%.1f' r='5' %s/>", x, y, paint.c_str()); break;
+    case 0: m = markup::format("<circle cx='%.1f' cy='%.1f' r='5' %s/>", x, y, paint.c_str()); break;
     case 1:
-      m = svg::format("<rect x='%.1f' y='%.1f' width='9' height='9' %s/>", x - 4.5, y - 4.5, paint.c_str());
+      m = markup::format("<rect x='%.1f' y='%.1f' width='9' height='9' %s/>", x - 4.5, y - 4.5, paint.c_str());
       break;
-    case 2: m = svg::format("<path d='M%.1f %.1f l5.5 9.5 l-11 0 z' %s/>", x, y - 6, paint.c_str()); break;
-    case 3: m = svg::format("<path d='M%.1f %.1f l5.5 -9.5 l-11 0 z' %s/>", x, y + 6, paint.c_str()); break;
-    case 4: m = svg::format("<path d='M%.1f %.1f l6 6 l-6 6 l-6 -6 z' %s/>", x, y - 6, paint.c_str()); break;
+    case 2: m = markup::format("<path d='M%.1f %.1f l5.5 9.5 l-11 0 z' %s/>", x, y - 6, paint.c_str()); break;
+    case 3: m = markup::format("<path d='M%.1f %.1f l5.5 -9.5 l-11 0 z' %s/>", x, y + 6, paint.c_str()); break;
+    case 4: m = markup::format("<path d='M%.1f %.1f l6 6 l-6 6 l-6 -6 z' %s/>", x, y - 6, paint.c_str()); break;
     default:
-      m = svg::format("<path d='M%.1f %.1f h10 M%.1f %.1f v10' stroke='%s' stroke-width='%s'/>", x - 5, y, x, y - 5, c,
-                      precision == "float" ? "1.5" : "3");
+      m = markup::format("<path d='M%.1f %.1f h10 M%.1f %.1f v10' stroke='%s' stroke-width='%s'/>", x - 5, y, x, y - 5,
+                         c, precision == "float" ? "1.5" : "3");
   }
-  if (precision == "exact") m += svg::format("<circle cx='%.1f' cy='%.1f' r='1.8' fill='#000'/>", x, y);
+  if (precision == "exact") m += markup::format("<circle cx='%.1f' cy='%.1f' r='1.8' fill='#000'/>", x, y);
   return m;
 }
 
@@ -300,7 +303,7 @@ std::string contender_colour(size_t i) {
                                 "#008856", "#e68fac", "#0067a5", "#f99379", "#604e97", "#f6a600", "#b3446c",
                                 "#dcd300", "#882d17", "#8db600", "#654522", "#e25822", "#2b3d26"};
   if (i < std::size(kelly)) return kelly[i];
-  return svg::format("hsl(%.0f, 65%%, 45%%)", std::fmod(i * 137.508, 360.0));
+  return markup::format("hsl(%.0f, 65%%, 45%%)", std::fmod(i * 137.508, 360.0));
 }
 
 template <class T>
@@ -337,20 +340,21 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
                 [](const TradeRow* a, const TradeRow* b) { return a->ns_per_test < b->ns_per_test; });
       std::string points;
       for (const TradeRow* r : front)
-        points += svg::format("%.1f,%.1f ", frame.x(r->ns_per_test), frame.y(r->tally.disagreement_rate()));
+        points += markup::format("%.1f,%.1f ", frame.x(r->ns_per_test), frame.y(r->tally.disagreement_rate()));
       if (front.size() > 1)
         out << "<polyline points='" << points << "' fill='none' stroke='#888' stroke-width='1.2'><title>"
-            << svg::escape("Pareto front, " + std::string(to_string(families[fi]))) << "</title></polyline>\n";
+            << markup::escape("Pareto front, " + std::string(to_string(families[fi]))) << "</title></polyline>\n";
     }
     for (const TradeRow& r : panel) {
       const size_t vi = index_in(contenders, r.variant), fi = index_in(families, r.family);
       const double x = frame.x(r.ns_per_test), y = frame.y(r.tally.disagreement_rate());
       out << "<g><title>"
-          << svg::escape(r.variant + (r.users_code ? " (your code)" : "") + " / " + std::string(to_string(r.family)) +
-                         svg::format(": %g ns, rate %g", r.ns_per_test, r.tally.disagreement_rate()))
+          << markup::escape(r.variant + (r.users_code ? " (your code)" : "") + " / " +
+                            std::string(to_string(r.family)) +
+                            markup::format(": %g ns, rate %g", r.ns_per_test, r.tally.disagreement_rate()))
           << "</title>" << trade_marker(x, y, fi, contender_colour(vi), r.precision);
       if (r.users_code)  // the user's own code: ringed (and named in bold in the legend), found at a glance
-        out << svg::format("<circle cx='%.1f' cy='%.1f' r='10' fill='none' stroke='#000' stroke-width='2'/>", x, y);
+        out << markup::format("<circle cx='%.1f' cy='%.1f' r='10' fill='none' stroke='#000' stroke-width='2'/>", x, y);
       out << "</g>\n";
     }
     const double lx = TradeFrame::W - TradeFrame::right;

@@ -1,5 +1,5 @@
 // The one small SVG helper of the studies' plots: a document with a white background, and the
-// few elements the trade scatter and the stability heatmaps draw, text escaped.
+// few elements the trade scatter and the stability heatmaps draw, text escaped (markup.h).
 #pragma once
 
 #include <ostream>
@@ -7,11 +7,6 @@
 #include <string_view>
 
 namespace rayproof::studies::svg {
-
-// printf into a string (the plots place every element with %.1f coordinates).
-std::string format(const char* pattern, ...) __attribute__((format(printf, 1, 2)));
-// Text safe inside SVG elements and attributes (&, <, >, ', ").
-std::string escape(std::string_view text);
 
 // <svg …> with a white background; close with end().
 void begin(std::ostream& out, double width, double height, int font_size);
