@@ -378,21 +378,27 @@ json vec_json(const Vec3& v) {
 }  // namespace
 
 json shape_to_json(const Shape& shape) {
-  struct ToJson {
-    json operator()(const Sphere& s) const {
-      return {{"type", "sphere"}, {"center", vec_json(s.center)}, {"radius", exact_json_number(s.radius)}};
-    }
-    json operator()(const Plane& p) const {
-      return {{"type", "plane"}, {"normal", vec_json(p.normal)}, {"offset", exact_json_number(p.offset)}};
-    }
-    json operator()(const Triangle& t) const {
-      return {{"type", "triangle"}, {"vertices", json::array({vec_json(t.v[0]), vec_json(t.v[1]), vec_json(t.v[2])})}};
-    }
-    json operator()(const Box& b) const {
-      return {{"type", "box"}, {"min", vec_json(b.min)}, {"max", vec_json(b.max)}};
-    }
+  double x[kMaxShapeNumbers];
+  shape_numbers(shape, x);
+  json j = {{"type", std::string(to_string(kind_of(shape)))}};
+  const double* next = x;
+  auto vec = [&] {
+    const json v = vec_json(Vec3(next[0], next[1], next[2]));
+    next += 3;
+    return v;
   };
-  return std::visit(ToJson{}, shape);
+  for (const ShapeField& f : shape_fields(kind_of(shape))) {
+    json& field = j[std::string(f.name)];
+    if (f.vectors == 0) {
+      field = exact_json_number(*next++);
+    } else if (!f.nested()) {
+      field = vec();
+    } else {
+      field = json::array();
+      for (int i = 0; i < f.vectors; ++i) field.push_back(vec());
+    }
+  }
+  return j;
 }
 
 }  // namespace rayproof

@@ -148,6 +148,20 @@ int shape_numbers(const Shape& s, double out[kMaxShapeNumbers]) {
       s);
 }
 
+std::span<const ShapeField> shape_fields(ShapeKind k) {
+  static constexpr ShapeField sphere[] = {{"center", 1}, {"radius", 0}};
+  static constexpr ShapeField plane[] = {{"normal", 1}, {"offset", 0}};
+  static constexpr ShapeField triangle[] = {{"vertices", 3}};
+  static constexpr ShapeField box[] = {{"min", 1}, {"max", 1}};
+  switch (k) {
+    case ShapeKind::sphere: return sphere;
+    case ShapeKind::plane: return plane;
+    case ShapeKind::triangle: return triangle;
+    case ShapeKind::box: break;
+  }
+  return box;
+}
+
 Shape shape_from_numbers(ShapeKind k, const double* n) {
   auto at = [&](int i) { return Vec3(n[i], n[i + 1], n[i + 2]); };
   switch (k) {

@@ -61,32 +61,20 @@ std::string exec_case_line(const Query& q, const std::string& id) {
   numbers(direction, 3);
   double s[kMaxShapeNumbers];
   shape_numbers(q.shape, s);
-  line += "]},\"shape\":{\"type\":\"" + std::string(to_string(kind_of(q.shape))) + "\",";
-  switch (kind_of(q.shape)) {
-    case ShapeKind::sphere:
-      line += "\"center\":[";
-      numbers(s, 3);
-      line += "],\"radius\":";
-      numbers(s + 3, 1);
-      break;
-    case ShapeKind::plane:
-      line += "\"normal\":[";
-      numbers(s, 3);
-      line += "],\"offset\":";
-      numbers(s + 3, 1);
-      break;
-    case ShapeKind::triangle:
-      line += "\"vertices\":[[";
-      numbers(s, 3), line += "],[", numbers(s + 3, 3), line += "],[", numbers(s + 6, 3);
-      line += "]]";
-      break;
-    case ShapeKind::box:
-      line += "\"min\":[";
-      numbers(s, 3);
-      line += "],\"max\":[";
-      numbers(s + 3, 3);
-      line += "]";
-      break;
+  line += "]},\"shape\":{\"type\":\"" + std::string(to_string(kind_of(q.shape))) + "\"";
+  const double* next = s;
+  for (const ShapeField& f : shape_fields(kind_of(q.shape))) {
+    line += ",\"" + std::string(f.name) + "\":";
+    if (f.vectors == 0) {
+      numbers(next++, 1);
+      continue;
+    }
+    line += f.nested() ? "[[" : "[";
+    for (int i = 0; i < f.vectors; ++i, next += 3) {
+      if (i) line += "],[";
+      numbers(next, 3);
+    }
+    line += f.nested() ? "]]" : "]";
   }
   return line + "}}\n";
 }

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <span>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -49,6 +50,17 @@ inline constexpr int kMaxShapeNumbers = 9;
 int shape_numbers(const Shape& s, double out[kMaxShapeNumbers]);
 int shape_number_count(ShapeKind k);
 Shape shape_from_numbers(ShapeKind k, const double* numbers);
+
+// The case format's fields of a shape, in shape_numbers' order: a name and how its numbers are
+// nested — a number (`vectors` 0), a vector [x, y, z] (1), or an array of `vectors` vectors
+// (a triangle's vertices). Every writer of a shape (JSON, the exec protocol) walks this list.
+struct ShapeField {
+  std::string_view name;
+  int vectors;  // 0: one number; 1: [x, y, z]; n > 1: [[x, y, z], ...] n times
+  bool nested() const { return vectors > 1; }
+  int numbers() const { return vectors == 0 ? 1 : 3 * vectors; }
+};
+std::span<const ShapeField> shape_fields(ShapeKind k);
 
 // Why a shape is degenerate in the sense of the case format, or nullopt when it is valid.
 // Checks are exact: a triangle is collinear only when its cross product is exactly zero
