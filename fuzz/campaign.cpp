@@ -77,7 +77,7 @@ json CampaignReport::coverage() const {
   // another class it can answer. A kind no family found is where the next family should aim.
   std::map<std::string, std::map<std::string, json>> found;  // variant → kind → family → count
   for (const auto& [key, tally] : tallies)
-    for (const auto& [kind, n] : tally.confusion) found[key.name][kind][key.family] = n;
+    for (const auto& [kind, n] : tally.confusion) found[key.name][kind.to_string()][key.family] = n;
   json out = json::object();
   for (const auto& [key, tally] : tallies) {
     if (out.contains(key.name)) continue;

@@ -139,9 +139,33 @@ TEST(Report, BitsOfError) {
 
 TEST(Report, DisagreementKindsShowTheTopThreeAndHowManyMore) {
   Tally t;
-  t.confusion = {{"a->b", 5}, {"c->d", 9}, {"e->f", 1}, {"g->h", 3}, {"i->j", 2}};
-  EXPECT_EQ(disagreement_kinds(t), "c->d 9, a->b 5, g->h 3, +2 more");
+  using C = HitClass;
+  t.confusion = {{{C::enter, C::miss}, 5},
+                 {{C::exit, C::miss}, 9},
+                 {{C::miss, C::hit}, 1},
+                 {{C::tangent, C::miss}, 3},
+                 {{C::tangent, C::enter}, 2}};
+  EXPECT_EQ(disagreement_kinds(t), "exit->miss 9, enter->miss 5, tangent->miss 3, +2 more");
   EXPECT_EQ(disagreement_kinds(Tally{}), "-");
+}
+
+TEST(Report, ATallyReadsBackItsDisagreementKindsAndRefusesOthers) {
+  Tally t;
+  t.add(HitClass::tangent, answer(HitClass::miss, NAN, HitClass::tangent, 1.0));
+  t.add(HitClass::enter, answer(HitClass::exit, 1.5, HitClass::enter, 1.0));
+  const json written = t.to_json();
+  EXPECT_EQ(written["disagreements"], json::parse(R"({"enter->exit": 1, "tangent->miss": 1})"));
+  EXPECT_EQ(Tally::from_json(written).to_json(), written);
+  for (const char* bad : {"tangent", "hit->miss", "enter->", "enter->nowhere", "->miss"}) {
+    json j = written;
+    j["disagreements"] = {{bad, 1}, {"tangent->miss", 1}};
+    try {
+      Tally::from_json(j);
+      ADD_FAILURE() << bad << " was read";
+    } catch (const FieldError& e) {
+      EXPECT_EQ(e.field, "disagreements." + std::string(bad));
+    }
+  }
 }
 
 TEST(Report, MarkdownTableHasAHeaderRuleAndOneRowPerVariantSortedByShape) {

@@ -38,7 +38,9 @@ json check_summary_json(ShapeKind shape, const Tally& t) {
 
 std::string disagreement_kinds(const Tally& t, size_t top) {
   std::vector<std::pair<std::uint64_t, std::string>> kinds;
-  for (const auto& [kind, n] : t.confusion) kinds.push_back({n, kind});
+  for (const auto& [kind, n] : t.confusion) kinds.push_back({n, kind.to_string()});
+  // Ties in the order of the written names, as a summary lists them.
+  std::sort(kinds.begin(), kinds.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
   std::stable_sort(kinds.begin(), kinds.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   std::string out;
   for (size_t i = 0; i < kinds.size() && i < top; ++i)

@@ -89,8 +89,7 @@ void Tally::add(HitClass case_exact, const VariantOutcome& o) {
     case Agreement::cannot_tell: ++cannot_tell; break;
     case Agreement::wrong: ++wrong; break;
   }
-  if (o.agreement != Agreement::agrees)
-    ++confusion[std::string(to_string(exact)) + "->" + std::string(to_string(o.hit.cls))];
+  if (o.agreement != Agreement::agrees) ++confusion[{exact, o.hit.cls}];
   if (o.ulp && o.agreement == Agreement::agrees) ulps.add(*o.ulp);  // a wrong class's t says nothing of accuracy
   if (o.ulp_own && o.agreement == Agreement::agrees) ulps_own.add(*o.ulp_own);
 }
@@ -106,8 +105,21 @@ Agreement Tally::add_answer(const Verdict& exact, const Hit& h) {
     case Agreement::cannot_tell: ++cannot_tell; break;
     case Agreement::wrong: ++wrong; break;
   }
-  ++confusion[std::string(to_string(exact.cls)) + "->" + std::string(to_string(h.cls))];
+  ++confusion[{exact.cls, h.cls}];
   return a;
+}
+
+std::string DisagreementKind::to_string() const {
+  return std::string(rayproof::to_string(exact)) + "->" + std::string(rayproof::to_string(reported));
+}
+
+std::optional<DisagreementKind> DisagreementKind::from_string(std::string_view text) {
+  const std::size_t arrow = text.find("->");
+  if (arrow == std::string_view::npos) return std::nullopt;
+  const auto exact = hit_class_from_string(text.substr(0, arrow));
+  const auto reported = answer_class_from_string(text.substr(arrow + 2));
+  if (!exact || !reported) return std::nullopt;
+  return DisagreementKind{*exact, *reported};
 }
 
 namespace {
@@ -140,7 +152,9 @@ void Tally::merge(const Tally& o) {
 }
 
 json Tally::to_json() const {
-  json j = {{"disagreements", confusion}, {"ulp", ulps.to_json()}};
+  json kinds = json::object();
+  for (const auto& [kind, n] : confusion) kinds[kind.to_string()] = n;
+  json j = {{"disagreements", kinds}, {"ulp", ulps.to_json()}};
   for (const TallyCount& c : kTallyCounts)
     if (c.written_when_zero || this->*c.member > 0) j[c.key] = this->*c.member;
   if (ulps_own.count() > 0) j["ulp_own"] = ulps_own.to_json();
@@ -159,7 +173,9 @@ Tally Tally::from_json(const json& j) {
   for (auto it = j.at("disagreements").begin(); it != j.at("disagreements").end(); ++it) {
     const std::uint64_t n = read_count(it.value(), "disagreements." + printable_prefix(it.key(), 40));
     if (n > t.cases - std::min(t.cases, disagreements)) throw FieldError("disagreements", "count more than cases");
-    t.confusion[it.key()] = n;
+    const auto kind = DisagreementKind::from_string(it.key());
+    if (!kind) throw FieldError("disagreements." + printable_prefix(it.key(), 40), "not exact->reported classes");
+    t.confusion[*kind] = n;
     disagreements += n;
   }
   if (disagreements != t.wrong + t.cannot_tell)

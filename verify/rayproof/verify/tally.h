@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string_view>
 #include <string>
 
@@ -34,14 +35,24 @@ class UlpHistogram {
   std::uint64_t count_ = 0, max_ = 0;
 };
 
+// A kind of disagreement: the exact class and the class the code reported. Written
+// "exact->reported" ("tangent->miss") in reports and summaries, a typed key everywhere else.
+struct DisagreementKind {
+  HitClass exact, reported;
+  auto operator<=>(const DisagreementKind&) const = default;
+  std::string to_string() const;
+  // "exact->reported" with an exact class of cases.md and an answer class; nullopt otherwise.
+  static std::optional<DisagreementKind> from_string(std::string_view text);
+};
+
 struct Tally {
   std::uint64_t cases = 0, agree = 0, wrong = 0, cannot_tell = 0;
   std::uint64_t shared_edge_holes = 0;  // see crosses_shared_edge (verify/compare.h)
   // Answers external code failed to give (plugin.md), not among `cases`; serialised when > 0.
   std::uint64_t crashes = 0, timeouts = 0, protocol_errors = 0;  // each stops the variant
   std::uint64_t plugin_errors = 0;                               // a return outside 0..5, a NaN t, a contact without t
-  std::uint64_t not_representable = 0;             // f32 code: cases that overflow float or degenerate when rounded
-  std::map<std::string, std::uint64_t> confusion;  // "exact->reported", disagreements only
+  std::uint64_t not_representable = 0;  // f32 code: cases that overflow float or degenerate when rounded
+  std::map<DisagreementKind, std::uint64_t> confusion;  // disagreements only
   UlpHistogram ulps;      // t error, where the class agrees and both t exist (a wrong class's t is no error of t)
   UlpHistogram ulps_own;  // the same in the variant's own precision (f32 code only)
 
