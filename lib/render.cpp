@@ -41,7 +41,7 @@ SceneHit trace(const SceneIndex& index, const Intersectors& isect, const Ray& ra
   for (ShapeKind kind : kAllShapeKinds) {
     if (index.count(kind) == 0) continue;
     const SceneHit h = trace_kind(index, kind, *isect.by_shape[static_cast<int>(kind)], isect.rule, ray);
-    if (h.primitive >= 0 && nearer(h.hit.t, h.primitive, index.primitive(h.primitive), best, index)) best = h;
+    if (h.primitive >= 0 && nearer(h.hit.t, h.primitive, best, index)) best = h;
   }
   return best;
 }

@@ -478,7 +478,7 @@ class Auditor {
     if (others.found()) {
       const SceneHit theirs{index_.primitive(others.primitive).object, others.primitive,
                             Hit{HitClass::enter, others.t}};
-      if (mine.primitive < 0 || nearer(others.t, others.primitive, index_.primitive(others.primitive), mine, index_)) {
+      if (mine.primitive < 0 || nearer(others.t, others.primitive, mine, index_)) {
         visible = theirs;
         visible_is_variant = false;
       }

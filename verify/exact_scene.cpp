@@ -31,8 +31,7 @@ bool ExactTracer::before(const Ray& ray, const ExactContact& a, const ExactConta
     const int c = compare(exact_parameter(ray, a.primitive), exact_parameter(ray, b.primitive));
     if (c != 0) return c < 0;
   }
-  const Primitive &pa = index_->primitive(a.primitive), &pb = index_->primitive(b.primitive);
-  return pa.object != pb.object ? pa.object < pb.object : a.primitive < b.primitive;
+  return index_->listed_before(a.primitive, b.primitive);
 }
 
 ExactContact ExactTracer::nearest(ShapeKind kind, const Ray& ray) {

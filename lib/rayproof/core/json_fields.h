@@ -13,7 +13,9 @@
 
 namespace rayproof {
 
-using nlohmann::json;
+// rayproof's JSON type (a case's `found`, every record's to_json): an alias in rayproof's own
+// namespace, so including a rayproof header brings no name into the user's scope.
+using json = nlohmann::json;
 
 // A malformed field: `field` is its path, e.g. "shape.center[2]".
 struct FieldError : std::runtime_error {

@@ -53,11 +53,10 @@ SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& vari
 SceneHit trace(const SceneIndex& index, const Intersectors& isect, const Ray& ray);
 // Whether t is nearer than `best` (the scene's order: smaller t, then the object listed first,
 // then the lower primitive).
-inline bool nearer(double t, int primitive, const Primitive& p, const SceneHit& best, const SceneIndex& index) {
+inline bool nearer(double t, int primitive, const SceneHit& best, const SceneIndex& index) {
   if (best.primitive < 0) return true;
   if (t != best.hit.t) return t < best.hit.t;
-  const Primitive& b = index.primitive(best.primitive);
-  return p.object != b.object ? p.object < b.object : primitive < best.primitive;
+  return index.listed_before(primitive, best.primitive);
 }
 
 // trace_kind with the leaf test given as `intersect(shape) -> Hit` (the audit times external code
@@ -70,9 +69,8 @@ SceneHit trace_kind_with(const SceneIndex& index, ShapeKind kind, const Ray& ray
     const Hit h = intersect(shape);
     // A contact without t (a ray lying in a plane) has no point to show.
     if (h.cls == HitClass::miss || !h.has_t() || !(h.t >= 0)) return false;
-    const Primitive& p = index.primitive(id);
-    if (nearer(h.t, id, p, best, index)) {
-      best = {p.object, id, h};
+    if (nearer(h.t, id, best, index)) {
+      best = {index.primitive(id).object, id, h};
       t_limit = h.t;
     }
     return false;

@@ -27,6 +27,13 @@ class SceneIndex {
   const Scene& scene() const { return *scene_; }
   std::span<const Primitive> primitives() const { return primitives_; }
   const Primitive& primitive(std::int32_t i) const { return primitives_[i]; }
+  // The scene's order of two contacts at the same t, the one order the renderer (render.h
+  // nearer) and the exact tracer (exact_scene.h before) break ties with: the object listed
+  // first, then the lower primitive.
+  bool listed_before(std::int32_t a, std::int32_t b) const {
+    const std::int32_t oa = primitives_[a].object, ob = primitives_[b].object;
+    return oa != ob ? oa < ob : a < b;
+  }
   // The kinds the scene has primitives of, in kAllShapeKinds order.
   const std::vector<ShapeKind>& shapes_used() const { return shapes_used_; }
   std::size_t count(ShapeKind kind) const { return by_kind_[static_cast<int>(kind)].size(); }
