@@ -5,6 +5,7 @@
 
 #include "commands.h"
 #include "rayproof/core/render.h"
+#include "rayproof/core/timing.h"
 
 namespace rayproof::cli {
 
@@ -53,10 +54,10 @@ void add_render_command(CLI::App& app, int& exit_code) {
       std::lock_guard lock(mutex);
       progress.update(done, total);
     };
-    const auto start = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     const Image image = render(scene, ro);
     progress.finish();
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = watch.seconds();
     write_image(image, output);
     std::cerr << "rayproof render: " << opts->output << " (" << image.width << "x" << image.height << ", " << seconds
               << " s)\n";

@@ -18,6 +18,7 @@
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/casefile.h"
 #include "rayproof/core/parallel.h"
+#include "rayproof/core/timing.h"
 #include "rayproof/fuzz/findings_file.h"
 #include "rayproof/fuzz/shrink.h"
 #include "rayproof/verify/compare.h"
@@ -587,9 +588,9 @@ CampaignReport run_campaign(const CampaignOptions& o) {
     for (std::uint64_t start = cp.next; start < hi; start += batch) {
       const Batch b{family, construction, shape, start, std::min(hi, start + batch)};
       // Throughput counts generating and checking; shrinking findings is reported apart.
-      const auto t0 = std::chrono::steady_clock::now();
+      const Stopwatch checking;
       Judged judged = judge_batch(b, variants, o, workers, cp.report);
-      const double check_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const double check_seconds = checking.seconds();
       count_shared_edge_holes(b, judged, variants, cp.report);
       // The cap keeps the file short, but never drops the finding that stopped external code (a
       // crash, a hang, a protocol error): it is that variant's last word and its replay.
@@ -609,7 +610,7 @@ CampaignReport run_campaign(const CampaignOptions& o) {
         cp.report.findings_unshrunk += !f.shrink || !o.shrink;
       }
       // Step 4: append the findings whole, then checkpoint what they complete.
-      const auto t1 = std::chrono::steady_clock::now();
+      const Stopwatch shrinking;
       for (const std::string& line : shrink_and_format(b, judged.findings, variants, o, workers)) {
         out << line;
         cp.findings_hash.add(line);
@@ -621,8 +622,7 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       if (o.crash_after_batches >= 0 && ++batches_done > o.crash_after_batches) std::_Exit(3);  // testing hook
       cp.report.cases[pair_key] += b.size();
       cp.report.seconds[pair_key] += check_seconds;
-      cp.report.shrink_seconds[pair_key] +=
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+      cp.report.shrink_seconds[pair_key] += shrinking.seconds();
       cp.next = b.end;
       cp.findings_bytes = std::filesystem::file_size(o.output);
       save(checkpoint_path, o, cp);

@@ -12,6 +12,7 @@
 
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/parallel.h"
+#include "rayproof/core/timing.h"
 #include "rayproof/fuzz/findings_file.h"
 
 namespace rayproof::fuzz {
@@ -433,9 +434,9 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
     for (std::size_t i : live) rays.push_back(*s.rays[i]);
     // Nearest mode.
     std::vector<TraceAnswer> answers(rays.size());
-    auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch nearest_watch;
     built.scene->nearest(rays, answers);
-    near.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    near.seconds += nearest_watch.seconds();
     near.timed_rays += rays.size();
     for (std::size_t k = 0; k < live.size(); ++k) {
       const std::size_t i = live[k];
@@ -465,9 +466,9 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       continue;
     }
     std::vector<AllHitsAnswer> all(rays.size());
-    t0 = std::chrono::steady_clock::now();
+    const Stopwatch all_hits_watch;
     built.scene->all_hits(rays, all);
-    any.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    any.seconds += all_hits_watch.seconds();
     any.timed_rays += rays.size();
     for (std::size_t k = 0; k < live.size(); ++k) {
       const std::size_t i = live[k];
@@ -547,7 +548,7 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
     if (!cp.family_started) cp.next_mesh = lo, cp.family_started = true;
     for (std::uint64_t start = cp.next_mesh; start < hi; start += o.batch_meshes) {
       const std::uint64_t end = std::min(hi, start + o.batch_meshes);
-      const auto t0 = std::chrono::steady_clock::now();
+      const Stopwatch batch_watch;
       std::vector<MeshResult> results(end - start);
       std::atomic<std::uint64_t> next{start};
       run_workers(threads, [&](int) {
@@ -581,8 +582,7 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
       if (!out) throw std::runtime_error(o.output + ": write failed");
       cp.report.findings_written += lines.size();
       if (o.crash_after_batches >= 0 && ++batches_done > o.crash_after_batches) std::_Exit(3);  // testing hook
-      cp.report.seconds[std::string(to_string(family))] +=
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      cp.report.seconds[std::string(to_string(family))] += batch_watch.seconds();
       cp.report.rays[std::string(to_string(family))] += rays;
       cp.next_mesh = end;
       cp.findings_bytes = std::filesystem::file_size(o.output);

@@ -25,6 +25,7 @@
 #include <stdexcept>
 
 #include "rayproof/core/json_fields.h"
+#include "rayproof/core/timing.h"
 #include "rayproof/peers/child_process.h"
 #include "rayproof/peers/library_table.h"
 #include "rayproof/peers/process_pool.h"
@@ -101,7 +102,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
     auto* h = static_cast<Header*>(map);
     char* data = static_cast<char*>(map) + kData;
     const rayproof_tracer& t = table[h->tracer];
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;  // the code alone, where it runs
     switch (h->op) {
       case Op::build: {
         if (scene && scene_of && scene_of->release) scene_of->release(scene), leave_if_copy();
@@ -152,7 +153,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
         scene = nullptr, scene_of = nullptr;
         break;
     }
-    h->inner_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    h->inner_seconds = watch.seconds();
     if (library_forked()) h->forked.store(1);  // told before the answer, so this request is never judged
     ::munmap(map, probe.bytes);
     if (::write(kResponseFd, &byte, 1) != 1) break;

@@ -11,6 +11,7 @@
 
 #include "rayproof/core/offset.h"
 #include "rayproof/core/parallel.h"
+#include "rayproof/core/timing.h"
 #include "rayproof/verify/exact_scene.h"
 
 namespace rayproof::studies {
@@ -163,7 +164,7 @@ class Auditor {
       }
     };
     long shadow_total = 0, beyond_total = 0;
-    const auto start = std::chrono::steady_clock::now();
+    const Stopwatch exact_watch;
     for_rows<State>(
         threads_, cam.height,
         [&] {
@@ -189,7 +190,7 @@ class Auditor {
         stage_progress("exact render"));
     if (out) {
       out->exact = std::move(colours);
-      out->exact_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      out->exact_seconds = exact_watch.seconds();
       out->primary_rays = static_cast<long>(exact_.size());
       out->shadow_rays = shadow_total;
       out->rays_beyond_intervals = beyond_total;
@@ -256,15 +257,15 @@ class Auditor {
     if (v.external) {
       double trips = 0, inside = 0, checksum = 0;
       bool timed_inside = true;
-      const auto start = std::chrono::steady_clock::now();
+      const Stopwatch frame;
       for (int y = 0; y < cam.height; ++y)
         for (int x = 0; x < cam.width; ++x)
           checksum += trace_kind_with(index_, c.kind, cam.ray_through(x + 0.5, y + 0.5), [&](const Shape& shape) {
                         const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
-                        const auto t0 = std::chrono::steady_clock::now();
+                        const Stopwatch trip;
                         AnswerTiming timing;
                         const Hit h = v.intersect(ray, shape, HitRule::nearest_contact, &timing);
-                        trips += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                        trips += trip.seconds();
                         const double in = timing.inner_seconds;
                         if (in >= 0)
                           inside += in;
@@ -272,17 +273,16 @@ class Auditor {
                           timed_inside = false;
                         return h;
                       }).primitive;
-      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      volatile double sink = checksum;
-      (void)sink;
+      const double wall = frame.seconds();
+      keep_alive(checksum);
       const double own = timed_inside ? wall - trips + inside : wall;
       return {own * 1e9 / rays, wall * 1e9 / rays, timed_inside};
     }
-    double best = std::numeric_limits<double>::infinity(), checksum = 0;
-    for (int round = 0; round < 3; ++round) {
+    double checksum = 0;
+    const double best = fastest_of(3, [&] {  // ns per ray of whole frames, at least 0.05 s a round
       long traced = 0;
       double seconds = 0;
-      const auto start = std::chrono::steady_clock::now();
+      const Stopwatch round;
       do {
         for (int y = 0; y < cam.height; ++y)
           for (int x = 0; x < cam.width; ++x) {
@@ -291,12 +291,11 @@ class Auditor {
             checksum += h.primitive;
             ++traced;
           }
-        seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        seconds = round.seconds();
       } while (seconds < 0.05);
-      best = std::min(best, seconds * 1e9 / static_cast<double>(traced));
-    }
-    volatile double sink = checksum;  // keeps the traced answers alive
-    (void)sink;
+      return seconds * 1e9 / static_cast<double>(traced);
+    });
+    keep_alive(checksum);  // keeps the traced answers alive
     return {best, 0, false};
   }
 
@@ -312,17 +311,15 @@ class Auditor {
         if (auto r = on.seen(cam.ray_through(x + 0.5, y + 0.5), std::numeric_limits<double>::infinity()))
           rays.push_back(*r);
     std::vector<TraceAnswer> answers(rays.size());
-    double best = std::numeric_limits<double>::infinity();
-    for (int round = 0; round < 3 && !rays.empty(); ++round) {
-      const auto start = std::chrono::steady_clock::now();
+    if (rays.empty()) return 0;
+    return fastest_of(3, [&] {
+      const Stopwatch frame;
       for (std::size_t i = 0; i < rays.size(); i += static_cast<std::size_t>(cam.width)) {
         const std::size_t n = std::min<std::size_t>(cam.width, rays.size() - i);
         on.scene->nearest(std::span(rays).subspan(i, n), std::span(answers).subspan(i, n));
       }
-      best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() * 1e9 /
-                                static_cast<double>(rays.size()));
-    }
-    return std::isfinite(best) ? best : 0;
+      return frame.seconds() * 1e9 / static_cast<double>(rays.size());
+    });
   }
 
   // A tracer's nearest triangle hit for each primary ray of row y, as scene hits.

@@ -10,6 +10,7 @@
 #include "rayproof/core/batch.h"
 #include "rayproof/core/parallel.h"
 #include "rayproof/core/variants.h"
+#include "rayproof/core/timing.h"
 #include "rayproof/studies/svg.h"
 #include "rayproof/verify/compare.h"
 #include "rayproof/verify/oracle.h"
@@ -88,19 +89,16 @@ double time_per_query(const Contender& c, const std::vector<Query>& all) {
   const Prepared p = c.prepare(qs);
   const int repeats = static_cast<int>(std::max<size_t>(1, 200000 / qs.size()));
   if (p.time_where_it_runs) {  // external code repeats the batch where it runs: one round trip per pass
-    double best = INFINITY;    // (exec cannot: -1)
-    for (int pass = 0; pass < 5 && best >= 0; ++pass) best = std::min(best, p.time_where_it_runs(repeats));
+    // (exec cannot: -1)
+    const double best = fastest_of(5, [&] { return p.time_where_it_runs(repeats); });
     if (best >= 0) return best * 1e9 / std::max<size_t>(1, qs.size());
   }
-  double best = INFINITY;
-  for (int pass = 0; pass < 5; ++pass) {
-    const auto t0 = std::chrono::steady_clock::now();
+  const double best = fastest_of(5, [&] {
+    const Stopwatch watch;
     for (int r = 0; r < repeats; ++r) p.run();
-    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / repeats);
-  }
-  // Keep the answers observable so the passes cannot be optimised away.
-  volatile double sink = 0;
-  for (size_t i = 0; i < qs.size(); ++i) sink = sink + (p.answer(i).has_t() ? p.answer(i).t : 0);
+    return watch.seconds() / repeats;
+  });
+  for (size_t i = 0; i < qs.size(); ++i) keep_alive(p.answer(i).t);  // the passes cannot be optimised away
   return best * 1e9 / std::max<size_t>(1, qs.size());
 }
 
