@@ -12,6 +12,7 @@
 
 #include "rayproof/core/json_fields.h"
 #include "rayproof/peers/external.h"
+#include "rayproof/peers/loaded_code.h"
 
 namespace rayproof::peers {
 
@@ -100,26 +101,17 @@ class AnswersFile final : public ExternalIntersector {
   std::vector<std::string> problems_;
 };
 
-std::deque<std::unique_ptr<AnswersFile>>& answers_files() {
-  static std::deque<std::unique_ptr<AnswersFile>> all;
-  return all;
-}
-std::deque<std::string>& answers_strings() {
-  static std::deque<std::string> all;
-  return all;
-}
-
 }  // namespace
 
 const Variant& add_answers_variant(const std::string& name, const std::string& path) {
   if (!valid_variant_name(name)) throw std::runtime_error("--answers " + name + "=...: the name must match [a-z0-9-]+");
   if (find_variant(name)) throw std::runtime_error("--answers " + name + "=...: a variant of that name exists already");
-  answers_files().push_back(std::make_unique<AnswersFile>(path));
-  const std::string& stored_name = answers_strings().emplace_back(name);
-  const std::string& origin = answers_strings().emplace_back("answers: " + path);
+  AnswersFile& answers = loaded_code().make<AnswersFile>(path);
+  const std::string& stored_name = loaded_code().keep(name);
+  const std::string& origin = loaded_code().keep("answers: " + path);
   Variant v{stored_name, ShapeKind::sphere, origin, nullptr};
-  v.precision = answers_files().back()->precision();
-  v.external = answers_files().back().get();
+  v.precision = answers.precision();
+  v.external = &answers;
   v.origin = origin;
   v.all_shapes = true;
   return register_variant(v);

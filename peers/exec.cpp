@@ -25,6 +25,7 @@
 #include "rayproof/peers/exec_process.h"
 #include "rayproof/peers/external.h"
 #include "rayproof/peers/process_pool.h"
+#include "rayproof/peers/loaded_code.h"
 
 extern char** environ;
 
@@ -307,27 +308,18 @@ class ExecVariant final : public ExternalIntersector {
   ProcessPool<ExecProcess> processes_;
 };
 
-std::deque<std::unique_ptr<ExecVariant>>& exec_variants() {
-  static std::deque<std::unique_ptr<ExecVariant>> all;
-  return all;
-}
-std::deque<std::string>& exec_strings() {  // names and origins the registry points into
-  static std::deque<std::string> all;
-  return all;
-}
-
 }  // namespace
 
 const Variant& add_exec_variant(const std::string& name, const std::string& command, const ExternalOptions& options,
                                 const std::vector<ShapeKind>& shapes) {
   if (!valid_variant_name(name)) throw std::runtime_error("--exec " + name + "=...: the name must match [a-z0-9-]+");
   if (find_variant(name)) throw std::runtime_error("--exec " + name + "=...: a variant of that name exists already");
-  exec_variants().push_back(std::make_unique<ExecVariant>(command, options));
-  const std::string& stored_name = exec_strings().emplace_back(name);
-  const std::string& origin = exec_strings().emplace_back("exec: " + command);
+  ExecVariant& intersector = loaded_code().make<ExecVariant>(command, options);
+  const std::string& stored_name = loaded_code().keep(name);
+  const std::string& origin = loaded_code().keep("exec: " + command);
   Variant v{stored_name, ShapeKind::sphere, origin, nullptr};
   v.precision = options.exec_precision;
-  v.external = exec_variants().back().get();
+  v.external = &intersector;
   v.origin = origin;
   // One declared shape: an ordinary variant of that shape; several (or none): it answers each.
   v.all_shapes = shapes.size() != 1;

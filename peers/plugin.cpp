@@ -35,6 +35,7 @@
 #include "rayproof/peers/external.h"
 #include "rayproof/peers/library_table.h"
 #include "rayproof/peers/process_pool.h"
+#include "rayproof/peers/loaded_code.h"
 #include "rayproof/plugin.h"
 
 namespace rayproof::peers {
@@ -310,21 +311,12 @@ class PluginVariant final : public ExternalIntersector {
   CrashBudget budget_;
 };
 
-// Plugins and their variants live for the whole process (registered variants point into them).
-std::deque<Plugin>& loaded_plugins() {
-  static std::deque<Plugin> all;
-  return all;
-}
-std::deque<std::string>& plugin_strings() {  // names and sources the registry points into
-  static std::deque<std::string> all;
-  return all;
-}
-std::deque<std::unique_ptr<ExternalIntersector>>& external_intersectors() {
-  static std::deque<std::unique_ptr<ExternalIntersector>> all;
-  return all;
-}
-
 }  // namespace
+
+LoadedCode& loaded_code() {
+  static LoadedCode all;
+  return all;
+}
 
 bool valid_variant_name(const std::string& name) {
   return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
@@ -345,8 +337,7 @@ std::vector<const Variant*> load_plugin(const std::string& path, const ExternalO
   const std::string file = path.find('/') == std::string::npos ? "./" + path : path;
   const json table =
       read_table_in_worker(kWorkerEnv, file, "rayproof-plugin-table", options.case_timeout_seconds, fail);
-  loaded_plugins().emplace_back(file);
-  Plugin& plugin = loaded_plugins().back();
+  Plugin& plugin = loaded_code().make<Plugin>(file);
   std::vector<const Variant*> out;
   for (std::size_t i = 0; i < table.at("variants").size(); ++i) {
     const json& v = table.at("variants")[i];
@@ -361,13 +352,13 @@ std::vector<const Variant*> load_plugin(const std::string& path, const ExternalO
     if (!rule) throw fail(where + ": rule must be nearest or enter-only");
     if (v.value("f64", false) == v.value("f32", false)) throw fail(where + ": exactly one of f64 and f32 must be set");
     if (find_variant(name)) throw fail(where + ": a variant of that name exists already");
-    external_intersectors().push_back(
-        std::make_unique<PluginVariant>(plugin, static_cast<std::uint32_t>(i), *shape, options));
-    const std::string& stored_name = plugin_strings().emplace_back(name);
-    Variant registered{stored_name, *shape, plugin_strings().emplace_back(table_source(v)), nullptr};
+    PluginVariant& intersector =
+        loaded_code().make<PluginVariant>(plugin, static_cast<std::uint32_t>(i), *shape, options);
+    const std::string& stored_name = loaded_code().keep(name);
+    Variant registered{stored_name, *shape, loaded_code().keep(table_source(v)), nullptr};
     registered.precision = v.value("f32", false) ? Precision::f32 : Precision::f64;
     registered.fixed_rule = *rule;
-    registered.external = external_intersectors().back().get();
+    registered.external = &intersector;
     registered.origin = plugin.path();
     out.push_back(&register_variant(registered));
   }

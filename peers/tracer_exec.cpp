@@ -11,6 +11,7 @@
 #include "rayproof/peers/exec_process.h"
 #include "rayproof/peers/process_pool.h"
 #include "rayproof/peers/tracers.h"
+#include "rayproof/peers/loaded_code.h"
 
 namespace rayproof::peers {
 
@@ -175,17 +176,12 @@ class ExecTracerScene final : public TracerScene {
   std::mutex mutex_;
 };
 
-std::deque<ExecTracerState>& exec_states() {
-  static std::deque<ExecTracerState> all;
-  return all;
-}
-
 }  // namespace
 
 const Tracer& add_exec_tracer(const std::string& name, const std::string& command, const ExternalOptions& options) {
   if (!valid_variant_name(name))
     throw std::runtime_error("--tracer-exec " + name + "=...: the name must match [a-z0-9-]+");
-  ExecTracerState& state = exec_states().emplace_back();
+  ExecTracerState& state = loaded_code().make<ExecTracerState>();
   state.command = command, state.options = options;
   Tracer t;
   t.name = name;

@@ -30,6 +30,7 @@
 #include "rayproof/peers/library_table.h"
 #include "rayproof/peers/process_pool.h"
 #include "rayproof/peers/tracers.h"
+#include "rayproof/peers/loaded_code.h"
 #include "rayproof/tracer.h"
 
 namespace rayproof::peers {
@@ -389,15 +390,6 @@ BuiltScene build_plugin_scene(PluginTracerState& state, const TriangleMesh& mesh
   return {std::make_unique<PluginTracerScene>(state, std::move(worker))};
 }
 
-std::deque<TracerLibrary>& libraries() {
-  static std::deque<TracerLibrary> all;
-  return all;
-}
-std::deque<PluginTracerState>& states() {
-  static std::deque<PluginTracerState> all;
-  return all;
-}
-
 }  // namespace
 
 std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const ExternalOptions& options) {
@@ -405,7 +397,7 @@ std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const Ext
   const std::string file = path.find('/') == std::string::npos ? "./" + path : path;
   const json table =
       read_table_in_worker(kWorkerEnv, file, "rayproof-tracer-table", options.case_timeout_seconds, fail);
-  TracerLibrary& library = libraries().emplace_back();
+  TracerLibrary& library = loaded_code().make<TracerLibrary>();
   library.path = file;
   std::vector<const Tracer*> out;
   for (std::size_t i = 0; i < table.at("tracers").size(); ++i) {
@@ -419,7 +411,7 @@ std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const Ext
     if (precision != "double" && precision != "float")
       throw fail(where + ": precision must be \"double\" or \"float\"");
     if (!t.value("build", false) || !t.value("nearest", false)) throw fail(where + ": build and nearest must be set");
-    PluginTracerState& state = states().emplace_back();
+    PluginTracerState& state = loaded_code().make<PluginTracerState>();
     state.library = &library, state.index = static_cast<std::uint32_t>(i), state.options = options;
     Tracer r;
     r.name = name;
