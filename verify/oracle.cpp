@@ -656,24 +656,14 @@ HitClass classify_with(const Ray& ray, const typename P::ShapeType& shape, HitRu
   return cls;
 }
 
-template <class S>
-struct PolicyOf;
-template <>
-struct PolicyOf<Sphere> {
-  using type = SpherePolicy;
-};
-template <>
-struct PolicyOf<Plane> {
-  using type = PlanePolicy;
-};
-template <>
-struct PolicyOf<Triangle> {
-  using type = TrianglePolicy;
-};
-template <>
-struct PolicyOf<Box> {
-  using type = BoxPolicy;
-};
+// The policy of each shape type: a table, kept one line per shape.
+// clang-format off
+template <class S> struct PolicyOf;
+template <> struct PolicyOf<Sphere> { using type = SpherePolicy; };
+template <> struct PolicyOf<Plane> { using type = PlanePolicy; };
+template <> struct PolicyOf<Triangle> { using type = TrianglePolicy; };
+template <> struct PolicyOf<Box> { using type = BoxPolicy; };
+// clang-format on
 
 }  // namespace
 
