@@ -21,6 +21,7 @@ EXAMPLES = [  # (variant, shape, how it is loaded)
     ("minmax-slab", "box", "--plugin {b}/plugins/minmax_slab_box.so"),
     ("py-sphere", "sphere", "--exec py-sphere=examples/exec/textbook_sphere.py"),
 ]
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FAMILIES = ["random", "tangent", "grazing", "near-origin", "exit-entry", "extremes"]
 
 
@@ -35,7 +36,9 @@ def markdown(build, count):
             command = (f"{build}/rayproof fuzz {load} --variants {name} --shapes {shape} --count {count} "
                        f"--seed 1 --threads 1 -o {name}.jsonl --summary {name}.json")
             run = command.replace(f"-o {name}.jsonl", f"-o {out}").replace(f"--summary {name}.json", f"--summary {out}.json")
-            subprocess.run(run, shell=True, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            # From the repository's root, where README's reproduce lines are run (examples/exec/...).
+            subprocess.run(run, shell=True, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                           cwd=ROOT)
             tallies = json.load(open(out + ".json"))["tallies"]
             cells = []
             for family in FAMILIES:

@@ -76,7 +76,8 @@ def table_row_claims(readme, tallies):
 def copied_code_claims(readme, build):
     """The table of what rayproof finds in the code people copy, and its shrunk cases, line by line."""
     module = script_module("copied-code")
-    regenerated = module.markdown(build, 20000).splitlines()
+    # README's commands name the build folder as seen from the repository's root ("build").
+    regenerated = module.markdown(os.path.relpath(os.path.abspath(build), ROOT), 20000).splitlines()
     if readme.count(regenerated[0]) != 1:
         sys.exit("README.md: expected one table headed " + repr(regenerated[0]) + ": the check itself is out of date")
     start = readme.index(regenerated[0])
