@@ -369,8 +369,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
       first.assign(n, nullptr), failure.assign(n, HitFailure::none), reported.assign(n, HitClass::miss);
       for (size_t k = 0; k < n && pairs_of_triangles; ++k) {
         EdgeEvidence& edge = judged.edges[chunk + k - b.start];
-        edge.shared_edge = is_shared_edge_pair(cases[k]), edge.exact = exact[k],
-        edge.variant_hit.resize(variants.size());
+        edge.shared_edge = cases[k].shared_edge, edge.exact = exact[k], edge.variant_hit.resize(variants.size());
         edge.own.assign(variants.size(), std::nullopt);
       }
       // Variant vi's answer h to case k, counted in its tally already: the case's first finding

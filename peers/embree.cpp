@@ -169,7 +169,7 @@ HoleCount embree_shared_edge_holes(std::uint64_t pairs, std::uint64_t seed, bool
   for (std::uint64_t p = 0; p < pairs; ++p) {
     const fuzz::GeneratedCase a = fuzz::generate(fuzz::Family::grazing, ShapeKind::triangle, seed, 2 * p);
     const fuzz::GeneratedCase b = fuzz::generate(fuzz::Family::grazing, ShapeKind::triangle, seed, 2 * p + 1);
-    if (!fuzz::is_shared_edge_pair(a)) continue;
+    if (!a.shared_edge) continue;
     const auto fa = as_float_query(a), fb = as_float_query(b);
     if (!fa || !fb) continue;
     ++count.pairs;

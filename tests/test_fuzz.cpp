@@ -236,7 +236,7 @@ TEST(FullPrecision, SharedEdgePairsShareTheirEdgeExactly) {
     const Triangle &ta = std::get<Triangle>(a.shape), &tb = std::get<Triangle>(b.shape);
     EXPECT_EQ(ta.v[0], tb.v[1]);
     EXPECT_EQ(ta.v[1], tb.v[0]);
-    pairs += is_shared_edge_pair(a);
+    pairs += a.shared_edge;
   }
   EXPECT_GT(pairs, 100);
 }

@@ -46,8 +46,6 @@ struct GeneratedCase : Query {
   bool shared_edge = false;
 };
 
-inline bool is_shared_edge_pair(const GeneratedCase& c) { return c.shared_edge; }
-
 GeneratedCase generate(Family family, ShapeKind shape, std::uint64_t seed, std::uint64_t index,
                        Construction construction = Construction::exact);
 
