@@ -24,7 +24,7 @@ const Variant& same_as_builtin() {
 // One batch of state.range(0) random sphere queries per iteration through v.intersect_all.
 void answer_batches(benchmark::State& state, const Variant& v) {
   const std::vector<Query> qs = random_spheres(state.range(0));
-  std::vector<Hit> out(qs.size());
+  std::vector<Answer> out(qs.size());
   for (auto _ : state) {
     v.intersect_all(qs, HitRule::nearest_contact, out);
     benchmark::DoNotOptimize(out.data());

@@ -160,10 +160,10 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
     if (queries.empty()) continue;
     std::vector<VariantOutcome> judged = judge_variant_all(run.oracle, *v, queries, truth, run.rule);
     for (size_t k = 0; k < judged.size(); ++k) {
-      if (stops_variant(judged[k].hit.failure) && ++run.stopped)
+      if (stops_variant(judged[k].answer.failure) && ++run.stopped)
         std::cerr << "rayproof: " << printable(path) << ":" << pending[where[k]].line << ": case '"
                   << printable(pending[where[k]].c.id) << "': variant " << v->name << ": "
-                  << to_string(judged[k].hit.failure)
+                  << to_string(judged[k].answer.failure)
                   << (v->external ? " (" + v->external->last_failure() + ")" : std::string()) << "\n";
       outcomes[where[k]].push_back(std::move(judged[k]));
     }
@@ -172,8 +172,8 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
     const Case& c = pending[i].c;
     for (const VariantOutcome& o : outcomes[i]) {  // kept for the examples and hints after the table
       if (run.disagreements.size() >= CheckRun::kMaxKept || !o.variant) break;
-      const bool failed = o.hit.failed();
-      if (failed ? (o.hit.failure == HitFailure::stopped || o.hit.failure == HitFailure::not_representable)
+      const bool failed = o.answer.failed();
+      if (failed ? (o.answer.failure == AnswerFailure::stopped || o.answer.failure == AnswerFailure::not_representable)
                  : o.agreement == Agreement::agrees)
         continue;
       Disagreement d;
@@ -181,9 +181,9 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
       d.exact = o.own_exact ? o.own_exact->cls : exact[i].cls;
       d.exact_t = o.own_exact ? o.own_exact->t : exact[i].t;
       if (failed)
-        d.failure = is_plugin_error(o.hit.failure) ? "plugin_error" : std::string(to_string(o.hit.failure));
+        d.failure = is_plugin_error(o.answer.failure) ? "plugin_error" : std::string(to_string(o.answer.failure));
       else
-        d.answered = o.hit.cls, d.answered_t = o.hit.has_t() ? std::optional<double>(o.hit.t) : std::nullopt;
+        d.answered = o.answer.cls, d.answered_t = o.answer.has_t() ? std::optional<double>(o.answer.t) : std::nullopt;
       run.disagreements.push_back(std::move(d));
     }
     add_to_summary(run.summary, exact[i], outcomes[i]);

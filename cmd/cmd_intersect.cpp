@@ -33,7 +33,7 @@ void add_intersect_command(CLI::App& app, int& exit_code) {
             json out = {{"id", c.id}, {"variants", json::object()}};
             for (const Variant* v : variants) {
               if (!v->handles(kind_of(c.shape))) continue;
-              const Hit h = v->intersect(c.ray, c.shape, rule);
+              const Answer h = v->intersect(c.ray, c.shape, rule);
               if (h.failed()) {  // external code that gave no answer (docs/spec/plugin.md)
                 out["variants"][std::string(v->name)] = {{"error", std::string(to_string(h.failure))}};
                 continue;

@@ -15,7 +15,7 @@ namespace {
 class InProcess final : public ExternalIntersector {
  public:
   explicit InProcess(const UserIntersector& fn) : fn_(fn) {}
-  void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming*) override {
+  void answer_all(std::span<const Query> qs, std::span<Answer> out, AnswerTiming*) override {
     for (size_t i = 0; i < qs.size(); ++i) out[i] = fn_(qs[i].ray, qs[i].shape);
   }
 
@@ -41,8 +41,8 @@ struct Auditor {
     Tally& tally = report.by_family[group];
     for (size_t i = 0; i < chunk.size(); ++i) {
       tally.add(exact[i].cls, outcomes[i]);
-      const bool finding = outcomes[i].hit.failed() ? is_plugin_error(outcomes[i].hit.failure)
-                                                    : outcomes[i].agreement != Agreement::agrees;
+      const bool finding = outcomes[i].answer.failed() ? is_plugin_error(outcomes[i].answer.failure)
+                                                       : outcomes[i].agreement != Agreement::agrees;
       if (finding && report.findings.size() < options.keep && shrinks < 4 * options.keep)
         keep(chunk[i], group, outcomes[i]);
     }
@@ -55,7 +55,7 @@ struct Auditor {
   // names the one it came from.
   void keep(const Case& generated, const std::string& group, const VariantOutcome& outcome) {
     ++shrinks;
-    Case c = fuzz::shrink(generated, variant, oracle, options.rule, 3000, outcome.hit.failure);
+    Case c = fuzz::shrink(generated, variant, oracle, options.rule, 3000, outcome.answer.failure);
     const json query = case_to_json(c);
     for (const Case& k : report.findings) {
       const json kept = case_to_json(k);

@@ -293,7 +293,7 @@ struct Finding {
   std::uint64_t index;
   GeneratedCase generated;
   const Variant* first_disagreeing;  // or the first that failed on it (plugin.md: crash, timeout, ...)
-  HitFailure failure = HitFailure::none;
+  AnswerFailure failure = AnswerFailure::none;
   std::string kind;    // "VARIANT exact->reported" or "VARIANT failure": what max_shrunk counts
   bool shrink = true;  // false: written as found (beyond max_shrunk)
 };
@@ -318,7 +318,7 @@ struct Worker {
   std::vector<Query> queries;
   std::vector<Verdict> exact;
   std::vector<VariantOutcome> outcomes;
-  std::vector<Hit> hits;
+  std::vector<Answer> answers;
 };
 
 struct Judged {
@@ -356,7 +356,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
     std::vector<Verdict>& exact = me.exact;
     std::vector<VariantOutcome>& outcomes = me.outcomes;
     std::vector<const Variant*> first;  // by case in the chunk: the first variant that disagreed or failed
-    std::vector<HitFailure> failure;
+    std::vector<AnswerFailure> failure;
     std::vector<HitClass> reported;  // by case: the first disagreeing variant's class
     for (std::uint64_t chunk = lo; chunk < hi; chunk += chunk_size) {
       const size_t n = static_cast<size_t>(std::min<std::uint64_t>(chunk_size, hi - chunk));
@@ -366,7 +366,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         if (keep_queries) queries.push_back(cases.back());
         exact.push_back(me.oracle.judge(cases.back().ray, cases.back().shape, o.rule));
       }
-      first.assign(n, nullptr), failure.assign(n, HitFailure::none), reported.assign(n, HitClass::miss);
+      first.assign(n, nullptr), failure.assign(n, AnswerFailure::none), reported.assign(n, HitClass::miss);
       for (size_t k = 0; k < n && pairs_of_triangles; ++k) {
         EdgeEvidence& edge = judged.edges[chunk + k - b.start];
         edge.shared_edge = cases[k].shared_edge, edge.exact = exact[k], edge.variant_hit.resize(variants.size());
@@ -374,12 +374,12 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
       }
       // Variant vi's answer h to case k, counted in its tally already: the case's first finding
       // (a disagreement, or a failure that is one) and the shared-edge evidence.
-      auto note = [&](size_t k, size_t vi, const Hit& h, bool finding) {
+      auto note = [&](size_t k, size_t vi, const Answer& h, bool finding) {
         if (finding && !first[k]) first[k] = variants[vi], failure[k] = h.failure, reported[k] = h.cls;
         if (pairs_of_triangles)
           judged.edges[chunk + k - b.start].variant_hit[vi] = !h.failed() && h.cls != HitClass::miss;
       };
-      auto failure_is_finding = [](HitFailure f) { return stops_variant(f) || is_plugin_error(f); };
+      auto failure_is_finding = [](AnswerFailure f) { return stops_variant(f) || is_plugin_error(f); };
       for (size_t vi = 0; vi < variants.size(); ++vi) {
         // Built-in double code is judged case by case as it answers (nothing stored: the
         // campaign's hot loop); external code answers the chunk in one call first.
@@ -395,10 +395,10 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         }
         if (v.precision == Precision::f64 && v.rule_for(o.rule) == o.rule) {
           // External double code on the case as given: its answers judged like a built-in's.
-          me.hits.resize(n);
-          v.intersect_all(queries, o.rule, me.hits);
+          me.answers.resize(n);
+          v.intersect_all(queries, o.rule, me.answers);
           for (size_t k = 0; k < n; ++k) {
-            const Hit& h = me.hits[k];
+            const Answer& h = me.answers[k];
             if (h.failed()) tally.add(exact[k].cls, VariantOutcome{&v, h});
             note(k, vi, h,
                  h.failed() ? failure_is_finding(h.failure) : tally.add_answer(exact[k], h) != Agreement::agrees);
@@ -409,12 +409,13 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         for (size_t k = 0; k < n; ++k) {
           const VariantOutcome& r = outcomes[k];
           tally.add(exact[k].cls, r);
-          note(k, vi, r.hit, r.hit.failed() ? failure_is_finding(r.hit.failure) : r.agreement != Agreement::agrees);
+          note(k, vi, r.answer,
+               r.answer.failed() ? failure_is_finding(r.answer.failure) : r.agreement != Agreement::agrees);
           if (pairs_of_triangles) {
             EdgeEvidence& edge = judged.edges[chunk + k - b.start];
             if (r.own_exact)
               edge.own[vi] = Verdict{r.own_exact->cls, r.own_exact->t, std::nullopt, r.own_exact->front};
-            else if (r.hit.failure == HitFailure::not_representable)
+            else if (r.answer.failure == AnswerFailure::not_representable)
               edge.own[vi] = Verdict{};  // not asked: no hole
           }
         }
@@ -422,7 +423,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
       for (size_t k = 0; k < n; ++k) {
         if (!first[k]) continue;
         std::string kind = std::string(first[k]->name) + " ";
-        kind += failure[k] != HitFailure::none
+        kind += failure[k] != AnswerFailure::none
                     ? std::string(to_string(failure[k]))
                     : std::string(to_string(exact[k].cls)) + "->" + std::string(to_string(reported[k]));
         me.findings.push_back({chunk + k, std::move(cases[k]), first[k], failure[k], std::move(kind)});
@@ -462,14 +463,14 @@ json disagreeing_answers(const std::vector<const Variant*>& variants, Oracle& or
   for (const Variant* v : variants) {
     if (!v->handles(kind_of(c.shape))) continue;
     const VariantOutcome o = compare_variant(oracle, *v, exact, c, rule);
-    if (o.hit.failed()) {
-      if (o.hit.failure != HitFailure::not_representable && o.hit.failure != HitFailure::stopped)
-        out[std::string(v->name)] = {{"error", std::string(to_string(o.hit.failure))}};
+    if (o.answer.failed()) {
+      if (o.answer.failure != AnswerFailure::not_representable && o.answer.failure != AnswerFailure::stopped)
+        out[std::string(v->name)] = {{"error", std::string(to_string(o.answer.failure))}};
       continue;
     }
     if (o.agreement == Agreement::agrees) continue;
-    out[std::string(v->name)] = {{"class", std::string(to_string(o.hit.cls))},
-                                 {"t", o.hit.has_t() ? json(hex_double(o.hit.t)) : json(nullptr)},
+    out[std::string(v->name)] = {{"class", std::string(to_string(o.answer.cls))},
+                                 {"t", o.answer.has_t() ? json(hex_double(o.answer.t)) : json(nullptr)},
                                  {"ulp", o.ulp ? json(*o.ulp) : json(nullptr)}};
   }
   return out;
@@ -504,9 +505,9 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
   // finding still names the variant it was found for, never an empty disagreeing.
   if (c.found["disagreeing"].empty())
     c.found["disagreeing"][std::string(f.first_disagreeing->name)] = {
-        {"error", f.failure != HitFailure::none ? std::string(to_string(f.failure))
-                                                : std::string("not reproduced when asked again")}};
-  if (f.failure != HitFailure::none) {
+        {"error", f.failure != AnswerFailure::none ? std::string(to_string(f.failure))
+                                                   : std::string("not reproduced when asked again")}};
+  if (f.failure != AnswerFailure::none) {
     c.found["kind"] = is_plugin_error(f.failure) ? "plugin_error" : std::string(to_string(f.failure));
     c.found["variant"] = std::string(f.first_disagreeing->name);
     if (f.first_disagreeing->external) c.found["reason"] = f.first_disagreeing->external->last_failure();

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "rayproof/core/variants.h"
+#include "case_draws.h"
 
 namespace rayproof::fuzz {
 
@@ -32,227 +33,22 @@ std::string family_label(Family f, Construction c) {
   return std::string(to_string(f)) + (c == Construction::full && has_full_construction(f) ? "-full" : "");
 }
 
-namespace {
-
-struct Rng : SplitMix64 {
-  double uniform(double lo, double hi) { return lo + (hi - lo) * unit(); }
-  long integer(long lo, long hi) { return lo + static_cast<long>(next() % std::uint64_t(hi - lo + 1)); }
-  Vec3 ivec(long r) {
-    return vec_z_first([&] { return double(integer(-r, r)); });
-  }
-  Vec3 uvec(double r) {
-    return vec_z_first([&] { return uniform(-r, r); });
-  }
-  Vec3 direction() {  // a random unit-ish vector (not exactly unit; any non-zero vector will do)
-    Vec3 v;
-    do v = uvec(1);
-    while (dot(v, v) > 1 || dot(v, v) < 1e-4);
-    return v;
-  }
-};
-
-Vec3 scaled(const Vec3& v, int k) { return v * std::ldexp(1.0, k); }
-Shape scaled(const Shape& s, int k) { return rayproof::scaled(s, std::ldexp(1.0, k)); }
-// The case with its shape and ray origin moved to scale 2^k and its direction to 2^k_direction
-// (exact: powers of two, while nothing under- or overflows); its detail is the caller's to extend.
+// Scaling by a power of two is exact while nothing under- or overflows.
 GeneratedCase at_scale(GeneratedCase c, int k, int k_direction) {
-  c.ray = Ray{scaled(c.ray.origin, k), scaled(c.ray.direction, k_direction)};
-  c.shape = scaled(c.shape, k);
+  const double s = std::ldexp(1.0, k), s_direction = std::ldexp(1.0, k_direction);
+  c.ray = Ray{c.ray.origin * s, c.ray.direction * s_direction};
+  c.shape = scaled(c.shape, s);
   return c;
 }
 GeneratedCase at_scale(GeneratedCase c, int k) { return at_scale(std::move(c), k, k); }
 
+namespace {
+
 // One case under construction: exact geometry first, then `nudges` applied to the origin.
 struct Builder {
-  Rng rng;
+  CaseRng rng;
   bool nudging = true;
   bool full = false;  // Construction::full
-
-  // ---------------------------------------------------------- the full-precision construction
-  // A number with a random 53-bit mantissa, sign and magnitude within [2^(k−1), 2^k).
-  double full_number(int k) {
-    const double m = 1 + rng.unit();  // [1, 2): every mantissa bit random
-    return std::ldexp(rng.integer(0, 1) ? m : -m, k - 1);
-  }
-  Vec3 full_vec(int k) {
-    return vec_z_first([&] { return full_number(k - static_cast<int>(rng.integer(0, 3))); });
-  }
-  Vec3 full_direction() {  // full mantissas, no component much smaller than the others
-    Vec3 d;
-    do d = full_vec(0);
-    while (dot(d, d) < 0.1);
-    return d;
-  }
-  // A unit-ish vector perpendicular to d, computed in double (so only nearly perpendicular).
-  Vec3 full_perpendicular(const Vec3& d) {
-    Vec3 p;
-    do p = cross(d, full_direction());
-    while (dot(p, p) < 1e-3 * dot(d, d));
-    return p / std::sqrt(dot(p, p));
-  }
-  // A ray through `at` (computed in double) along d: o = at − s·d, s ∈ [1, 2^12) with a full
-  // mantissa. A far origin makes every product the variant forms larger than the feature's own
-  // rounding, which is where formulas differ.
-  Ray full_ray_through(const Vec3& at, const Vec3& d) {
-    const int e = static_cast<int>(rng.integer(0, 11));
-    const double s = std::ldexp(1 + rng.unit(), e);
-    return Ray{at - s * d, d};
-  }
-
-  GeneratedCase tangent_full(ShapeKind kind, int k) {
-    const double s = std::ldexp(1.0, k);
-    const Vec3 m = full_vec(k + static_cast<int>(rng.integer(0, 20)));  // centres up to 2^20 radii out
-    const Vec3 d = full_direction() * s;
-    switch (kind) {
-      case ShapeKind::sphere: {  // touches P = m + r·n, n ⊥ d, all in double
-        const double r = std::fabs(full_number(k));
-        const Vec3 n = full_perpendicular(d);
-        return {full_ray_through(m + r * n, d), Sphere{m, r}, "sphere-tangent-full/2^" + std::to_string(k)};
-      }
-      case ShapeKind::plane: {  // runs along n·x = n·p, d ⊥ n in double
-        const Vec3 n = full_direction();
-        const Vec3 along = full_perpendicular(n) * s;
-        return {full_ray_through(m, along), Plane{n, dot(n, m)}, "in-plane-full/2^" + std::to_string(k)};
-      }
-      case ShapeKind::triangle: {  // in the triangle's plane through an inner, edge or outer point
-        const Triangle t = full_triangle(m, k);
-        const Vec3 e1 = t.v[1] - t.v[0], e2 = t.v[2] - t.v[0];
-        const double a = rng.uniform(-0.25, 1.25), b = rng.uniform(-0.25, 1.25);
-        const double along2 = rng.uniform(0.25, 1);
-        const double along1 = rng.uniform(-1, 1);
-        const Vec3 along = along1 * e1 + along2 * e2;
-        return {full_ray_through(t.v[0] + a * e1 + b * e2, along), t, "coplanar-full/2^" + std::to_string(k)};
-      }
-      case ShapeKind::box: break;
-    }
-    const Box b = full_box(m, k);  // along a face, along an edge, touching an edge or a corner
-    const long mode = rng.integer(0, 3);
-    Vec3 at = point_in(b);
-    Vec3 dir = full_direction() * s;
-    at.x() = b.min.x();
-    if (mode == 0) dir.x() = 0;                                                  // along the face x = min
-    if (mode >= 1) at.y() = b.min.y();                                           // at the edge x = min, y = min
-    if (mode == 1) dir.x() = 0, dir.y() = 0;                                     // along it
-    if (mode == 2) dir.x() = std::fabs(dir.x()), dir.y() = -std::fabs(dir.y());  // touching it
-    if (mode == 3) at.z() = b.min.z(), dir = Vec3(std::fabs(dir.x()), -std::fabs(dir.y()), -std::fabs(dir.z()));
-    static const char* what[] = {"along-face-full", "along-edge-full", "touch-edge-full", "touch-corner-full"};
-    return {full_ray_through(at, dir), b, std::string(what[mode]) + "/2^" + std::to_string(k)};
-  }
-
-  Triangle full_triangle(const Vec3& centre, int k) {
-    Triangle t;
-    do t = Triangle{{centre + full_vec(k), centre + full_vec(k), centre + full_vec(k)}};
-    while (degenerate_reason(t));
-    return t;
-  }
-  Box full_box(const Vec3& centre, int k) {
-    const Vec3 lo = centre + full_vec(k);
-    return Box{lo, lo + vec_z_first([&] { return std::fabs(full_number(k)); })};
-  }
-  Vec3 point_in(const Box& b) {
-    const double z = rng.uniform(b.min.z(), b.max.z());
-    const double y = rng.uniform(b.min.y(), b.max.y());
-    const double x = rng.uniform(b.min.x(), b.max.x());
-    return Vec3(x, y, z);
-  }
-
-  GeneratedCase grazing_full(ShapeKind kind, std::uint64_t index, std::uint64_t seed) {
-    const int k = static_cast<int>(rng.integer(-40, 40));
-    const double s = std::ldexp(1.0, k);
-    const Vec3 m = full_vec(k + static_cast<int>(rng.integer(0, 20)));
-    switch (kind) {
-      case ShapeKind::triangle: return shared_edge_pair_full(index, seed);
-      case ShapeKind::box: {  // across an edge or a corner from outside to outside: a clip or a miss within rounding
-        const Box b = full_box(m, k);
-        const bool corner = rng.integer(0, 1) == 1;
-        Vec3 at(b.min.x(), b.min.y(), corner ? b.min.z() : rng.uniform(b.min.z(), b.max.z()));
-        const double dz = corner ? -std::fabs(full_number(k)) : full_number(k);
-        const double dy = -std::fabs(full_number(k));
-        const double dx = std::fabs(full_number(k));
-        const Vec3 d(dx, dy, dz);
-        return {full_ray_through(at, d), b,
-                std::string(corner ? "through-corner-full" : "through-edge-full") + "/2^" + std::to_string(k)};
-      }
-      case ShapeKind::sphere: {  // a chord at angle 2^-j to the tangent plane at P
-        const double r = std::fabs(full_number(k));
-        const Vec3 t = full_direction() * s, n = full_perpendicular(t);
-        const int j = static_cast<int>(rng.integer(10, 40));
-        const Vec3 d = t - std::ldexp(r, -j) * n;
-        return {full_ray_through(m + r * n, d), Sphere{m, r},
-                "chord-full-2^-" + std::to_string(j) + "/2^" + std::to_string(k)};
-      }
-      case ShapeKind::plane: break;
-    }
-    const Vec3 n = full_direction();
-    const int j = static_cast<int>(rng.integer(10, 40));
-    const Vec3 d = full_perpendicular(n) * s - std::ldexp(s, -j) * n;
-    return {full_ray_through(m, d), Plane{n, dot(n, m)},
-            "glancing-full-2^-" + std::to_string(j) + "/2^" + std::to_string(k)};
-  }
-
-  // Pair p = index/2: two triangles sharing the edge v0 v1 (full mantissas), the ray through a
-  // point of it (or a vertex) computed in double.
-  GeneratedCase shared_edge_pair_full(std::uint64_t index, std::uint64_t seed) {
-    Builder pair{Rng{seed ^ (0x5A5A5A5Aull + (index / 2) * 0x9E3779B97F4A7C15ull)}, nudging, true};
-    const int k = static_cast<int>(pair.rng.integer(-40, 40));
-    const Vec3 centre = pair.full_vec(k + static_cast<int>(pair.rng.integer(0, 20)));
-    const Vec3 v0 = centre + pair.full_vec(k), v1 = centre + pair.full_vec(k);
-    Vec3 v2, v3;
-    do {
-      v2 = centre + pair.full_vec(k);
-      v3 = v0 + v1 - v2 + (pair.rng.integer(0, 1) ? Vec3(pair.full_vec(k - 4)) : Vec3::Zero());  // flat quad or fold
-    } while (degenerate_reason(Triangle{{v0, v1, v2}}) || degenerate_reason(Triangle{{v1, v0, v3}}));
-    const long w16 = pair.rng.integer(0, 16);  // 0 or 16: a vertex
-    const Vec3 target = w16 == 16 ? v1 : v0 + pair.rng.unit() * (w16 == 0 ? 0.0 : 1.0) * (v1 - v0);
-    const Vec3 n = cross(v1 - v0, v2 - v0);
-    Vec3 d = pair.full_direction() * std::ldexp(1.0, k);
-    if (dot(d, n) > 0) d = -d;  // towards the front of the first triangle
-    const Triangle t = index % 2 == 0 ? Triangle{{v0, v1, v2}} : Triangle{{v1, v0, v3}};
-    const bool at_vertex = w16 == 0 || w16 == 16;
-    const std::string what = std::string(at_vertex ? "vertex" : "shared-edge") + (index % 2 ? "/B" : "/A");
-    GeneratedCase c{pair.full_ray_through(target, d), t, what + "/full/2^" + std::to_string(k)};
-    c.shared_edge = !at_vertex;
-    return c;
-  }
-
-  GeneratedCase exit_entry_full(ShapeKind kind) {
-    const int k = static_cast<int>(rng.integer(-40, 40));
-    const Vec3 m = full_vec(k + static_cast<int>(rng.integer(0, 20)));
-    const Vec3 d = full_direction() * std::ldexp(1.0, k);
-    const std::string at = "/2^" + std::to_string(k);
-    switch (kind) {
-      case ShapeKind::sphere: {  // origin inside, or on the surface as double computes m + r·n
-        const double r = std::fabs(full_number(k));
-        const Vec3 n = full_direction();
-        const bool inside = rng.integer(0, 2) == 0;
-        const Vec3 o = m + (inside ? 0.5 : 1.0) * r * (n / std::sqrt(dot(n, n)));
-        return {Ray{o, d}, Sphere{m, r}, (inside ? "inside-full" : "on-surface-full") + at};
-      }
-      case ShapeKind::box: {  // origin inside, on a face, an edge or a corner (exact copies of the bounds)
-        const Box b = full_box(m, k);
-        const long mode = rng.integer(0, 3);
-        Vec3 o = point_in(b);
-        if (mode >= 1) o.x() = b.min.x();
-        if (mode >= 2) o.y() = b.min.y();
-        if (mode == 3) o.z() = b.min.z();
-        static const char* what[] = {"inside-full", "on-face-full", "on-edge-full", "on-corner-full"};
-        return {Ray{o, d}, b, what[mode] + at};
-      }
-      case ShapeKind::triangle: {  // from just in front of an inner point, meeting the back face
-        const Triangle t = full_triangle(m, k);
-        const Vec3 n = cross(t.v[1] - t.v[0], t.v[2] - t.v[0]);
-        const double a = rng.uniform(0.05, 0.9), b = rng.uniform(0.05, 0.95 - a);
-        const Vec3 inner = t.v[0] + a * (t.v[1] - t.v[0]) + b * (t.v[2] - t.v[0]);
-        const Vec3 dd = dot(d, n) > 0 ? d : Vec3(-d);
-        return {full_ray_through(inner, dd), t, "back-face-full" + at};
-      }
-      case ShapeKind::plane: break;
-    }
-    const Vec3 n = full_direction();
-    Vec3 dd = d;
-    if (dot(dd, n) < 0) dd = -dd;
-    return {full_ray_through(m, dd), Plane{n, dot(n, m)}, "back-side-full" + at};
-  }
 
   // ±j ulps on one random origin component, j ∈ [−3, 3] (0 keeps the exact construction).
   std::string nudge_origin(Ray& ray) {
@@ -260,7 +56,8 @@ struct Builder {
     const int axis = static_cast<int>(rng.integer(0, 2));
     if (!nudging || j == 0) return "exact";
     ray.origin[axis] = nudge(ray.origin[axis], j);
-    return (j > 0 ? "+" : "") + std::to_string(j) + "ulp";
+    std::string label = std::to_string(j) + "ulp";
+    return j > 0 ? "+" + label : label;
   }
 
   // A Pythagorean quadruple x² + y² + z² = r² with r > 0 (Lebesgue's parametrisation).
@@ -318,17 +115,23 @@ struct Builder {
     return {Ray{o, rng.uvec(1.5 * s) - o}, shape, "random"};
   }
 
-  // The exact construction c at scale 2^k, its origin then nudged; detail "what/2^k/nudge".
-  GeneratedCase scaled_and_nudged(GeneratedCase c, int k) {
+  // The exact construction c at scale 2^k; detail "what/2^k".
+  static GeneratedCase scaled_by(GeneratedCase c, int k) {
     c = at_scale(std::move(c), k);
-    const std::string n = nudge_origin(c.ray);
-    c.detail += "/2^" + std::to_string(k) + "/" + n;
+    c.detail += "/2^" + std::to_string(k);
+    return c;
+  }
+  // The same, its origin then nudged; detail "what/2^k/nudge".
+  GeneratedCase scaled_and_nudged(GeneratedCase c, int k) {
+    c = scaled_by(std::move(c), k);
+    const std::string nudged = nudge_origin(c.ray);
+    c.detail += "/" + nudged;
     return c;
   }
 
   GeneratedCase tangent(ShapeKind kind) {
     const int k = static_cast<int>(rng.integer(-40, 40));
-    if (full) return tangent_full(kind, k);
+    if (full) return tangent_full(rng, kind, k);
     switch (kind) {
       case ShapeKind::sphere: return scaled_and_nudged(tangent_sphere(), k);
       case ShapeKind::plane: return scaled_and_nudged(in_plane(), k);
@@ -397,7 +200,7 @@ struct Builder {
   // Rays through triangle edges and vertices (in pairs sharing an edge), box edges and
   // corners, and near-tangent chords of spheres and planes.
   GeneratedCase grazing(ShapeKind kind, std::uint64_t index, std::uint64_t seed) {
-    if (full) return grazing_full(kind, index, seed);
+    if (full) return grazing_full(rng, kind, index, seed);
     const int k = static_cast<int>(rng.integer(-40, 40));
     switch (kind) {
       case ShapeKind::triangle: return shared_edge_pair(index, seed);
@@ -411,7 +214,7 @@ struct Builder {
   // Pair p = index/2 shares ray, edge and scale (its own generator); its two cases are the
   // triangles on either side of the edge.
   GeneratedCase shared_edge_pair(std::uint64_t index, std::uint64_t seed) {
-    Rng pair_rng{seed ^ (0xA5A5A5A5ull + (index / 2) * 0x9E3779B97F4A7C15ull)};
+    CaseRng pair_rng{seed ^ (0xA5A5A5A5ull + (index / 2) * 0x9E3779B97F4A7C15ull)};
     Builder pair{pair_rng, nudging};
     const Vec3 v0 = pair.rng.ivec(1 << 10), v1 = pair.rng.ivec(1 << 10);
     Vec3 v2, v3;
@@ -490,7 +293,7 @@ struct Builder {
   // Origins inside, exactly on, and one ulp outside spheres and boxes; back faces of
   // triangles and planes.
   GeneratedCase exit_entry(ShapeKind kind) {
-    if (full) return exit_entry_full(kind);
+    if (full) return exit_entry_full(rng, kind);
     const int k = static_cast<int>(rng.integer(-40, 40));
     switch (kind) {
       case ShapeKind::sphere: return origin_at_sphere(k);
@@ -501,12 +304,6 @@ struct Builder {
     return scaled_by(back_side(), k);
   }
 
-  static GeneratedCase scaled_by(GeneratedCase c, int k) {
-    c = at_scale(std::move(c), k);
-    c.detail += "/2^" + std::to_string(k);
-    return c;
-  }
-
   GeneratedCase origin_at_sphere(int k) {
     Vec3 n;
     double r;
@@ -515,14 +312,15 @@ struct Builder {
     const long mode = rng.integer(0, 2);
     Vec3 o = mode == 0 ? Vec3(m + 0.5 * n) : Vec3(m + n);
     const std::string what = mode == 0 ? "inside" : mode == 1 ? "on-surface" : "ulp-outside";
-    Ray ray{scaled(o, k), scaled(Vec3(rng.ivec(9) + Vec3(0.5, 0, 0)), k)};
+    const Vec3 d = rng.ivec(9) + Vec3(0.5, 0, 0);
+    GeneratedCase c = scaled_by({Ray{o, d}, Sphere{m, r}, what}, k);
     if (mode == 2) {  // one ulp outward on the dominant normal axis
       int a = 0;
       for (int i = 1; i < 3; ++i)
         if (std::abs(n[i]) > std::abs(n[a])) a = i;
-      ray.origin[a] = nudge(ray.origin[a], n[a] > 0 ? 1 : -1);
+      c.ray.origin[a] = nudge(c.ray.origin[a], n[a] > 0 ? 1 : -1);
     }
-    return {ray, scaled(Shape(Sphere{m, r}), k), what + "/2^" + std::to_string(k)};
+    return c;
   }
 
   GeneratedCase origin_at_box(int k) {
@@ -532,13 +330,12 @@ struct Builder {
     if (mode >= 1) o.x() = b.min.x();  // on a face
     if (mode >= 2) o.y() = b.min.y();  // on an edge
     if (mode == 3) o.z() = b.min.z();  // on a corner
-    std::string what = mode == 0 ? "inside" : mode == 1 ? "on-face" : mode == 2 ? "on-edge" : "on-corner";
-    Ray ray{scaled(o, k), scaled(Vec3(rng.ivec(5) + Vec3(0.5, 0, 0)), k)};
-    if (rng.integer(0, 1) == 1) {
-      ray.origin.x() = nudge(ray.origin.x(), -1);
-      what += "-ulp-outside";
-    }
-    return {ray, scaled(Shape(b), k), what + "/2^" + std::to_string(k)};
+    const std::string what = mode == 0 ? "inside" : mode == 1 ? "on-face" : mode == 2 ? "on-edge" : "on-corner";
+    const Vec3 d = rng.ivec(5) + Vec3(0.5, 0, 0);
+    const bool ulp_outside = rng.integer(0, 1) == 1;
+    GeneratedCase c = scaled_by({Ray{o, d}, b, what + (ulp_outside ? "-ulp-outside" : "")}, k);
+    if (ulp_outside) c.ray.origin.x() = nudge(c.ray.origin.x(), -1);
+    return c;
   }
 
   GeneratedCase back_face() {
@@ -614,8 +411,8 @@ struct Builder {
 };
 
 std::uint64_t case_seed(Family f, ShapeKind s, std::uint64_t seed, std::uint64_t index) {
-  Rng r{seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(f) * 0x100000001B3ull +
-        static_cast<std::uint64_t>(s) * 0xC2B2AE3D27D4EB4Full};
+  CaseRng r{seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(f) * 0x100000001B3ull +
+            static_cast<std::uint64_t>(s) * 0xC2B2AE3D27D4EB4Full};
   r.state ^= index * 0xD6E8FEB86659FD93ull;
   return r.next();
 }
@@ -624,7 +421,7 @@ GeneratedCase build(Family family, ShapeKind shape, std::uint64_t seed, std::uin
                     Construction construction) {
   const bool full = construction == Construction::full && has_full_construction(family);
   // The full construction draws from its own stream: the exact family's cases stay what they were.
-  Builder b{Rng{case_seed(family, shape, seed, index) ^ (full ? 0xF011F011F011F011ull : 0)}, nudging, full};
+  Builder b{CaseRng{case_seed(family, shape, seed, index) ^ (full ? 0xF011F011F011F011ull : 0)}, nudging, full};
   switch (family) {
     case Family::random: return b.random(shape);
     case Family::tangent: return b.tangent(shape);

@@ -11,14 +11,14 @@ namespace rayproof::fuzz {
 bool disagrees(const Variant& v, Oracle& oracle, const Ray& ray, const Shape& shape, HitRule rule) {
   const Query q{ray, shape, {}};
   const VariantOutcome o = compare_variant(oracle, v, oracle.judge(ray, shape, rule), q, rule);
-  return !o.hit.failed() && o.agreement != Agreement::agrees;
+  return !o.answer.failed() && o.agreement != Agreement::agrees;
 }
 
 bool fails_the_same_way(const Variant& v, Oracle& oracle, const Ray& ray, const Shape& shape, HitRule rule,
-                        HitFailure failure) {
-  if (failure == HitFailure::none) return disagrees(v, oracle, ray, shape, rule);
+                        AnswerFailure failure) {
+  if (failure == AnswerFailure::none) return disagrees(v, oracle, ray, shape, rule);
   const Query q{ray, shape, {}};
-  return compare_variant(oracle, v, oracle.judge(ray, shape, rule), q, rule).hit.failure == failure;
+  return compare_variant(oracle, v, oracle.judge(ray, shape, rule), q, rule).answer.failure == failure;
 }
 
 int number_cost(double x) {
@@ -78,7 +78,7 @@ std::vector<double> candidates(double x) {
 
 }  // namespace
 
-Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget, HitFailure failure) {
+Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget, AnswerFailure failure) {
   bool changed = true;
   while (changed && budget > 0) {
     changed = false;

@@ -135,10 +135,10 @@ std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c) {
 }
 
 namespace {
-TraceKind kind_of_failure(HitFailure f) {
-  return f == HitFailure::timeout ? TraceKind::timeout
-         : f == HitFailure::crash ? TraceKind::crash
-                                  : TraceKind::tracer_error;
+TraceKind kind_of_failure(AnswerFailure f) {
+  return f == AnswerFailure::timeout ? TraceKind::timeout
+         : f == AnswerFailure::crash ? TraceKind::crash
+                                     : TraceKind::tracer_error;
 }
 }  // namespace
 
@@ -148,7 +148,7 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen) {
   if (!built.scene) {
     // A tracer that stopped earlier answers nothing more: no kind of its own to show (shrinking
     // then keeps the case as found).
-    const bool declined = built.failure == HitFailure::none || built.failure == HitFailure::stopped;
+    const bool declined = built.failure == AnswerFailure::none || built.failure == AnswerFailure::stopped;
     out.kind = declined ? TraceKind::build_failed : kind_of_failure(built.failure);
     out.reason = built.reason;
     return out;
@@ -160,7 +160,7 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen) {
     built.scene->all_hits(std::span(&seen.ray, 1), a);
     out.all = a[0];
     if (out.all.unsupported) return out.kind = TraceKind::unsupported, out;
-    if (out.all.failure != HitFailure::none) {
+    if (out.all.failure != AnswerFailure::none) {
       out.kind = kind_of_failure(out.all.failure);
       out.reason = t.stop_reason();
       return out;
@@ -170,7 +170,7 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen) {
     std::vector<TraceAnswer> a(1);
     built.scene->nearest(std::span(&seen.ray, 1), a);
     out.answer = a[0];
-    if (out.answer.failure != HitFailure::none) {
+    if (out.answer.failure != AnswerFailure::none) {
       out.kind = kind_of_failure(out.answer.failure);
       out.reason = t.stop_reason();
       return out;
@@ -417,9 +417,10 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       result.findings.push_back(std::move(f));
     };
     BuiltScene built = t.build(*s.mesh);
-    if (!built.scene && built.failure == HitFailure::stopped) continue;  // stopped earlier: reported then
+    if (!built.scene && built.failure == AnswerFailure::stopped) continue;  // stopped earlier: reported then
     if (!built.scene) {
-      const TraceKind k = built.failure == HitFailure::none ? TraceKind::build_failed : kind_of_failure(built.failure);
+      const TraceKind k =
+          built.failure == AnswerFailure::none ? TraceKind::build_failed : kind_of_failure(built.failure);
       TracerOutcome outcome;
       outcome.kind = k, outcome.reason = built.reason;
       if (k == TraceKind::build_failed) {
@@ -442,8 +443,8 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       const std::size_t i = live[k];
       TracerOutcome out;
       out.answer = answers[k];
-      if (out.answer.failure == HitFailure::stopped) break;
-      if (out.answer.failure != HitFailure::none) {  // a per-ray error goes on; a crash or hang stops the tracer
+      if (out.answer.failure == AnswerFailure::stopped) break;
+      if (out.answer.failure != AnswerFailure::none) {  // a per-ray error goes on; a crash or hang stops the tracer
         out.kind = kind_of_failure(out.answer.failure), out.reason = t.stop_reason();
         count(near, out.kind);
         finding(i, false, out.kind, out);
@@ -474,8 +475,8 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       const std::size_t i = live[k];
       TracerOutcome out;
       out.all = all[k];
-      if (out.all.failure == HitFailure::stopped) break;
-      if (out.all.failure != HitFailure::none) {
+      if (out.all.failure == AnswerFailure::stopped) break;
+      if (out.all.failure != AnswerFailure::none) {
         out.kind = kind_of_failure(out.all.failure), out.reason = t.stop_reason();
         count(any, out.kind);
         finding(i, true, out.kind, out);

@@ -1,5 +1,7 @@
 #include "rayproof/core/hit.h"
 
+#include "rayproof/core/answer.h"
+
 namespace rayproof {
 
 std::string_view to_string(HitClass c) {
@@ -19,17 +21,17 @@ std::optional<HitClass> answer_class_from_string(std::string_view s) {
   return hit_class_from_string(s);
 }
 
-std::string_view to_string(HitFailure f) {
+std::string_view to_string(AnswerFailure f) {
   switch (f) {
-    case HitFailure::none: return "none";
-    case HitFailure::bad_answer: return "answer outside 0..5";
-    case HitFailure::nan_t: return "contact with a NaN t";
-    case HitFailure::t_unwritten: return "contact with t left unwritten";
-    case HitFailure::crash: return "crash";
-    case HitFailure::timeout: return "timeout";
-    case HitFailure::protocol: return "protocol error";
-    case HitFailure::not_representable: return "not_representable";
-    case HitFailure::stopped: return "stopped";
+    case AnswerFailure::none: return "none";
+    case AnswerFailure::bad_answer: return "answer outside 0..5";
+    case AnswerFailure::nan_t: return "contact with a NaN t";
+    case AnswerFailure::t_unwritten: return "contact with t left unwritten";
+    case AnswerFailure::crash: return "crash";
+    case AnswerFailure::timeout: return "timeout";
+    case AnswerFailure::protocol: return "protocol error";
+    case AnswerFailure::not_representable: return "not_representable";
+    case AnswerFailure::stopped: return "stopped";
   }
   return "?";
 }

@@ -429,15 +429,16 @@ std::span<const Variant> all_variants() { return registry(); }
 
 std::string_view to_string(Precision p) { return p == Precision::f32 ? "float" : "double"; }
 
-Hit Variant::intersect(const Ray& ray, const Shape& shape, HitRule rule, AnswerTiming* timing) const {
+Answer Variant::intersect(const Ray& ray, const Shape& shape, HitRule rule, AnswerTiming* timing) const {
   if (kernel) return kernel(ray, shape, rule_for(rule));
-  Hit out;
+  Answer out;
   const Query q{ray, shape, {}};
   external->answer_all(std::span(&q, 1), std::span(&out, 1), timing);
   return out;
 }
 
-void Variant::intersect_all(std::span<const Query> qs, HitRule rule, std::span<Hit> out, AnswerTiming* timing) const {
+void Variant::intersect_all(std::span<const Query> qs, HitRule rule, std::span<Answer> out,
+                            AnswerTiming* timing) const {
   if (!kernel) return external->answer_all(qs, out, timing);
   for (size_t i = 0; i < qs.size(); ++i) out[i] = kernel(qs[i].ray, qs[i].shape, rule_for(rule));
 }

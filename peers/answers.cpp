@@ -33,8 +33,8 @@ class AnswersFile final : public ExternalIntersector {
         continue;
       }
       try {
-        Answer a = parse_answer_line(text);
-        auto [it, fresh] = by_id_.try_emplace(a.id, Entry{a.hit, line, false});
+        AnswerLine a = parse_answer_line(text);
+        auto [it, fresh] = by_id_.try_emplace(a.id, Entry{a.answer, line, false});
         if (!fresh)
           problems_.push_back(where(line) + ": id '" + printable(a.id) + "' repeats line " +
                               std::to_string(it->second.line));
@@ -48,17 +48,17 @@ class AnswersFile final : public ExternalIntersector {
 
   Precision precision() const { return precision_; }
 
-  void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming*) override {
+  void answer_all(std::span<const Query> qs, std::span<Answer> out, AnswerTiming*) override {
     std::lock_guard lock(mutex_);
     for (size_t i = 0; i < qs.size(); ++i) {
       auto it = by_id_.find(qs[i].id);
       if (it == by_id_.end()) {
         problems_.push_back(path_ + ": no answer for case '" + printable(qs[i].id) + "'");
-        out[i] = Hit::failure_of(HitFailure::stopped);  // not judged, not counted: reported above
+        out[i] = Answer::failure_of(AnswerFailure::stopped);  // not judged, not counted: reported above
         continue;
       }
       it->second.used = true;
-      out[i] = it->second.hit;
+      out[i] = it->second.answer;
     }
   }
 
@@ -76,7 +76,7 @@ class AnswersFile final : public ExternalIntersector {
 
  private:
   struct Entry {
-    Hit hit;
+    Answer answer;
     long line;
     bool used;
   };

@@ -62,7 +62,7 @@ class CgalAabbScene final : public TracerScene {
           if (!out[i].hit() || t < out[i].t) out[i] = {id, t};
         });
       } catch (const std::exception& e) {
-        out[i] = {kNoTriangle, NAN, HitFailure::bad_answer};
+        out[i] = {kNoTriangle, NAN, AnswerFailure::bad_answer};
         note(e);
       }
   }
@@ -78,7 +78,7 @@ class CgalAabbScene final : public TracerScene {
         }
         for_each_in_range(rays[i], [&](std::uint32_t id, double) { out[i].triangles.push_back(id); });
       } catch (const std::exception& e) {
-        out[i] = {{}, HitFailure::bad_answer};
+        out[i] = {{}, AnswerFailure::bad_answer};
         note(e);
       }
   }

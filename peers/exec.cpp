@@ -122,7 +122,7 @@ std::string with_python_words_quoted(const std::string& text) {
 // The common answer line, {"id": "...", "class": "...", "t": ...} with plain strings, read
 // without building a JSON tree; nullopt for anything else (escapes, other keys, repeats, bad
 // values), which the full reader then reads or rejects with a message naming the field.
-std::optional<Answer> parse_answer_fast(std::string_view s) {
+std::optional<AnswerLine> parse_answer_fast(std::string_view s) {
   size_t i = 0;
   auto skip = [&] {
     while (i < s.size() && (s[i] == ' ' || s[i] == '\t' || s[i] == '\r')) ++i;
@@ -183,15 +183,15 @@ std::optional<Answer> parse_answer_fast(std::string_view s) {
   if (i != s.size() || !id || !cls) return std::nullopt;
   const auto c = answer_class_from_string(*cls);
   if (!c) return std::nullopt;
-  Answer a{std::string(*id), Hit{*c}};
+  AnswerLine a{std::string(*id), Hit{*c}};
   if (*c == HitClass::miss) return a;
   if (!t) {
-    if (*c != HitClass::tangent) a.hit.failure = HitFailure::t_unwritten;
+    if (*c != HitClass::tangent) a.answer.failure = AnswerFailure::t_unwritten;
     return a;
   }
   std::optional<double> x = t_word(*t);
   if (x) {
-    if (std::isnan(*x)) return a.hit.failure = HitFailure::nan_t, a;
+    if (std::isnan(*x)) return a.answer.failure = AnswerFailure::nan_t, a;
   } else if (t_quoted) {
     x = parse_hex_double(*t);  // a string is a hex float or nothing (cases.md)
   } else if (!t->empty() && t->find_first_not_of("0123456789+-.eE") == std::string_view::npos) {
@@ -200,31 +200,31 @@ std::optional<Answer> parse_answer_fast(std::string_view s) {
     if (ec == std::errc() && end == t->data() + t->size()) x = v;
   }
   if (!x || std::isnan(*x)) return std::nullopt;  // the full reader names what is wrong
-  a.hit.t = *x;
+  a.answer.t = *x;
   return a;
 }
 }  // namespace
 
-Answer parse_answer_line(const std::string& text) {
+AnswerLine parse_answer_line(const std::string& text) {
   if (auto fast = parse_answer_fast(text)) return std::move(*fast);
   const json j = parse_json_text(text.find_first_of("IN") == std::string::npos ? text : with_python_words_quoted(text));
   if (!j.is_object()) throw FieldError("", "an answer line is a JSON object");
   check_keys(j, "", {"id", "class", "t"}, {"id", "class"});
   if (!j.at("id").is_string()) throw FieldError("id", "must be a string");
   if (!j.at("class").is_string()) throw FieldError("class", "must be a string");
-  Answer a;
+  AnswerLine a;
   a.id = j.at("id").get<std::string>();
   const auto cls = answer_class_from_string(j.at("class").get<std::string>());
   if (!cls) throw FieldError("class", "must be miss, enter, exit, tangent, boundary or hit");
-  a.hit.cls = *cls;
+  a.answer.cls = *cls;
   const bool has_t = j.contains("t") && !j.at("t").is_null();
   if (*cls == HitClass::miss) return a;  // a miss's t means nothing
   if (has_t) {
     const auto word = j.at("t").is_string() ? t_word(j.at("t").get<std::string>()) : std::nullopt;
-    if (word && std::isnan(*word)) return a.hit.failure = HitFailure::nan_t, a;
-    a.hit.t = word ? *word : read_number(j.at("t"), "t");
+    if (word && std::isnan(*word)) return a.answer.failure = AnswerFailure::nan_t, a;
+    a.answer.t = word ? *word : read_number(j.at("t"), "t");
   } else if (*cls != HitClass::tangent) {
-    a.hit.failure = HitFailure::t_unwritten;  // only a tangent may come without t (a ray lying in the surface)
+    a.answer.failure = AnswerFailure::t_unwritten;  // only a tangent may come without t (a ray lying in the surface)
   }
   return a;
 }
@@ -236,9 +236,10 @@ class ExecVariant final : public ExternalIntersector {
   ExecVariant(std::string command, const ExternalOptions& options)
       : command_(std::move(command)), options_(options), budget_(options.max_crashes) {}
 
-  void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming*) override {
+  void answer_all(std::span<const Query> qs, std::span<Answer> out, AnswerTiming*) override {
     for (std::size_t done = 0; done < qs.size();) {
-      if (budget_.stopped()) return std::fill(out.begin() + done, out.end(), Hit::failure_of(HitFailure::stopped));
+      if (budget_.stopped())
+        return std::fill(out.begin() + done, out.end(), Answer::failure_of(AnswerFailure::stopped));
       done += answer_until_failure(qs.subspan(done), out.subspan(done));
     }
   }
@@ -248,7 +249,7 @@ class ExecVariant final : public ExternalIntersector {
  private:
   // One command answers the cases in order; returns how many are settled (all, or up to and
   // including the case it failed on).
-  std::size_t answer_until_failure(std::span<const Query> qs, std::span<Hit> out) {
+  std::size_t answer_until_failure(std::span<const Query> qs, std::span<Answer> out) {
     std::unique_ptr<ExecProcess> process = take();
     std::string payload;
     std::vector<std::string> ids;
@@ -257,19 +258,19 @@ class ExecVariant final : public ExternalIntersector {
       payload += exec_case_line(q, ids.back());
     }
     std::vector<std::string> lines;
-    HitFailure kind = HitFailure::none;
+    AnswerFailure kind = AnswerFailure::none;
     const std::string ended = process->exchange(payload, qs.size(), options_.case_timeout_seconds, lines, kind);
     std::string why;  // the lines that came are judged even when the command then failed
     std::size_t i = 0;
     for (; i < lines.size(); ++i) {
       try {
-        Answer a = parse_answer_line(lines[i]);
+        AnswerLine a = parse_answer_line(lines[i]);
         if (a.id != ids[i]) {
           why = "answered id '" + printable(a.id) + "' where '" + printable(ids[i]) +
                 "' was due (answers must keep the order)";
           break;
         }
-        out[i] = a.hit;
+        out[i] = a.answer;
       } catch (const std::exception& e) {
         const auto* f = dynamic_cast<const FieldError*>(&e);
         why = "unreadable answer line '" + printable_prefix(lines[i], 200) + "'" +
@@ -278,7 +279,7 @@ class ExecVariant final : public ExternalIntersector {
       }
     }
     if (!why.empty())
-      kind = HitFailure::protocol;
+      kind = AnswerFailure::protocol;
     else
       why = ended;
     if (why.empty()) {
@@ -289,8 +290,8 @@ class ExecVariant final : public ExternalIntersector {
     // The command is gone (or spoke wrongly): blame the case it was on; after a crash or a hang a
     // fresh command goes on with the next case while the crash budget lasts. A protocol error
     // stops it now: a fresh command would answer the same way.
-    out[i] = Hit::failure_of(kind);
-    if (kind == HitFailure::protocol)
+    out[i] = Answer::failure_of(kind);
+    if (kind == AnswerFailure::protocol)
       budget_.stop(why);
     else
       budget_.spend(why);

@@ -53,7 +53,7 @@ struct WireQuery {
 struct WireAnswer {
   double t;
   HitClass cls;
-  HitFailure failure;
+  AnswerFailure failure;
 };
 struct SharedBatch {
   std::atomic<std::uint32_t> progress;  // the index of the case the worker is calling on
@@ -82,12 +82,12 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
     for (int i = 0; i < shape_numbers; ++i) shape[i] = static_cast<Real>(numbers[6 + i]);
     answer = fn(ray, shape, &t);
   }
-  WireAnswer out{static_cast<double>(t), HitClass::miss, HitFailure::none};
-  if (answer < RAYPROOF_MISS || answer > RAYPROOF_HIT) return out.failure = HitFailure::bad_answer, out;
+  WireAnswer out{static_cast<double>(t), HitClass::miss, AnswerFailure::none};
+  if (answer < RAYPROOF_MISS || answer > RAYPROOF_HIT) return out.failure = AnswerFailure::bad_answer, out;
   out.cls = static_cast<HitClass>(answer);  // the enum orders match: miss … boundary, hit
   if (out.cls == HitClass::miss) return out.t = NAN, out;
-  if (std::memcmp(&t, &unwritten, sizeof t) == 0) return out.failure = HitFailure::t_unwritten, out;
-  if (std::isnan(t)) out.failure = HitFailure::nan_t;
+  if (std::memcmp(&t, &unwritten, sizeof t) == 0) return out.failure = AnswerFailure::t_unwritten, out;
+  if (std::isnan(t)) out.failure = AnswerFailure::nan_t;
   return out;
 }
 
@@ -253,12 +253,12 @@ class PluginVariant final : public ExternalIntersector {
   PluginVariant(Plugin& plugin, std::uint32_t index, ShapeKind shape, const ExternalOptions& options)
       : plugin_(plugin), index_(index), shape_(shape), options_(options), budget_(options.max_crashes) {}
 
-  void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming* timing) override {
+  void answer_all(std::span<const Query> qs, std::span<Answer> out, AnswerTiming* timing) override {
     double inside = 0;
     for (std::size_t start = 0; start < qs.size();) {
       const std::size_t n = std::min(kBatchCapacity, qs.size() - start);
       if (budget_.stopped()) {
-        std::fill(out.begin() + start, out.end(), Hit::failure_of(HitFailure::stopped));
+        std::fill(out.begin() + start, out.end(), Answer::failure_of(AnswerFailure::stopped));
         inside = -1;
         break;
       }
@@ -278,7 +278,8 @@ class PluginVariant final : public ExternalIntersector {
       const std::size_t answered = why.empty() ? n : std::min<std::size_t>(stopped_at, n);
       for (std::size_t i = 0; i < answered; ++i) {
         const WireAnswer& a = b.answers[i];
-        out[start + i] = Hit{a.cls, a.t, a.failure};
+        out[start + i] = Hit{a.cls, a.t};
+        out[start + i].failure = a.failure;
       }
       inside += b.inner_seconds;
       if (why.empty()) {
@@ -288,9 +289,9 @@ class PluginVariant final : public ExternalIntersector {
       }
       // The worker is gone: blame the case it was on, keep what it answered, and go on with a
       // fresh worker from the next case while the crash budget lasts (a forking plugin stops now).
-      out[start + answered] = Hit::failure_of(worker->forked() ? HitFailure::protocol
-                                              : timed_out      ? HitFailure::timeout
-                                                               : HitFailure::crash);
+      out[start + answered] = Answer::failure_of(worker->forked() ? AnswerFailure::protocol
+                                                 : timed_out      ? AnswerFailure::timeout
+                                                                  : AnswerFailure::crash);
       if (worker->forked())
         budget_.stop(why);
       else

@@ -64,10 +64,10 @@ class ExecTracerScene final : public TracerScene {
 
   void nearest(std::span<const TracerRay> rays, std::span<TraceAnswer> out) override {
     std::vector<json> answers;
-    const HitFailure f = exchange(rays, false, answers);
+    const AnswerFailure f = exchange(rays, false, answers);
     for (std::size_t i = 0; i < rays.size(); ++i) {
       if (i >= answers.size()) {
-        out[i] = {kNoTriangle, NAN, i == answers.size() ? f : HitFailure::stopped};
+        out[i] = {kNoTriangle, NAN, i == answers.size() ? f : AnswerFailure::stopped};
         continue;
       }
       const json& a = answers[i];
@@ -82,11 +82,11 @@ class ExecTracerScene final : public TracerScene {
 
   void all_hits(std::span<const TracerRay> rays, std::span<AllHitsAnswer> out) override {
     std::vector<json> answers;
-    const HitFailure f = exchange(rays, true, answers);
+    const AnswerFailure f = exchange(rays, true, answers);
     for (std::size_t i = 0; i < rays.size(); ++i) {
       out[i] = {};
       if (i >= answers.size()) {
-        out[i].failure = i == answers.size() ? f : HitFailure::stopped;
+        out[i].failure = i == answers.size() ? f : AnswerFailure::stopped;
         continue;
       }
       const json& a = answers[i];
@@ -101,9 +101,9 @@ class ExecTracerScene final : public TracerScene {
  private:
   // Sends the mesh (once) and the rays, reads and checks the answer lines. Answers that came
   // before a failure are kept; the failure is returned for the ray it is blamed on.
-  HitFailure exchange(std::span<const TracerRay> rays, bool all, std::vector<json>& answers) {
+  AnswerFailure exchange(std::span<const TracerRay> rays, bool all, std::vector<json>& answers) {
     std::lock_guard lock(mutex_);
-    if (state_.stopped || !healthy_) return HitFailure::stopped;
+    if (state_.stopped || !healthy_) return AnswerFailure::stopped;
     std::string payload;
     if (!process_) {
       process_ = state_.processes.take([&] { return std::make_unique<ExecProcess>(state_.command); });
@@ -115,7 +115,7 @@ class ExecTracerScene final : public TracerScene {
       payload += ray_line(r, ids.back(), all);
     }
     std::vector<std::string> lines;
-    HitFailure kind = HitFailure::none;
+    AnswerFailure kind = AnswerFailure::none;
     // An all-hits answer lists at most every triangle, each shorter than in the mesh line.
     const std::size_t max_line = ExecProcess::kMaxLineBytes + mesh_line_.size();
     const std::string ended =
@@ -127,7 +127,7 @@ class ExecTracerScene final : public TracerScene {
         if (!a.is_object()) throw FieldError("", "an answer line is a JSON object");
         if (a.contains("error") && !a.contains("id")) {
           why = "could not read the mesh: " + printable(a.at("error").dump());
-          kind = HitFailure::bad_answer;  // counted as tracer errors for this mesh's rays
+          kind = AnswerFailure::bad_answer;  // counted as tracer errors for this mesh's rays
           break;
         }
         if (!a.contains("id") || !a.at("id").is_string() || a.at("id").get<std::string>() != ids[i])
@@ -155,13 +155,13 @@ class ExecTracerScene final : public TracerScene {
         const auto* f = dynamic_cast<const FieldError*>(&e);
         why = "unreadable answer line '" + printable_prefix(lines[i], 200) + "'" +
               (f && !f->field.empty() ? ": " + f->field : std::string()) + ": " + printable(e.what());
-        kind = HitFailure::protocol;
+        kind = AnswerFailure::protocol;
       }
     }
     if (why.empty()) why = ended;
-    if (why.empty()) return HitFailure::none;
+    if (why.empty()) return AnswerFailure::none;
     healthy_ = false;  // never handed back
-    if (kind == HitFailure::bad_answer) {
+    if (kind == AnswerFailure::bad_answer) {
       state_.note(why);
       return kind;
     }
@@ -190,7 +190,7 @@ const Tracer& add_exec_tracer(const std::string& name, const std::string& comman
   t.origin = "exec: " + command;
   t.always_judged = true;
   t.build = [&state](const TriangleMesh& mesh) -> BuiltScene {
-    if (state.stopped) return {nullptr, HitFailure::stopped, "stopped earlier"};
+    if (state.stopped) return {nullptr, AnswerFailure::stopped, "stopped earlier"};
     return {std::make_unique<ExecTracerScene>(state, mesh)};
   };
   t.stop_reason = [&state] { return state.reason(); };

@@ -276,8 +276,8 @@ struct PluginTracerState : StopReason {
   ExternalOptions options;
 };
 
-HitFailure failure_of(bool timed_out, bool forked = false) {
-  return forked ? HitFailure::protocol : timed_out ? HitFailure::timeout : HitFailure::crash;
+AnswerFailure failure_of(bool timed_out, bool forked = false) {
+  return forked ? AnswerFailure::protocol : timed_out ? AnswerFailure::timeout : AnswerFailure::crash;
 }
 
 class PluginTracerScene final : public TracerScene {
@@ -295,7 +295,7 @@ class PluginTracerScene final : public TracerScene {
   void nearest(std::span<const TracerRay> rays, std::span<TraceAnswer> out) override {
     std::lock_guard lock(mutex_);  // one worker per scene: callers on other threads wait
     if (!worker_ || state_.stopped)
-      return std::fill(out.begin(), out.end(), TraceAnswer{kNoTriangle, NAN, HitFailure::stopped});
+      return std::fill(out.begin(), out.end(), TraceAnswer{kNoTriangle, NAN, AnswerFailure::stopped});
     worker_->ensure(nearest_bytes(rays.size()));
     Header& h = worker_->header();
     h.op = Op::nearest, h.tracer = state_.index, h.ray_count = rays.size();
@@ -319,7 +319,7 @@ class PluginTracerScene final : public TracerScene {
     std::uint64_t capacity = 64 * rays.size() + 1024;
     while (done < rays.size()) {
       if (!worker_ || state_.stopped) {
-        for (std::size_t i = done; i < rays.size(); ++i) out[i] = {{}, HitFailure::stopped};
+        for (std::size_t i = done; i < rays.size(); ++i) out[i] = {{}, AnswerFailure::stopped};
         return;
       }
       const std::size_t n = rays.size() - done;
@@ -338,10 +338,10 @@ class PluginTracerScene final : public TracerScene {
       done += answered;
       if (!why.empty()) {
         std::vector<TraceAnswer> unused(rays.size() - done);
-        const HitFailure kind = failure_of(timed_out, worker_->forked());
+        const AnswerFailure kind = failure_of(timed_out, worker_->forked());
         fail(why, kind, unused);
         out[done] = {{}, kind};
-        for (std::size_t i = done + 1; i < rays.size(); ++i) out[i] = {{}, HitFailure::stopped};
+        for (std::size_t i = done + 1; i < rays.size(); ++i) out[i] = {{}, AnswerFailure::stopped};
         return;
       }
       if (answered == 0) capacity *= 4;  // one ray's hits did not fit: room for more
@@ -355,12 +355,12 @@ class PluginTracerScene final : public TracerScene {
     w.tmin = r.tmin, w.tmax = r.tmax;
     return w;
   }
-  void fail(const std::string& why, HitFailure kind, std::span<TraceAnswer> rest) {
+  void fail(const std::string& why, AnswerFailure kind, std::span<TraceAnswer> rest) {
     state_.stop(why);
     worker_.reset();  // dead: never handed back
     if (rest.empty()) return;
     rest[0] = {kNoTriangle, NAN, kind};
-    for (std::size_t i = 1; i < rest.size(); ++i) rest[i] = {kNoTriangle, NAN, HitFailure::stopped};
+    for (std::size_t i = 1; i < rest.size(); ++i) rest[i] = {kNoTriangle, NAN, AnswerFailure::stopped};
   }
   PluginTracerState& state_;
   std::unique_ptr<TracerWorker> worker_;
@@ -368,7 +368,7 @@ class PluginTracerScene final : public TracerScene {
 };
 
 BuiltScene build_plugin_scene(PluginTracerState& state, const TriangleMesh& mesh) {
-  if (state.stopped) return {nullptr, HitFailure::stopped, "stopped earlier"};
+  if (state.stopped) return {nullptr, AnswerFailure::stopped, "stopped earlier"};
   std::unique_ptr<TracerWorker> worker =
       state.library->workers.take([&] { return std::make_unique<TracerWorker>(state.library->path); });
   worker->ensure(build_bytes(mesh.vertex_count(), mesh.triangle_count()));
@@ -385,7 +385,7 @@ BuiltScene build_plugin_scene(PluginTracerState& state, const TriangleMesh& mesh
   }
   if (!h.built) {
     state.library->workers.give_back(std::move(worker));
-    return {nullptr, HitFailure::none, "build returned NULL"};
+    return {nullptr, AnswerFailure::none, "build returned NULL"};
   }
   return {std::make_unique<PluginTracerScene>(state, std::move(worker))};
 }

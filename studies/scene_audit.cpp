@@ -338,7 +338,7 @@ class Auditor {
     return out;
   }
   SceneHit scene_hit(const TracerOnScene& on, const TraceAnswer& a) const {
-    if (!a.hit() || a.failure != HitFailure::none || a.triangle >= on.primitive_of.size() || !(a.t > 0)) return {};
+    if (!a.hit() || a.failure != AnswerFailure::none || a.triangle >= on.primitive_of.size() || !(a.t > 0)) return {};
     const std::int32_t id = on.primitive_of[a.triangle];
     return {index_.primitive(id).object, id, Hit{HitClass::hit, a.t}};
   }
@@ -421,11 +421,11 @@ class Auditor {
       if (t.has_all_hits) {
         AllHitsAnswer a;
         on.scene->all_hits(std::span(&*r, 1), std::span(&a, 1));
-        if (a.failure == HitFailure::none && !a.unsupported) hits = a.triangles;
+        if (a.failure == AnswerFailure::none && !a.unsupported) hits = a.triangles;
       } else {
         TraceAnswer a;
         on.scene->nearest(std::span(&*r, 1), std::span(&a, 1));
-        if (a.failure == HitFailure::none && a.hit()) hits.push_back(a.triangle);
+        if (a.failure == AnswerFailure::none && a.hit()) hits.push_back(a.triangle);
       }
       for (std::uint32_t h : hits) {
         if (h >= on.primitive_of.size() || on.primitive_of[h] == self) continue;

@@ -24,7 +24,7 @@ std::vector<Contender> variant_contenders() {
     Contender c{std::string(v.name),
                 v.shape,
                 [p](const std::vector<Query>& qs) {
-                  auto hits = std::make_shared<std::vector<Hit>>(qs.size());
+                  auto hits = std::make_shared<std::vector<Answer>>(qs.size());
                   if (p->external)  // one round trip for the batch, run repeatedly where the code runs, timed there
                     return Prepared{[p, &qs, hits] { p->intersect_all(qs, HitRule::nearest_contact, *hits); },
                                     [hits](size_t i) { return (*hits)[i]; },
@@ -143,16 +143,17 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
         const std::vector<Verdict>& judge = own_truth ? truth : exact;
         const Prepared prepared = c.prepare(inputs);
         prepared.run();
-        std::vector<Hit> hits(inputs.size());
-        for (size_t i = 0; i < inputs.size(); ++i) hits[i] = prepared.answer(i);
+        std::vector<Answer> answers(inputs.size());
+        for (size_t i = 0; i < inputs.size(); ++i) answers[i] = prepared.answer(i);
         TradeRow row{c.name, shape, family, time_per_query(c, inputs)};
         row.users_code = c.users_code;
         row.precision = c.precision;
         row.tally.not_representable = not_representable;
         for (size_t i = 0; i < inputs.size(); ++i) {
-          VariantOutcome o = judge_answer(judge[i], hits[i]);
-          if (c.precision == "float" && judge[i].t && hits[i].has_t() && o.agreement == Agreement::agrees)
-            o.ulp_own = ulp_distance_f32(to_nearest_float(hits[i].t), exact_t_as_float(inputs[i], c.rule, *judge[i].t));
+          VariantOutcome o = judge_answer(judge[i], answers[i]);
+          if (c.precision == "float" && judge[i].t && answers[i].has_t() && o.agreement == Agreement::agrees)
+            o.ulp_own =
+                ulp_distance_f32(to_nearest_float(answers[i].t), exact_t_as_float(inputs[i], c.rule, *judge[i].t));
           row.tally.add(judge[i].cls, o);
         }
         rows.push_back(std::move(row));

@@ -121,14 +121,14 @@ TEST(FloatVariants, EveryFormulaHasAFloatTwinJudgedOnTheFloatRoundedCase) {
           Ray{Vec3(0.01 * i - 1, 0.3, 5.1), Vec3(0.001 * i, -0.01, -1)}, sample_shape(v->shape, 1e-9 * i), {}};
       const Verdict exact = oracle.judge(q.ray, q.shape);
       const VariantOutcome o = compare_variant(oracle, *v, exact, q, HitRule::nearest_contact);
-      ASSERT_FALSE(o.hit.failed()) << name << " " << i;
+      ASSERT_FALSE(o.answer.failed()) << name << " " << i;
       ASSERT_TRUE(o.own_exact) << name;  // judged on what it saw
       const Query seen = *rounded_to_float(q);
       const Verdict truth = oracle.judge(seen.ray, seen.shape);
       EXPECT_EQ(o.own_exact->cls, truth.cls) << name << " " << i;
       EXPECT_EQ(o.own_exact->t, truth.t) << name << " " << i;
       ++judged, agree += o.agreement == Agreement::agrees;
-      if (o.agreement == Agreement::agrees && truth.t && o.hit.has_t()) {
+      if (o.agreement == Agreement::agrees && truth.t && o.answer.has_t()) {
         ASSERT_TRUE(o.ulp_own) << name;
         EXPECT_LE(*o.ulp_own, 64u) << name << " " << i;  // a few float ulps on these tame cases
       }
@@ -137,8 +137,8 @@ TEST(FloatVariants, EveryFormulaHasAFloatTwinJudgedOnTheFloatRoundedCase) {
     // Beyond float's range: not representable, never a wrong answer.
     const Query huge{Ray{Vec3(1e39, 0, 5), Vec3(0, 0, -1)}, sample_shape(v->shape, 0), {}};
     EXPECT_EQ(
-        compare_variant(oracle, *v, oracle.judge(huge.ray, huge.shape), huge, HitRule::nearest_contact).hit.failure,
-        HitFailure::not_representable)
+        compare_variant(oracle, *v, oracle.judge(huge.ray, huge.shape), huge, HitRule::nearest_contact).answer.failure,
+        AnswerFailure::not_representable)
         << name;
   }
 }

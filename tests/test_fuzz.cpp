@@ -444,8 +444,11 @@ TEST(TradeCli, CsvHasExactlyTheSpecifiedColumnsAndTheCertifiedVariantsNeverDisag
   for (const char* v : {"textbook", "stable", "stable-fma", "hearn-baker", "stable-batch", "slab", "robust-slab"})
     EXPECT_TRUE(variants.count(v)) << v;
   // The certified variants never disagree: 0 in every cell they appear in.
-  for (size_t i = 1; i < csv.size(); ++i)
-    if (csv[i].rfind("certified-", 0) == 0) EXPECT_NE(csv[i].find(",0,0,"), std::string::npos) << csv[i];
+  for (size_t i = 1; i < csv.size(); ++i) {
+    if (csv[i].rfind("certified-", 0) == 0) {
+      EXPECT_NE(csv[i].find(",0,0,"), std::string::npos) << csv[i];
+    }
+  }
   const std::string svg = read(dir + "/trade.svg");
   EXPECT_NE(svg.find("<svg"), std::string::npos);
   EXPECT_NE(svg.find("ns per test"), std::string::npos);
@@ -509,6 +512,26 @@ TEST(Trade, ParetoMarksExactlyTheUndominatedContenders) {
   EXPECT_TRUE(rows[3].pareto);
   EXPECT_TRUE(rows[4].pareto);  // equal to balanced: neither beats the other strictly
   EXPECT_TRUE(rows[5].pareto);  // alone in its family
+}
+
+// An answer external code failed to give is counted as that failure, never judged as a miss: a
+// contender whose every third answer crashed shows those crashes and no wrong class for them.
+TEST(Trade, FailedAnswersAreTalliedAsFailuresNotAsMisses) {
+  const Variant& stable = *find_variant("stable");
+  Contender flaky{"flaky", ShapeKind::sphere, [&](const std::vector<Query>& qs) {
+                    return Prepared{[] {},
+                                    [&stable, &qs](size_t i) {
+                                      return i % 3 == 0 ? Answer::failure_of(AnswerFailure::crash)
+                                                        : Answer(stable.intersect(qs[i].ray, qs[i].shape,
+                                                                                  HitRule::nearest_contact));
+                                    }};
+                  }};
+  const auto rows = measure_trade({flaky}, {ShapeKind::sphere}, {fuzz::Family::random}, 300, 1, 1);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].tally.crashes, 100u);
+  EXPECT_EQ(rows[0].tally.cases, 200u);
+  EXPECT_EQ(rows[0].tally.wrong, 0u);
+  EXPECT_FALSE(rows[0].measured());
 }
 
 // README's spawn table: with no offset about half the secondary rays hit their own surface;

@@ -533,36 +533,36 @@ TEST(ExecProtocol, AnswerLinesMeanTheSameWhicheverReaderReadsThem) {
     std::string text;
     HitClass cls;
     double t;
-    HitFailure failure;
+    AnswerFailure failure;
   };
   const std::vector<Line> good = {
-      {R"({"id":"a","class":"enter","t":"0x1.8p+1"})", HitClass::enter, 3, HitFailure::none},
-      {R"( { "t" : 3 , "class" : "exit" , "id" : "a" } )", HitClass::exit, 3, HitFailure::none},
-      {R"({"id":"a","class":"hit","t":3e0})", HitClass::hit, 3, HitFailure::none},
+      {R"({"id":"a","class":"enter","t":"0x1.8p+1"})", HitClass::enter, 3, AnswerFailure::none},
+      {R"( { "t" : 3 , "class" : "exit" , "id" : "a" } )", HitClass::exit, 3, AnswerFailure::none},
+      {R"({"id":"a","class":"hit","t":3e0})", HitClass::hit, 3, AnswerFailure::none},
       {R"({"id":"\u0061","class":"tangent","t":"0x1.8p+1"})", HitClass::tangent, 3,
-       HitFailure::none},  // escape: full reader
-      {R"({"id":"a","class":"miss","t":null})", HitClass::miss, NAN, HitFailure::none},
-      {R"({"id":"a","class":"tangent"})", HitClass::tangent, NAN, HitFailure::none},
-      {R"({"id":"a","class":"enter"})", HitClass::enter, NAN, HitFailure::t_unwritten},
-      {R"({"id":"a","class":"enter","t":"nan"})", HitClass::enter, NAN, HitFailure::nan_t},
+       AnswerFailure::none},  // escape: full reader
+      {R"({"id":"a","class":"miss","t":null})", HitClass::miss, NAN, AnswerFailure::none},
+      {R"({"id":"a","class":"tangent"})", HitClass::tangent, NAN, AnswerFailure::none},
+      {R"({"id":"a","class":"enter"})", HitClass::enter, NAN, AnswerFailure::t_unwritten},
+      {R"({"id":"a","class":"enter","t":"nan"})", HitClass::enter, NAN, AnswerFailure::nan_t},
       // Issue 25, item 10: words for ∞ mean ∞ on every path; Python's bare Infinity and NaN too.
-      {R"({"id":"a","class":"exit","t":"inf"})", HitClass::exit, INFINITY, HitFailure::none},
-      {R"({"id":"\u0061","class":"exit","t":"inf"})", HitClass::exit, INFINITY, HitFailure::none},  // full reader
-      {R"({"id":"a","class":"exit","t":Infinity})", HitClass::exit, INFINITY, HitFailure::none},
-      {R"({"id":"\u0061","class":"exit","t": -Infinity})", HitClass::exit, -INFINITY, HitFailure::none},
-      {R"({"id":"a","class":"enter","t":NaN})", HitClass::enter, NAN, HitFailure::nan_t},
-      {R"({"id":"\u0061","class":"enter","t":NaN})", HitClass::enter, NAN, HitFailure::nan_t},
+      {R"({"id":"a","class":"exit","t":"inf"})", HitClass::exit, INFINITY, AnswerFailure::none},
+      {R"({"id":"\u0061","class":"exit","t":"inf"})", HitClass::exit, INFINITY, AnswerFailure::none},  // full reader
+      {R"({"id":"a","class":"exit","t":Infinity})", HitClass::exit, INFINITY, AnswerFailure::none},
+      {R"({"id":"\u0061","class":"exit","t": -Infinity})", HitClass::exit, -INFINITY, AnswerFailure::none},
+      {R"({"id":"a","class":"enter","t":NaN})", HitClass::enter, NAN, AnswerFailure::nan_t},
+      {R"({"id":"\u0061","class":"enter","t":NaN})", HitClass::enter, NAN, AnswerFailure::nan_t},
   };
   for (const Line& l : good) {
-    const peers::Answer a = peers::parse_answer_line(l.text);
+    const peers::AnswerLine a = peers::parse_answer_line(l.text);
     EXPECT_EQ(a.id, "a") << l.text;
-    EXPECT_EQ(a.hit.failure, l.failure) << l.text;
-    if (l.failure != HitFailure::none) continue;
-    EXPECT_EQ(a.hit.cls, l.cls) << l.text;
+    EXPECT_EQ(a.answer.failure, l.failure) << l.text;
+    if (l.failure != AnswerFailure::none) continue;
+    EXPECT_EQ(a.answer.cls, l.cls) << l.text;
     if (std::isnan(l.t))
-      EXPECT_FALSE(a.hit.has_t()) << l.text;
+      EXPECT_FALSE(a.answer.has_t()) << l.text;
     else
-      EXPECT_EQ(a.hit.t, l.t) << l.text;
+      EXPECT_EQ(a.answer.t, l.t) << l.text;
   }
   const std::vector<std::pair<std::string, std::string>> bad = {
       {R"({"id":"a","class":"sideways"})", "class"},

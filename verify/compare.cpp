@@ -34,35 +34,35 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
   out.assign(qs.size(), VariantOutcome{&v});
   thread_local std::vector<Query> rounded;  // f32: what the variant is given, and where each came from
   thread_local std::vector<size_t> from;
-  thread_local std::vector<Hit> hits;
+  thread_local std::vector<Answer> answers;
   rounded.clear(), from.clear();
   if (f32) {
     for (size_t i = 0; i < qs.size(); ++i) {
       if (auto r = rounded_to_float(qs[i]))
         rounded.push_back(std::move(*r)), from.push_back(i);
       else
-        out[i].hit = Hit::failure_of(HitFailure::not_representable);
+        out[i].answer = Answer::failure_of(AnswerFailure::not_representable);
     }
   }
   const std::span<const Query> given = f32 ? std::span<const Query>(rounded) : qs;
-  hits.resize(given.size());
-  v.intersect_all(given, rule, hits);
+  answers.resize(given.size());
+  v.intersect_all(given, rule, answers);
   for (size_t k = 0; k < given.size(); ++k) {
     VariantOutcome& o = out[f32 ? from[k] : k];
-    if (hits[k].failed()) {
-      o.hit = hits[k];
+    if (answers[k].failed()) {
+      o.answer = answers[k];
       continue;
     }
     if (!own) {
-      o = judge_answer(exact[k], hits[k]);
+      o = judge_answer(exact[k], answers[k]);
       o.variant = &v;
       continue;
     }
     const Verdict truth = oracle.judge(given[k].ray, given[k].shape, own_rule);
-    o = judge_answer(truth, hits[k]);
+    o = judge_answer(truth, answers[k]);
     o.variant = &v;
-    if (f32 && truth.t && hits[k].has_t())
-      o.ulp_own = ulp_distance_f32(to_nearest_float(hits[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
+    if (f32 && truth.t && answers[k].has_t())
+      o.ulp_own = ulp_distance_f32(to_nearest_float(answers[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
     o.own_exact = VariantOutcome::OwnVerdict{truth.cls, truth.t, truth.front};
   }
 }
@@ -86,16 +86,16 @@ ordered_json check_line(const std::string& id, const Verdict& exact, const std::
   ordered_json variants = ordered_json::object();
   for (const VariantOutcome& o : outcomes) {
     ordered_json& entry = variants[std::string(o.variant->name)];
-    if (o.hit.failure == HitFailure::not_representable) {
+    if (o.answer.failure == AnswerFailure::not_representable) {
       entry = {{"skipped", "not_representable"}};
       continue;
     }
-    if (o.hit.failed()) {
-      entry = {{"error", std::string(to_string(o.hit.failure))}};
+    if (o.answer.failed()) {
+      entry = {{"error", std::string(to_string(o.answer.failure))}};
       continue;
     }
-    entry = {{"class", std::string(to_string(o.hit.cls))},
-             {"t", o.hit.has_t() ? ordered_json(hex_double(o.hit.t)) : ordered_json(nullptr)},
+    entry = {{"class", std::string(to_string(o.answer.cls))},
+             {"t", o.answer.has_t() ? ordered_json(hex_double(o.answer.t)) : ordered_json(nullptr)},
              {"ulp", o.ulp ? ordered_json(*o.ulp) : ordered_json(nullptr)},
              {"agrees", o.agreement == Agreement::agrees}};
     if (o.variant->precision == Precision::f32 && o.own_exact) {

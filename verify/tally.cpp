@@ -71,16 +71,16 @@ UlpHistogram UlpHistogram::from_json(const json& j) {
 }
 
 void Tally::add(HitClass case_exact, const VariantOutcome& o) {
-  switch (o.hit.failure) {
-    case HitFailure::none: break;
-    case HitFailure::crash: ++crashes; return;
-    case HitFailure::timeout: ++timeouts; return;
-    case HitFailure::protocol: ++protocol_errors; return;
-    case HitFailure::not_representable: ++not_representable; return;
-    case HitFailure::stopped: return;  // counted once, as what stopped it
-    case HitFailure::bad_answer:
-    case HitFailure::nan_t:
-    case HitFailure::t_unwritten: ++plugin_errors; return;
+  switch (o.answer.failure) {
+    case AnswerFailure::none: break;
+    case AnswerFailure::crash: ++crashes; return;
+    case AnswerFailure::timeout: ++timeouts; return;
+    case AnswerFailure::protocol: ++protocol_errors; return;
+    case AnswerFailure::not_representable: ++not_representable; return;
+    case AnswerFailure::stopped: return;  // counted once, as what stopped it
+    case AnswerFailure::bad_answer:
+    case AnswerFailure::nan_t:
+    case AnswerFailure::t_unwritten: ++plugin_errors; return;
   }
   const HitClass exact = o.own_exact ? o.own_exact->cls : case_exact;
   ++cases;
@@ -89,7 +89,7 @@ void Tally::add(HitClass case_exact, const VariantOutcome& o) {
     case Agreement::cannot_tell: ++cannot_tell; break;
     case Agreement::wrong: ++wrong; break;
   }
-  if (o.agreement != Agreement::agrees) ++confusion[{exact, o.hit.cls}];
+  if (o.agreement != Agreement::agrees) ++confusion[{exact, o.answer.cls}];
   if (o.ulp && o.agreement == Agreement::agrees) ulps.add(*o.ulp);  // a wrong class's t says nothing of accuracy
   if (o.ulp_own && o.agreement == Agreement::agrees) ulps_own.add(*o.ulp_own);
 }

@@ -14,14 +14,14 @@ namespace rayproof::fuzz {
 bool disagrees(const Variant& v, Oracle& oracle, const Ray& ray, const Shape& shape, HitRule rule);
 // disagrees(), or for a plugin error (`failure`), whether the variant gives that same error.
 bool fails_the_same_way(const Variant& v, Oracle& oracle, const Ray& ray, const Shape& shape, HitRule rule,
-                        HitFailure failure);
+                        AnswerFailure failure);
 
 // A simpler query on which `v` still disagrees (the input itself when nothing simpler does).
 // Every accepted step strictly lowers the total cost of the numbers (significant bits plus
 // |binary exponent|), so shrinking terminates; `budget` caps the oracle calls.
 // A plugin-error finding (`failure`) shrinks while the variant still gives that error.
 Case shrink(Case c, const Variant& v, Oracle& oracle, HitRule rule, int budget = 3000,
-            HitFailure failure = HitFailure::none);
+            AnswerFailure failure = AnswerFailure::none);
 
 // The cost that shrinking lowers: 0 for zero, else significant bits + |unbiased exponent|.
 int number_cost(double x);

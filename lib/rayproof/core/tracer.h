@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "rayproof/core/answer.h"
 #include "rayproof/core/geometry.h"
 #include "rayproof/core/hit.h"
 #include "rayproof/core/shapes.h"
@@ -70,12 +71,12 @@ std::optional<TracerRay> ray_rounded_to_float(const TracerRay& ray);
 struct TraceAnswer {
   std::uint32_t triangle = kNoTriangle;
   double t = std::numeric_limits<double>::quiet_NaN();
-  HitFailure failure = HitFailure::none;
+  AnswerFailure failure = AnswerFailure::none;
   bool hit() const { return triangle != kNoTriangle; }
 };
 struct AllHitsAnswer {
   std::vector<std::uint32_t> triangles;
-  HitFailure failure = HitFailure::none;
+  AnswerFailure failure = AnswerFailure::none;
   bool unsupported = false;  // an exec tracer answered {"error": "unsupported"}: it has no any-hit mode
 };
 
@@ -91,7 +92,7 @@ class TracerScene {
 // declined (build returned NULL); crash or timeout: the tracer died building it.
 struct BuiltScene {
   std::unique_ptr<TracerScene> scene;
-  HitFailure failure = HitFailure::none;
+  AnswerFailure failure = AnswerFailure::none;
   std::string reason;
 };
 

@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "rayproof/core/answer.h"
 #include "rayproof/core/geometry.h"
 #include "rayproof/core/hit.h"
 #include "rayproof/core/query.h"
@@ -33,7 +34,7 @@ enum class Precision { f64, f32 };
 std::string_view to_string(Precision p);
 
 // Code rayproof did not write (a plugin in a worker process, an --exec command): it answers
-// queries in batches, because each call crosses a process boundary, and it may fail (a Hit's
+// queries in batches, because each call crosses a process boundary, and it may fail (an Answer's
 // `failure`). After a failure that stops it, it answers every later query with `stopped`.
 // How one call of external code is timed where the code runs (`trade`, `audit`): it runs each
 // batch `repeats` times there, on inputs then in its cache, and `inner_seconds` gets the time of
@@ -48,7 +49,7 @@ class ExternalIntersector {
  public:
   virtual ~ExternalIntersector() = default;
   // out[i] = the answer to qs[i], in the variant's own rule. Thread-safe. `timing`: may be null.
-  virtual void answer_all(std::span<const Query> qs, std::span<Hit> out, AnswerTiming* timing) = 0;
+  virtual void answer_all(std::span<const Query> qs, std::span<Answer> out, AnswerTiming* timing) = 0;
   // One line: why it stopped (signal, exit status, the unreadable line), empty while it runs.
   virtual std::string stop_reason() const { return {}; }
   // Why the last crash, hang or protocol error happened, also when a fresh worker went on after it.
@@ -76,9 +77,10 @@ struct Variant {
   HitRule rule_for(HitRule asked) const { return fixed_rule.value_or(asked); }
   // One query (external code: a batch of one, so prefer intersect_all in loops). `timing`: for
   // external code, see AnswerTiming; built-in code ignores it.
-  Hit intersect(const Ray& ray, const Shape& shape, HitRule rule, AnswerTiming* timing = nullptr) const;
+  Answer intersect(const Ray& ray, const Shape& shape, HitRule rule, AnswerTiming* timing = nullptr) const;
   // Every query, in order; external code answers in one round trip.
-  void intersect_all(std::span<const Query> qs, HitRule rule, std::span<Hit> out, AnswerTiming* timing = nullptr) const;
+  void intersect_all(std::span<const Query> qs, HitRule rule, std::span<Answer> out,
+                     AnswerTiming* timing = nullptr) const;
 };
 
 // The shapes a variant answers as `rayproof variants` lists them: "sphere", "sphere,box" (an

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "rayproof/core/hit.h"
+#include "rayproof/core/answer.h"
 #include "rayproof/peers/child_process.h"
 
 namespace rayproof::peers {
@@ -59,29 +59,30 @@ class ExecProcess {
   // why not, with `answered` lines in `lines` and `kind` the failure to blame on the next case.
   // The clock restarts only on progress (input taken, a whole answer line), never on stray bytes.
   std::string exchange(const std::string& payload, std::size_t expected, double case_timeout,
-                       std::vector<std::string>& lines, HitFailure& kind, std::size_t max_line_bytes = kMaxLineBytes) {
+                       std::vector<std::string>& lines, AnswerFailure& kind,
+                       std::size_t max_line_bytes = kMaxLineBytes) {
     std::size_t sent = 0;
     auto last_progress = std::chrono::steady_clock::now();
     while (lines.size() < expected) {
       pollfd p[2] = {{from_, POLLIN, 0}, {sent < payload.size() ? to_ : -1, POLLOUT, 0}};
       const int ready = ::poll(p, 2, 50);
-      if (ready < 0 && errno != EINTR) return kind = HitFailure::crash, "poll failed";
+      if (ready < 0 && errno != EINTR) return kind = AnswerFailure::crash, "poll failed";
       if (p[1].revents & (POLLOUT | POLLERR)) {
         const ssize_t n = ::write(to_, payload.data() + sent, payload.size() - sent);
         if (n > 0)
           sent += static_cast<std::size_t>(n), last_progress = std::chrono::steady_clock::now();
         else if (n < 0 && errno != EAGAIN)
-          return kind = HitFailure::crash, ended("stopped reading its input", case_timeout);
+          return kind = AnswerFailure::crash, ended("stopped reading its input", case_timeout);
       }
       if (p[0].revents & (POLLIN | POLLHUP | POLLERR)) {
         const std::size_t before = lines.size();
         const ssize_t n = read_lines(expected, lines, max_line_bytes);
         if (lines.size() > before) last_progress = std::chrono::steady_clock::now();
         if (n == 0 && lines.size() < expected)
-          return kind = HitFailure::crash, ended("closed its standard output", case_timeout);
+          return kind = AnswerFailure::crash, ended("closed its standard output", case_timeout);
       }
       if (pending_.size() > max_line_bytes) {
-        kind = HitFailure::protocol;
+        kind = AnswerFailure::protocol;
         end_child(pid_, 0), reaped_ = true;
         return "an answer line longer than " + std::to_string(max_line_bytes) + " bytes (no newline)";
       }
@@ -89,12 +90,12 @@ class ExecProcess {
       // look for its end directly, and take what it wrote before.
       if (ready == 0 && lines.size() < expected && ended_within(pid_, 0)) {  // only when the pipes are quiet
         read_lines(expected, lines, max_line_bytes);
-        if (lines.size() < expected) return kind = HitFailure::crash, ended("exited", case_timeout);
+        if (lines.size() < expected) return kind = AnswerFailure::crash, ended("exited", case_timeout);
       }
       if (lines.size() < expected &&
           std::chrono::duration<double>(std::chrono::steady_clock::now() - last_progress).count() > case_timeout) {
         end_child(pid_, 0), reaped_ = true;
-        kind = HitFailure::timeout;
+        kind = AnswerFailure::timeout;
         return "no answer within " + std::to_string(case_timeout) + " s (--case-timeout)";
       }
     }

@@ -36,13 +36,13 @@ const Variant& add_exec_variant(const std::string& name, const std::string& comm
                                 const std::vector<ShapeKind>& shapes = {});
 
 // One answer line of an answers file or an exec command: {"id", "class", "t"} (plugin.md). A
-// contact other than a tangent without t, or a NaN t, is a plugin error in `hit.failure`;
+// contact other than a tangent without t, or a NaN t, is a plugin error in `answer.failure`;
 // anything unreadable throws FieldError naming the field.
-struct Answer {
+struct AnswerLine {
   std::string id;
-  Hit hit;
+  Answer answer;
 };
-Answer parse_answer_line(const std::string& text);
+AnswerLine parse_answer_line(const std::string& text);
 // One case line of the exec protocol: the case format without expect and found, every number a
 // hex-float string.
 std::string exec_case_line(const Query& q, const std::string& id);

@@ -24,7 +24,7 @@ using fuzz::Family;
 // timed); `answer(i)` then reads the i-th answer.
 struct Prepared {
   std::function<void()> run;
-  std::function<Hit(size_t)> answer;
+  std::function<Answer(size_t)> answer;  // a failure (external code) is tallied as one, not as a miss
   // Code behind a process boundary: one run that repeats the batch `repeats` times where the code
   // runs and returns one pass's seconds timed there (negative where it cannot), so the transport
   // is not charged to the formula (AnswerTiming). Empty for code rayproof times itself.

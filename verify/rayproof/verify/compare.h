@@ -36,7 +36,7 @@ inline Agreement agreement_of(HitClass exact, HitClass reported) {
 
 struct VariantOutcome {
   const Variant* variant = nullptr;  // null for answers that come from elsewhere (batched, peers)
-  Hit hit;                           // hit.failed(): no answer to judge; agreement and ulp mean nothing
+  Answer answer;                     // answer.failed(): nothing to judge; agreement and ulp mean nothing
   Agreement agreement = Agreement::agrees;
   std::optional<std::uint64_t> ulp;  // null where either t is absent
   // Where the variant saw other numbers than the case (f32 code: the float-rounded query) or
@@ -52,9 +52,9 @@ struct VariantOutcome {
 };
 
 // An answer judged against the exact verdict (inline: campaigns call it for every case and variant).
-inline VariantOutcome judge_answer(const Verdict& exact, const Hit& reported) {
+inline VariantOutcome judge_answer(const Verdict& exact, const Answer& reported) {
   VariantOutcome out;
-  out.hit = reported;
+  out.answer = reported;
   out.agreement = agreement_of(exact.cls, reported.cls);
   if (exact.t && reported.has_t()) out.ulp = ulp_distance(reported.t, *exact.t);
   return out;
