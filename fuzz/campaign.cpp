@@ -203,29 +203,19 @@ struct Checkpoint {
 };
 
 void save(const std::string& path, const CampaignOptions& o, const Checkpoint& c) {
-  AtomicFile f(path);
-  f.stream() << json_text(json{{"fingerprint", fingerprint(o)},
-                               {"pair", c.pair},
-                               {"next", c.next},
-                               {"pair_started", c.pair_started},
-                               {"findings_in_pair", c.findings_in_pair},
-                               {"shrunk_in_pair", c.shrunk_in_pair},
-                               {"findings_bytes", c.findings_bytes},
-                               {"findings_hash", c.findings_hash.value},
-                               {"report", c.report.to_json()}})
-             << "\n";
-  f.commit();
+  write_checkpoint(path, fingerprint(o),
+                   {{"pair", c.pair},
+                    {"next", c.next},
+                    {"pair_started", c.pair_started},
+                    {"findings_in_pair", c.findings_in_pair},
+                    {"shrunk_in_pair", c.shrunk_in_pair},
+                    {"findings_bytes", c.findings_bytes},
+                    {"findings_hash", c.findings_hash.value},
+                    {"report", c.report.to_json()}});
 }
 
 Checkpoint load(const std::string& path, const CampaignOptions& o) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  try {
-    const json j = parse_json_text(text.str());
-    if (j.at("fingerprint") != fingerprint(o))
-      throw std::runtime_error(path +
-                               ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
+  return read_checkpoint(path, fingerprint(o), [](const json& j) {
     Checkpoint c;
     c.pair = j.at("pair"), c.next = j.at("next"), c.pair_started = j.at("pair_started");
     c.findings_in_pair = j.at("findings_in_pair"), c.findings_bytes = j.at("findings_bytes");
@@ -233,41 +223,14 @@ Checkpoint load(const std::string& path, const CampaignOptions& o) {
     c.findings_hash.value = j.at("findings_hash");
     c.report = CampaignReport::from_json(j.at("report"));
     return c;
-  } catch (const json::exception& e) {
-    throw std::runtime_error(path + ": unreadable checkpoint: " + e.what());
-  } catch (const FieldError& e) {
-    throw std::runtime_error(path + ": unreadable checkpoint: " + std::string(e.what()));
-  }
+  });
 }
 
-// Opens the (locked) findings file: a fresh run first removes any old checkpoint, then empties
-// the file; --resume checks that file and checkpoint belong together (options, size, hash of
-// the bytes written) and cuts the file back to what the checkpoint covers (a batch written
-// after it is dropped and done again).
+// The findings file opened for this campaign (findings_file.h, open_findings_file).
 Checkpoint open_findings(const CampaignOptions& o, const std::string& checkpoint_path, std::ofstream& out) {
-  Checkpoint cp;
-  const bool has_checkpoint = std::filesystem::exists(checkpoint_path);
-  if (o.resume && has_checkpoint) {
-    cp = load(checkpoint_path, o);
-    const std::uintmax_t size = std::filesystem::file_size(o.output);
-    if (size < cp.findings_bytes)
-      throw std::runtime_error(o.output + ": " + std::to_string(size) + " bytes, shorter than the " +
-                               std::to_string(cp.findings_bytes) + " its checkpoint records: not the file " +
-                               checkpoint_path + " belongs to; refusing to resume");
-    if (!prefix_matches(o.output, cp.findings_bytes, cp.findings_hash))
-      throw std::runtime_error(o.output + ": its first " + std::to_string(cp.findings_bytes) +
-                               " bytes are not the findings " + checkpoint_path + " records; refusing to resume");
-    std::filesystem::resize_file(o.output, cp.findings_bytes);
-  } else {
-    if (o.resume && std::filesystem::file_size(o.output) > 0)
-      throw std::runtime_error(checkpoint_path + ": no checkpoint to resume from");
-    if (has_checkpoint) std::filesystem::remove(checkpoint_path);  // a fresh run supersedes it first
-    std::filesystem::resize_file(o.output, 0);
-    save(checkpoint_path, o, cp);  // nothing done yet: a kill in the first batch resumes from zero
-  }
-  out.open(o.output, std::ios::app | std::ios::binary);
-  if (!out) throw std::runtime_error(o.output + ": cannot write");
-  return cp;
+  return open_findings_file<Checkpoint>(
+      o.output, checkpoint_path, o.resume, [&] { return load(checkpoint_path, o); },
+      [&](const Checkpoint& cp) { save(checkpoint_path, o, cp); }, out);
 }
 
 // This shard's index range, with even bounds so grazing triangle pairs stay together.

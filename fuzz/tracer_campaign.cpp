@@ -282,65 +282,37 @@ struct Checkpoint {
   bool family_started = false;
   std::map<std::string, std::uint64_t> findings_in;  // "FAMILY\tTRACER" → written
   std::uintmax_t findings_bytes = 0;
-  FindingsHash hash;
+  FindingsHash findings_hash;
   TracerCampaignReport report;
 };
 
 void save(const std::string& path, const TracerCampaignOptions& o, const Checkpoint& c) {
-  AtomicFile f(path);
-  f.stream() << json_text(json{{"fingerprint", fingerprint(o)},
-                               {"family", c.family},
-                               {"next_mesh", c.next_mesh},
-                               {"family_started", c.family_started},
-                               {"findings_in", c.findings_in},
-                               {"findings_bytes", c.findings_bytes},
-                               {"findings_hash", c.hash.value},
-                               {"report", c.report.to_json()}})
-             << "\n";
-  f.commit();
+  write_checkpoint(path, fingerprint(o),
+                   {{"family", c.family},
+                    {"next_mesh", c.next_mesh},
+                    {"family_started", c.family_started},
+                    {"findings_in", c.findings_in},
+                    {"findings_bytes", c.findings_bytes},
+                    {"findings_hash", c.findings_hash.value},
+                    {"report", c.report.to_json()}});
 }
 
 Checkpoint load(const std::string& path, const TracerCampaignOptions& o) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  try {
-    const json j = parse_json_text(text.str());
-    if (j.at("fingerprint") != fingerprint(o))
-      throw std::runtime_error(path +
-                               ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
+  return read_checkpoint(path, fingerprint(o), [](const json& j) {
     Checkpoint c;
     c.family = j.at("family"), c.next_mesh = j.at("next_mesh"), c.family_started = j.at("family_started");
     c.findings_in = j.at("findings_in").get<std::map<std::string, std::uint64_t>>();
-    c.findings_bytes = j.at("findings_bytes"), c.hash.value = j.at("findings_hash");
+    c.findings_bytes = j.at("findings_bytes"), c.findings_hash.value = j.at("findings_hash");
     c.report = TracerCampaignReport::from_json(j.at("report"));
     return c;
-  } catch (const json::exception& e) {
-    throw std::runtime_error(path + ": unreadable checkpoint: " + e.what());
-  } catch (const FieldError& e) {
-    throw std::runtime_error(path + ": unreadable checkpoint: " + std::string(e.what()));
-  }
+  });
 }
 
+// The findings file opened for this campaign (findings_file.h, open_findings_file).
 Checkpoint open_findings(const TracerCampaignOptions& o, const std::string& checkpoint_path, std::ofstream& out) {
-  Checkpoint cp;
-  const bool has_checkpoint = std::filesystem::exists(checkpoint_path);
-  if (o.resume && has_checkpoint) {
-    cp = load(checkpoint_path, o);
-    const std::uintmax_t size = std::filesystem::file_size(o.output);
-    if (size < cp.findings_bytes || !prefix_matches(o.output, cp.findings_bytes, cp.hash))
-      throw std::runtime_error(o.output + ": not the findings " + checkpoint_path + " records; refusing to resume");
-    std::filesystem::resize_file(o.output, cp.findings_bytes);
-  } else {
-    if (o.resume && std::filesystem::file_size(o.output) > 0)
-      throw std::runtime_error(checkpoint_path + ": no checkpoint to resume from");
-    if (has_checkpoint) std::filesystem::remove(checkpoint_path);
-    std::filesystem::resize_file(o.output, 0);
-    save(checkpoint_path, o, cp);
-  }
-  out.open(o.output, std::ios::app | std::ios::binary);
-  if (!out) throw std::runtime_error(o.output + ": cannot write");
-  return cp;
+  return open_findings_file<Checkpoint>(
+      o.output, checkpoint_path, o.resume, [&] { return load(checkpoint_path, o); },
+      [&](const Checkpoint& cp) { save(checkpoint_path, o, cp); }, out);
 }
 
 struct PendingFinding {
@@ -578,7 +550,7 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
         for (std::size_t k; (k = next_finding.fetch_add(1)) < chosen.size();)
           lines[k] = finding_line(family, *chosen[k], o);
       });
-      for (const std::string& line : lines) out << line, cp.hash.add(line);
+      for (const std::string& line : lines) out << line, cp.findings_hash.add(line);
       out.flush();
       if (!out) throw std::runtime_error(o.output + ": write failed");
       cp.report.findings_written += lines.size();

@@ -431,7 +431,9 @@ TEST(Audit, WrongPixelsAreCasesThatCheckReplays) {
   const nlohmann::json* mt = nullptr;
   for (const auto& v : j["variants"]) {
     if (v["name"] == "moller-trumbore") mt = &v;
-    if (v["name"] == "watertight") EXPECT_FALSE(v.contains("cases")) << "an exact variant has no wrong pixels to write";
+    if (v["name"] == "watertight") {
+      EXPECT_FALSE(v.contains("cases")) << "an exact variant has no wrong pixels to write";
+    }
   }
   ASSERT_NE(mt, nullptr);
   ASSERT_TRUE(mt->contains("cases"));
@@ -515,8 +517,11 @@ TEST(Audit, HeadroomCountsShadowsAndStopsWhereTheSceneCollapses) {
   ASSERT_TRUE(good.exact_for_scene());
   ASSERT_TRUE(grid.headroom_collapsed_at);
   const std::vector<int> ks = studies::headroom_exponents();
-  for (size_t i = 0; i < ks.size(); ++i)
-    if (ks[i] >= *grid.headroom_collapsed_at) EXPECT_EQ(good.headroom_wrong[i], -1) << "k = " << ks[i] << " rendered";
+  for (size_t i = 0; i < ks.size(); ++i) {
+    if (ks[i] >= *grid.headroom_collapsed_at) {
+      EXPECT_EQ(good.headroom_wrong[i], -1) << "k = " << ks[i] << " rendered";
+    }
+  }
   ASSERT_TRUE(good.exact_up_to_log2_translate);
   EXPECT_EQ(*good.exact_up_to_log2_translate, *grid.headroom_collapsed_at - 2);
   // Where a translation is exact for every coordinate of the scene (checked here, apart from the

@@ -217,8 +217,9 @@ TEST(TracerCampaign, BuiltInAndPeerTracersOnEveryFamily) {
       EXPECT_EQ(tally.at("hole"), 0) << key;
       EXPECT_EQ(tally.at("false_hit"), 0) << key;
       if (key.starts_with("fans") || key.starts_with("axis-planes") || key.starts_with("spawned") ||
-          key.starts_with("random"))
+          key.starts_with("random")) {
         EXPECT_EQ(tally.at("not_nearest"), 0) << key;
+      }
     }
   // The top-left watertight test never reports a shared edge twice, and on exactly built fans
   // it holds the one-hit rule; the closed tests do not. (On full-precision meshes its rounded edge

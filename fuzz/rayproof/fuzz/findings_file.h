@@ -1,6 +1,7 @@
 // What every campaign's findings file needs, in one place: a lock so two campaigns never write
-// one file, and a hash of the bytes written so a resume can tell the file is the one its
-// checkpoint describes.
+// one file, a hash of the bytes written so a resume can tell the file is the one its
+// checkpoint describes, and the checkpoint protocol (written atomically beside the options'
+// fingerprint; read back only by a campaign with the same options).
 #pragma once
 
 #include <fcntl.h>
@@ -11,11 +12,16 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "rayproof/core/atomic_file.h"
+#include "rayproof/core/json_fields.h"
 
 namespace rayproof::fuzz {
 
@@ -55,6 +61,69 @@ inline bool prefix_matches(const std::string& path, std::uintmax_t bytes, const 
     bytes -= static_cast<std::uintmax_t>(in.gcount());
   }
   return bytes == 0 && h.value == expected.value;
+}
+
+// Writes {"fingerprint": fingerprint, ...state's keys} to `path` atomically.
+inline void write_checkpoint(const std::string& path, const json& fingerprint, const json& state) {
+  json j = {{"fingerprint", fingerprint}};
+  j.update(state);
+  AtomicFile f(path);
+  f.stream() << json_text(j) << "\n";
+  f.commit();
+}
+
+// Reads the checkpoint at `path` with `parse` (json → the campaign's Checkpoint), after checking
+// that it belongs to a campaign with this fingerprint; every way it can be unreadable throws a
+// runtime_error naming the file.
+template <class Parse>
+auto read_checkpoint(const std::string& path, const json& fingerprint, Parse&& parse) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    const json j = parse_json_text(text.str());
+    if (j.at("fingerprint") != fingerprint)
+      throw std::runtime_error(path +
+                               ": checkpoint belongs to a campaign with other options: " + j.at("fingerprint").dump());
+    return parse(j);
+  } catch (const json::exception& e) {
+    throw std::runtime_error(path + ": unreadable checkpoint: " + e.what());
+  } catch (const FieldError& e) {
+    throw std::runtime_error(path + ": unreadable checkpoint: " + std::string(e.what()));
+  }
+}
+
+// Opens the (locked) findings file `output` for appending. A fresh run first removes any old
+// checkpoint, then empties the file and saves `fresh` (a kill in the first batch resumes from
+// zero); `resume` loads the checkpoint, checks that the file holds the findings it records (size,
+// hash of the bytes) and cuts the file back to them (a batch written after it is done again).
+// Checkpoint: has `findings_bytes` and `findings_hash`.
+template <class Checkpoint, class Load, class Save>
+Checkpoint open_findings_file(const std::string& output, const std::string& checkpoint_path, bool resume, Load&& load,
+                              Save&& save, std::ofstream& out) {
+  Checkpoint cp;
+  const bool has_checkpoint = std::filesystem::exists(checkpoint_path);
+  if (resume && has_checkpoint) {
+    cp = load();
+    const std::uintmax_t size = std::filesystem::file_size(output);
+    if (size < cp.findings_bytes)
+      throw std::runtime_error(output + ": " + std::to_string(size) + " bytes, shorter than the " +
+                               std::to_string(cp.findings_bytes) + " its checkpoint records: not the file " +
+                               checkpoint_path + " belongs to; refusing to resume");
+    if (!prefix_matches(output, cp.findings_bytes, cp.findings_hash))
+      throw std::runtime_error(output + ": its first " + std::to_string(cp.findings_bytes) +
+                               " bytes are not the findings " + checkpoint_path + " records; refusing to resume");
+    std::filesystem::resize_file(output, cp.findings_bytes);
+  } else {
+    if (resume && std::filesystem::file_size(output) > 0)
+      throw std::runtime_error(checkpoint_path + ": no checkpoint to resume from");
+    if (has_checkpoint) std::filesystem::remove(checkpoint_path);  // a fresh run supersedes it first
+    std::filesystem::resize_file(output, 0);
+    save(cp);
+  }
+  out.open(output, std::ios::app | std::ios::binary);
+  if (!out) throw std::runtime_error(output + ": cannot write");
+  return cp;
 }
 
 }  // namespace rayproof::fuzz
