@@ -15,6 +15,7 @@
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/offset.h"
 #include "rayproof/core/parallel.h"
+#include "rayproof/core/scene_rays.h"
 
 namespace rayproof {
 
@@ -33,7 +34,9 @@ bool Intersectors::use(std::string_view name) {
 }
 
 SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray) {
-  return trace_kind_with(index, kind, ray, [&](const Shape& shape) { return variant.intersect(ray, shape, rule); });
+  const SceneRayAnswer a = trace_scene_ray(index.of_kind(kind), SceneRay{ray},
+                                           [&](const Shape& shape) { return variant.intersect(ray, shape, rule); });
+  return a.primitive < 0 ? SceneHit{} : SceneHit{index.primitive(a.primitive).object, a.primitive, a.answer};
 }
 
 SceneHit trace(const SceneIndex& index, const Intersectors& isect, const Ray& ray) {
@@ -45,31 +48,6 @@ SceneHit trace(const SceneIndex& index, const Intersectors& isect, const Ray& ra
   }
   return best;
 }
-
-namespace {
-
-// Whether anything but primitive `self` blocks the segment from `start` (the hit point moved off
-// the surface by core/offset.h's error bound) to the light. `self` itself is skipped: every
-// primitive is convex or flat, so a point lit from the side its normal faces cannot be shadowed
-// by the primitive it lies on (a mesh's other triangles can shadow it).
-bool in_shadow(const SceneIndex& index, const Intersectors& isect, int self, const Vec3& start, const Vec3& light) {
-  const Ray shadow{start, light - start};
-  bool blocked = false;
-  for (ShapeKind kind : kAllShapeKinds) {
-    if (blocked || index.count(kind) == 0) continue;
-    const Variant& v = *isect.by_shape[static_cast<int>(kind)];
-    double t_limit = 1;
-    index.traverse(kind, shadow, t_limit, [&](std::int32_t id, const Shape& shape) {
-      if (id == self) return false;
-      const Hit h = v.intersect(shadow, shape, HitRule::nearest_contact);
-      blocked = h.cls != HitClass::miss && h.has_t() && h.t < 1;
-      return blocked;
-    });
-  }
-  return blocked;
-}
-
-}  // namespace
 
 double diffuse_cosine(const Vec3& p, const Vec3& n, const PointLight& light) {
   const Vec3 w = normalized(p - light.position);
@@ -95,23 +73,59 @@ Vec3 shade_point(const Scene& scene, const Vec3& color, const Vec3& p, const Ray
   return scene.background;
 }
 
-Vec3 shade(const SceneIndex& index, const Intersectors& isect, const Ray& ray) {
+std::vector<Vec3> shade_all(const SceneIndex& index, const Intersectors& isect, std::span<const Ray> rays) {
   const Scene& scene = index.scene();
-  const SceneHit sh = trace(index, isect, ray);
-  if (sh.object < 0) return scene.background;
-  const Vec3 p = ray.at(sh.hit.t);
-  std::vector<double> terms;
-  if (scene.shading == Shading::diffuse) {
+  // The nearest hit of each ray: a kind at a time, the kind's variant asked for all rays at once.
+  std::vector<SceneHit> nearest(rays.size());
+  std::vector<SceneRay> asked(rays.size());
+  std::vector<SceneRayAnswer> answers;
+  for (size_t i = 0; i < rays.size(); ++i) asked[i].ray = rays[i];
+  auto trace_kinds = [&](const std::vector<SceneRay>& what, HitRule rule, auto&& take) {
+    answers.resize(what.size());
+    for (ShapeKind kind : index.shapes_used()) {
+      trace_scene_rays(*isect.by_shape[static_cast<int>(kind)], index.of_kind(kind), rule, what, answers);
+      for (size_t i = 0; i < what.size(); ++i)
+        if (answers[i].primitive >= 0) take(i, answers[i]);
+    }
+  };
+  trace_kinds(asked, isect.rule, [&](size_t i, const SceneRayAnswer& a) {
+    if (nearer(a.answer.t, a.primitive, nearest[i], index))
+      nearest[i] = {index.primitive(a.primitive).object, a.primitive, a.answer};
+  });
+  // Diffuse shading: one shadow segment per lit side of a light, from the hit point moved off the
+  // surface by core/offset.h's error bound. The primitive the point lies on is skipped: every
+  // primitive is convex or flat, so a point lit from the side its normal faces cannot be
+  // shadowed by the primitive it lies on (a mesh's other triangles can shadow it).
+  std::vector<std::vector<double>> terms(rays.size());
+  std::vector<std::pair<size_t, size_t>> segment_of;  // (ray, light) per shadow segment
+  asked.clear();
+  for (size_t i = 0; i < rays.size() && scene.shading == Shading::diffuse; ++i) {
+    const SceneHit& sh = nearest[i];
+    if (sh.object < 0) continue;
+    const Vec3 p = rays[i].at(sh.hit.t);
     Vec3 n = outward_normal(index.primitive(sh.primitive).shape, p);
-    if (dot(n, ray.direction) > 0) n = -n;  // the side the ray arrived from
+    if (dot(n, rays[i].direction) > 0) n = -n;  // the side the ray arrived from
     const Variant* drew = isect.by_shape[static_cast<int>(kind_of(index.primitive(sh.primitive).shape))];
-    const Vec3 start = spawn_origin(ray, sh.hit.t, p, n, drew ? drew->precision : Precision::f64);
-    for (const PointLight& light : scene.lights) {
-      const double c = diffuse_cosine(p, n, light);
-      terms.push_back(c > 0 && !in_shadow(index, isect, sh.primitive, start, light.position) ? c : 0);
+    const Vec3 start = spawn_origin(rays[i], sh.hit.t, p, n, drew ? drew->precision : Precision::f64);
+    terms[i].assign(scene.lights.size(), 0);
+    for (size_t l = 0; l < scene.lights.size(); ++l) {
+      const double c = diffuse_cosine(p, n, scene.lights[l]);
+      if (!(c > 0)) continue;
+      terms[i][l] = c;
+      asked.push_back({Ray{start, scene.lights[l].position - start}, sh.primitive, true});
+      segment_of.emplace_back(i, l);
     }
   }
-  return shade_point(scene, scene.objects[sh.object].color, p, ray, terms);
+  trace_kinds(asked, HitRule::nearest_contact, [&](size_t j, const SceneRayAnswer&) {
+    terms[segment_of[j].first][segment_of[j].second] = 0;  // blocked
+  });
+  std::vector<Vec3> colours(rays.size(), scene.background);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const SceneHit& sh = nearest[i];
+    if (sh.object >= 0)
+      colours[i] = shade_point(scene, scene.objects[sh.object].color, rays[i].at(sh.hit.t), rays[i], terms[i]);
+  }
+  return colours;
 }
 
 Image render(const Scene& scene, const RenderOptions& options) {
@@ -122,11 +136,16 @@ Image render(const Scene& scene, const RenderOptions& options) {
   std::atomic<int> next_row{0}, rows_done{0};
   auto worker = [&](int) {
     for (int y; (y = next_row.fetch_add(1)) < cam.height;) {
-      for (int x = 0; x < cam.width; ++x) {
-        Vec3 sum = Vec3::Zero();
+      // A row at a time, so external code traces the row's rays in one round trip per kind.
+      std::vector<Ray> rays;
+      for (int x = 0; x < cam.width; ++x)
         for (int sy = 0; sy < grid; ++sy)
           for (int sx = 0; sx < grid; ++sx)
-            sum += shade(index, options.intersectors, cam.ray_through(x + (sx + 0.5) / grid, y + (sy + 0.5) / grid));
+            rays.push_back(cam.ray_through(x + (sx + 0.5) / grid, y + (sy + 0.5) / grid));
+      const std::vector<Vec3> colours = shade_all(index, options.intersectors, rays);
+      for (int x = 0; x < cam.width; ++x) {
+        Vec3 sum = Vec3::Zero();
+        for (int k = 0; k < grid * grid; ++k) sum += colours[size_t(x) * grid * grid + k];
         const Vec3 c = sum / (grid * grid);
         for (int k = 0; k < 3; ++k)
           image.rgb[3 * (size_t(y) * cam.width + x) + k] =

@@ -28,6 +28,22 @@ Bounds bounds_of(const Shape& shape) {
   return b;
 }
 
+KindIndex::KindIndex(ShapeKind kind, std::span<const std::int32_t> ids, std::span<const Shape> shapes) : kind_(kind) {
+  static std::atomic<std::uint64_t> next_serial{1};
+  serial_ = next_serial.fetch_add(1);
+  std::vector<std::int32_t> order(ids.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::int32_t>(i);
+  if (kind != ShapeKind::plane) {
+    std::vector<Bounds> boxes;
+    boxes.reserve(shapes.size());
+    for (const Shape& s : shapes) boxes.push_back(bounds_of(s));
+    bvh_ = Bvh(boxes);
+    order.assign(bvh_.order().begin(), bvh_.order().end());  // into the BVH's leaf order
+  }
+  ids_.reserve(order.size()), shapes_.reserve(order.size());
+  for (std::int32_t i : order) ids_.push_back(ids[i]), shapes_.push_back(shapes[i]);
+}
+
 SceneIndex::SceneIndex(const Scene& scene) : scene_(&scene) {
   for (size_t o = 0; o < scene.objects.size(); ++o) {
     const SceneObject& obj = scene.objects[o];
@@ -38,25 +54,16 @@ SceneIndex::SceneIndex(const Scene& scene) : scene_(&scene) {
       primitives_.push_back({obj.shape, static_cast<std::int32_t>(o), 0});
     }
   }
-  for (size_t i = 0; i < primitives_.size(); ++i)
-    by_kind_[primitives_[i].shape.index()].push_back(static_cast<std::int32_t>(i));
-  for (ShapeKind kind : kAllShapeKinds) {
-    if (kind == ShapeKind::plane) continue;
-    const std::vector<std::int32_t>& ids = by_kind_[static_cast<int>(kind)];
-    std::vector<Bounds> boxes;
-    boxes.reserve(ids.size());
-    for (std::int32_t id : ids) boxes.push_back(bounds_of(primitives_[id].shape));
-    bvh_[static_cast<int>(kind)] = Bvh(boxes);
+  std::array<std::vector<std::int32_t>, 4> ids;
+  std::array<std::vector<Shape>, 4> shapes;
+  for (size_t i = 0; i < primitives_.size(); ++i) {
+    ids[primitives_[i].shape.index()].push_back(static_cast<std::int32_t>(i));
+    shapes[primitives_[i].shape.index()].push_back(primitives_[i].shape);
   }
   for (ShapeKind kind : kAllShapeKinds) {
     const int k = static_cast<int>(kind);
-    if (kind != ShapeKind::plane) {  // into the BVH's leaf order
-      std::vector<std::int32_t> sorted;
-      for (std::int32_t i : bvh_[k].order()) sorted.push_back(by_kind_[k][i]);
-      by_kind_[k] = std::move(sorted);
-    }
-    for (std::int32_t id : by_kind_[k]) shapes_[k].push_back(primitives_[id].shape);
-    if (!by_kind_[k].empty()) shapes_used_.push_back(kind);
+    kinds_[k] = KindIndex(kind, ids[k], shapes[k]);
+    if (!ids[k].empty()) shapes_used_.push_back(kind);
   }
 }
 

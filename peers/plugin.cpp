@@ -7,6 +7,9 @@
 // the batch, which rayproof then reports instead of judging it. A batch costs
 // two pipe wake-ups; the worker writes the index of the case it is on before each call, so when
 // it dies or stops making progress the case to blame is known and every earlier answer is kept.
+// Scenes (render, audit) go to the worker once: it builds the same KindIndex from the same
+// shapes and traces whole batches of rays there, the plugin at the leaves (trace_all), so a ray
+// costs the traversal and the plugin's calls, not one round trip per leaf.
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <poll.h>
@@ -29,6 +32,8 @@
 #include <type_traits>
 
 #include "rayproof/core/json_fields.h"
+#include "rayproof/core/scene_index.h"
+#include "rayproof/core/scene_rays.h"
 #include "rayproof/core/timing.h"
 #include "rayproof/peers/child_process.h"
 #include "rayproof/peers/crash_budget.h"
@@ -54,10 +59,18 @@ struct WireAnswer {
   double t;
   HitClass cls;
   AnswerFailure failure;
+  std::int32_t primitive;  // trace: the nearest (or blocking) primitive, -1 for none
 };
+// What a batch holds. cases: queries (ray, shape) answered one by one. scene_shapes: shapes of
+// one kind (numbers[0] the primitive id, numbers + 6 the shape), appended from `scene_offset` of
+// `scene_total`; the last chunk builds the worker's KindIndex. trace: rays (numbers 0–5, skip in
+// numbers[6], any_hit in numbers[7]) traced through that index (core/scene_rays.h).
+enum class BatchMode : std::uint32_t { cases, scene_shapes, trace };
 struct SharedBatch {
-  std::atomic<std::uint32_t> progress;  // the index of the case the worker is calling on
+  std::atomic<std::uint32_t> progress;  // the index of the case (ray) the worker is on
   std::atomic<std::uint32_t> forked;    // set by the worker when the plugin forked (library_table.h)
+  BatchMode mode;
+  std::uint32_t scene_kind, scene_offset, scene_total;
   std::uint32_t variant, count;
   std::uint32_t repeats;  // `trade`: run the batch this many times on inputs already in cache, for timing
   double inner_seconds;   // the worker's own time for the calls of this batch
@@ -82,7 +95,7 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
     for (int i = 0; i < shape_numbers; ++i) shape[i] = static_cast<Real>(numbers[6 + i]);
     answer = fn(ray, shape, &t);
   }
-  WireAnswer out{static_cast<double>(t), HitClass::miss, AnswerFailure::none};
+  WireAnswer out{static_cast<double>(t), HitClass::miss, AnswerFailure::none, -1};
   if (answer < RAYPROOF_MISS || answer > RAYPROOF_HIT) return out.failure = AnswerFailure::bad_answer, out;
   out.cls = static_cast<HitClass>(answer);  // the enum orders match: miss … boundary, hit
   if (out.cls == HitClass::miss) return out.t = NAN, out;
@@ -118,22 +131,56 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
   float unwritten32;
   std::memcpy(&unwritten64, &kUnwrittenF64, sizeof unwritten64);
   std::memcpy(&unwritten32, &kUnwrittenF32, sizeof unwritten32);
+  std::vector<std::int32_t> scene_ids;  // the scene being sent, then its index
+  std::vector<Shape> scene_shapes;
+  KindIndex scene;
   char byte;
   while (::read(kRequestFd, &byte, 1) == 1) {
     const rayproof_variant& v = table[shared->variant];
     const int n = shape_number_count(*shape_kind_from_string(v.shape));
-    const std::uint32_t repeats = std::max(1u, shared->repeats);  // timing: the batch again, inputs in cache
-    const Stopwatch watch;                                        // the code alone, where it runs
-    for (std::uint32_t pass = 0; pass < repeats; ++pass) {
+    auto call = [&](const double* numbers) {
+      const WireAnswer a = v.f64 ? call_checked<double>(v.f64, numbers, n, unwritten64)
+                                 : call_checked<float>(v.f32, numbers, n, unwritten32);
+      if (is_forked_copy()) ::_exit(0);  // a copy the plugin forked: never answers
+      return a;
+    };
+    if (shared->mode == BatchMode::scene_shapes) {
+      const auto kind = static_cast<ShapeKind>(shared->scene_kind);
+      if (shared->scene_offset == 0) scene_ids.clear(), scene_shapes.clear();
       for (std::uint32_t i = 0; i < shared->count; ++i) {
-        shared->progress.store(i, std::memory_order_relaxed);
-        const WireAnswer a = v.f64 ? call_checked<double>(v.f64, shared->queries[i].numbers, n, unwritten64)
-                                   : call_checked<float>(v.f32, shared->queries[i].numbers, n, unwritten32);
-        if (is_forked_copy()) ::_exit(0);  // a copy the plugin forked: never answers
-        shared->answers[i] = a;
+        scene_ids.push_back(static_cast<std::int32_t>(shared->queries[i].numbers[0]));
+        scene_shapes.push_back(shape_from_numbers(kind, shared->queries[i].numbers + 6));
       }
+      if (scene_shapes.size() == shared->scene_total) {
+        scene = KindIndex(kind, scene_ids, scene_shapes);
+        scene_ids = {}, scene_shapes = {};
+      }
+      shared->inner_seconds = 0;
+    } else {
+      const std::uint32_t repeats = std::max(1u, shared->repeats);  // timing: the batch again, inputs in cache
+      const Stopwatch watch;  // the code alone (and, tracing, rayproof's traversal), where it runs
+      for (std::uint32_t pass = 0; pass < repeats; ++pass) {
+        for (std::uint32_t i = 0; i < shared->count; ++i) {
+          shared->progress.store(i, std::memory_order_relaxed);
+          const double* x = shared->queries[i].numbers;
+          if (shared->mode == BatchMode::cases) {
+            shared->answers[i] = call(x);
+            continue;
+          }
+          const SceneRay ray{Ray{Vec3(x[0], x[1], x[2]), Vec3(x[3], x[4], x[5])}, static_cast<std::int32_t>(x[6]),
+                             x[7] != 0};
+          double numbers[6 + kMaxShapeNumbers];
+          std::copy(x, x + 6, numbers);
+          const SceneRayAnswer found = trace_scene_ray(scene, ray, [&](const Shape& shape) {
+            shape_numbers(shape, numbers + 6);
+            const WireAnswer a = call(numbers);  // a plugin error counts as no contact, as it does leaf by leaf
+            return a.failure == AnswerFailure::none ? Hit{a.cls, a.t} : Hit::miss();
+          });
+          shared->answers[i] = {found.answer.t, found.answer.cls, AnswerFailure::none, found.primitive};
+        }
+      }
+      shared->inner_seconds = watch.seconds() / repeats;
     }
-    shared->inner_seconds = watch.seconds() / repeats;
     if (library_forked()) shared->forked.store(1);  // told before the answer, so this batch is never judged
     if (::write(kResponseFd, &byte, 1) != 1) break;
   }
@@ -180,6 +227,8 @@ class WorkerProcess {
 
   SharedBatch& batch() { return *shared_; }
   bool forked() const { return forked_; }  // the last run() stopped because the plugin forked
+  // The KindIndex::serial() of the scene this worker holds (0: none).
+  std::uint64_t scene_serial = 0;
 
   // Runs the batch in shared memory. Returns "" when answered, else why it stopped, with
   // `stopped_at` the case and `timed_out` whether it hung (the worker is then dead).
@@ -264,7 +313,7 @@ class PluginVariant final : public ExternalIntersector {
       }
       std::unique_ptr<WorkerProcess> worker = plugin_.take();
       SharedBatch& b = worker->batch();
-      b.variant = index_, b.count = static_cast<std::uint32_t>(n),
+      b.mode = BatchMode::cases, b.variant = index_, b.count = static_cast<std::uint32_t>(n),
       b.repeats = timing ? static_cast<std::uint32_t>(std::max(1, timing->repeats)) : 1;
       for (std::size_t i = 0; i < n; ++i) {
         const Query& q = qs[start + i];
@@ -301,10 +350,89 @@ class PluginVariant final : public ExternalIntersector {
     }
     if (timing) timing->inner_seconds = inside;
   }
+  bool trace_all(const KindIndex& scene, HitRule, std::span<const SceneRay> rays, std::span<SceneRayAnswer> out,
+                 AnswerTiming* timing) override {
+    if (scene.kind() != shape_) return false;
+    double inside = 0;
+    for (std::size_t start = 0; start < rays.size();) {
+      const std::size_t n = std::min(kBatchCapacity, rays.size() - start);
+      if (budget_.stopped()) {
+        std::fill(out.begin() + start, out.end(), SceneRayAnswer{-1, Answer::failure_of(AnswerFailure::stopped)});
+        inside = -1;
+        break;
+      }
+      std::unique_ptr<WorkerProcess> worker = plugin_.take();
+      std::uint32_t stopped_at = 0;
+      bool timed_out = false;
+      std::string why = worker->scene_serial == scene.serial() ? "" : send_scene(*worker, scene, timed_out);
+      std::size_t answered = 0;
+      if (why.empty()) {
+        SharedBatch& b = worker->batch();
+        b.mode = BatchMode::trace, b.variant = index_, b.count = static_cast<std::uint32_t>(n),
+        b.repeats = timing ? static_cast<std::uint32_t>(std::max(1, timing->repeats)) : 1;
+        for (std::size_t i = 0; i < n; ++i) {
+          const SceneRay& r = rays[start + i];
+          double* x = b.queries[i].numbers;
+          for (int k = 0; k < 3; ++k) x[k] = r.ray.origin[k], x[3 + k] = r.ray.direction[k];
+          x[6] = r.skip, x[7] = r.any_hit ? 1 : 0;
+        }
+        why = worker->run(options_.case_timeout_seconds, stopped_at, timed_out);
+        answered = why.empty() ? n : std::min<std::size_t>(stopped_at, n);
+        for (std::size_t i = 0; i < answered; ++i) {
+          const WireAnswer& a = b.answers[i];
+          out[start + i] = {a.primitive, Hit{a.cls, a.t}};
+        }
+        inside += b.inner_seconds;
+      }
+      if (why.empty()) {
+        plugin_.give_back(std::move(worker));
+        start += n;
+        continue;
+      }
+      // As in answer_all: the ray it was on is blamed, the rest go to a fresh worker.
+      out[start + answered] = {-1, Answer::failure_of(worker->forked() ? AnswerFailure::protocol
+                                                      : timed_out      ? AnswerFailure::timeout
+                                                                       : AnswerFailure::crash)};
+      if (worker->forked())
+        budget_.stop(why);
+      else
+        budget_.spend(why);
+      inside = -1;
+      start += answered + 1;
+    }
+    if (timing) timing->inner_seconds = inside;
+    return true;
+  }
   std::string stop_reason() const override { return budget_.stop_reason(); }
   std::string last_failure() const override { return budget_.last_failure(); }
 
  private:
+  // Sends the scene's primitives in id order (the worker builds the same KindIndex from them);
+  // "" when it holds them, else why the worker died on the way.
+  std::string send_scene(WorkerProcess& worker, const KindIndex& scene, bool& timed_out) {
+    std::vector<std::size_t> by_id(scene.size());
+    for (std::size_t i = 0; i < by_id.size(); ++i) by_id[i] = i;
+    const auto ids = scene.ids_in_leaf_order();
+    std::sort(by_id.begin(), by_id.end(), [&](std::size_t a, std::size_t b) { return ids[a] < ids[b]; });
+    SharedBatch& b = worker.batch();
+    for (std::size_t start = 0; start == 0 || start < by_id.size(); start += kBatchCapacity) {
+      const std::size_t n = std::min(kBatchCapacity, by_id.size() - start);
+      b.mode = BatchMode::scene_shapes, b.variant = index_, b.count = static_cast<std::uint32_t>(n), b.repeats = 1;
+      b.scene_kind = static_cast<std::uint32_t>(scene.kind());
+      b.scene_offset = static_cast<std::uint32_t>(start), b.scene_total = static_cast<std::uint32_t>(by_id.size());
+      for (std::size_t i = 0; i < n; ++i) {
+        double* x = b.queries[i].numbers;
+        x[0] = ids[by_id[start + i]];
+        shape_numbers(scene.shapes_in_leaf_order()[by_id[start + i]], x + 6);
+      }
+      std::uint32_t stopped_at = 0;
+      const std::string why = worker.run(options_.case_timeout_seconds, stopped_at, timed_out);
+      if (!why.empty()) return why;
+    }
+    worker.scene_serial = scene.serial();
+    return "";
+  }
+
   Plugin& plugin_;
   std::uint32_t index_;
   ShapeKind shape_;

@@ -13,6 +13,8 @@
 
 #include "rayproof/core/casefile.h"
 #include "rayproof/core/json_fields.h"
+#include "rayproof/core/scene_index.h"
+#include "rayproof/core/scene_rays.h"
 #include "rayproof/peers/external.h"
 #include "rayproof/verify/oracle.h"
 #include "cli_run.h"
@@ -266,6 +268,87 @@ TEST(Plugins, RenderSaysWhenThePluginItDrawsWithStopped) {
   EXPECT_TRUE(std::ifstream(png).good());  // the image is still written
   const CliRun fine = run("render " + scene + kPlugin + "--variants test-float -o " + png);
   EXPECT_EQ(fine.status, 0) << fine.err;
+}
+
+// Issue 22, item 1: a plugin traces a scene's rays where it runs (rayproof's traversal, the plugin
+// at the leaves, one round trip per batch) and answers exactly what the built-in with the same
+// formula answers here leaf by leaf: nearest contacts and shadow segments alike.
+TEST(Plugins, SceneRaysTracedInTheWorkerEqualTheBuiltInsLeafByLeaf) {
+  const auto loaded = peers::load_plugin(std::string(RAYPROOF_PLUGIN_DIR) + "/bench_same_as_builtin.so", {});
+  const Variant* plugin = nullptr;
+  for (const Variant* v : loaded)
+    if (v->name == "moller-trumbore-plugin") plugin = v;
+  ASSERT_NE(plugin, nullptr);
+  const Variant& builtin = *find_variant("moller-trumbore");
+  // A 40 × 40 grid of quads (shared edges and vertices) with a bump, 3200 triangles.
+  std::vector<std::int32_t> ids;
+  std::vector<Shape> shapes;
+  auto z = [](int i, int j) { return 0.05 * std::sin(0.3 * i) * std::cos(0.2 * j); };
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) {
+      const Vec3 a(i, j, z(i, j)), b(i + 1, j, z(i + 1, j)), c(i, j + 1, z(i, j + 1)), d(i + 1, j + 1, z(i + 1, j + 1));
+      for (const Triangle& t : {Triangle{{a, b, d}}, Triangle{{a, d, c}}}) {
+        ids.push_back(static_cast<std::int32_t>(ids.size()) * 2 + 5);  // ids need only ascend
+        shapes.push_back(t);
+      }
+    }
+  const KindIndex index(ShapeKind::triangle, ids, shapes);
+  std::vector<SceneRay> rays;
+  for (int k = 0; k < 6000; ++k) {
+    const double x = 0.0137 * k, y = 0.0071 * (k % 5000);  // through edges and vertices now and then
+    const Vec3 target(std::fmod(x, 40.0), std::fmod(y, 40.0), 0);
+    const Vec3 origin(20, 20, 30);
+    if (k % 3 == 0)  // a shadow segment from just above the surface towards a light
+      rays.push_back({Ray{target + Vec3(0, 0, 0.2), Vec3(5, -3, 40)}, ids[k % ids.size()], true});
+    else
+      rays.push_back({Ray{origin, target - origin}});
+  }
+  std::vector<SceneRayAnswer> here(rays.size()), there(rays.size());
+  trace_scene_rays(builtin, index, HitRule::nearest_contact, rays, here);
+  AnswerTiming timing;
+  trace_scene_rays(*plugin, index, HitRule::nearest_contact, rays, there, &timing);
+  EXPECT_GE(timing.inner_seconds, 0) << "traced in the worker, timed there";
+  int hits = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_FALSE(there[i].answer.failed()) << i;
+    EXPECT_EQ(there[i].primitive, here[i].primitive) << i;
+    if (here[i].primitive < 0) continue;
+    ++hits;
+    EXPECT_EQ(there[i].answer.cls, here[i].answer.cls) << i;
+    EXPECT_EQ(there[i].answer.t, here[i].answer.t) << i;
+  }
+  EXPECT_GT(hits, 3000);
+}
+
+// A crash while tracing blames the one ray the plugin died on; the rays before it keep their
+// answers and a fresh worker (which is sent the scene again) traces the rest.
+TEST(Plugins, ACrashWhileTracingASceneCostsOneRay) {
+  const auto loaded = peers::load_plugin(MISBEHAVING_PLUGIN, {});
+  const Variant* crashing = nullptr;
+  for (const Variant* v : loaded)
+    if (v->name == "test-crashing") crashing = v;
+  ASSERT_NE(crashing, nullptr);
+  // Spheres of radius 1 along x, and one of radius 13 (the plugin segfaults on it) far off at y = 100.
+  std::vector<std::int32_t> ids;
+  std::vector<Shape> shapes;
+  for (int i = 0; i < 20; ++i) ids.push_back(i), shapes.push_back(Sphere{Vec3(3.0 * i, 0, 0), 1});
+  ids.push_back(20), shapes.push_back(Sphere{Vec3(0, 100, 0), 13});
+  const KindIndex index(ShapeKind::sphere, ids, shapes);
+  std::vector<SceneRay> rays;
+  for (int i = 0; i < 20; ++i) rays.push_back({Ray{Vec3(3.0 * i, 0.25, 10), Vec3(0, 0, -1)}});
+  rays.insert(rays.begin() + 7, SceneRay{Ray{Vec3(0, 100, 30), Vec3(0, 0, -1)}});  // ray 7 meets the radius-13 one
+  std::vector<SceneRayAnswer> out(rays.size());
+  trace_scene_rays(*crashing, index, HitRule::nearest_contact, rays, out);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    if (i == 7) {
+      EXPECT_EQ(out[i].answer.failure, AnswerFailure::crash);
+      continue;
+    }
+    ASSERT_FALSE(out[i].answer.failed()) << i;
+    EXPECT_EQ(out[i].primitive, static_cast<std::int32_t>(i < 7 ? i : i - 1)) << i;
+  }
+  EXPECT_NE(crashing->external->last_failure().find("SIGSEGV"), std::string::npos)
+      << crashing->external->last_failure();
 }
 
 // Issue 25, item 7: case i is a pure function of (seed, family, shape, i). The near-origin
@@ -587,7 +670,9 @@ TEST(ExecProtocol, AnswerLinesMeanTheSameWhicheverReaderReadsThem) {
       peers::parse_answer_line(text);
       ADD_FAILURE() << "accepted " << text;
     } catch (const FieldError& e) {
-      if (!field.empty()) EXPECT_EQ(e.field, field) << text << ": " << e.what();
+      if (!field.empty()) {
+        EXPECT_EQ(e.field, field) << text << ": " << e.what();
+      }
     } catch (const std::exception&) {
       EXPECT_TRUE(field.empty()) << text;
     }

@@ -59,27 +59,9 @@ inline bool nearer(double t, int primitive, const SceneHit& best, const SceneInd
   return index.listed_before(primitive, best.primitive);
 }
 
-// trace_kind with the leaf test given as `intersect(shape) -> Hit` (the audit times external code
-// through it).
-template <class Intersect>
-SceneHit trace_kind_with(const SceneIndex& index, ShapeKind kind, const Ray& ray, Intersect&& intersect) {
-  SceneHit best;
-  double t_limit = std::numeric_limits<double>::infinity();
-  index.traverse(kind, ray, t_limit, [&](std::int32_t id, const Shape& shape) {
-    const Hit h = intersect(shape);
-    // A contact without t (a ray lying in a plane) has no point to show.
-    if (h.cls == HitClass::miss || !h.has_t() || !(h.t >= 0)) return false;
-    if (nearer(h.t, id, best, index)) {
-      best = {index.primitive(id).object, id, h};
-      t_limit = h.t;
-    }
-    return false;
-  });
-  return best;
-}
-
-// Linear 0..1 colour of one primary ray (scene.md's shading rules).
-Vec3 shade(const SceneIndex& index, const Intersectors& isect, const Ray& ray);
+// Linear 0..1 colour of each primary ray (scene.md's shading rules). Each kind's variant traces
+// all the rays at once (trace_scene_rays), then all their shadow segments.
+std::vector<Vec3> shade_all(const SceneIndex& index, const Intersectors& isect, std::span<const Ray> rays);
 // The diffuse term of one light at p with unit normal n (facing the viewer): max(−n·w, 0).
 double diffuse_cosine(const Vec3& p, const Vec3& n, const PointLight& light);
 // The colour of a hit at p on an object of colour `color` (scene.md's shading rules); for

@@ -45,11 +45,35 @@ struct AnswerTiming {
   double inner_seconds = -1;
 };
 
+class KindIndex;  // scene_index.h
+
+// A ray traced through one kind's primitives of a scene by one variant (render, audit, spawn):
+// the nearest contact at t ≥ 0, or (`any_hit`) whether any primitive but `skip` is met at
+// 0 ≤ t < 1 — a shadow segment from a hit point to a light. The leaf rules are scene_rays.h's.
+struct SceneRay {
+  Ray ray;
+  std::int32_t skip = -1;  // a primitive never counted (the one the segment starts on)
+  bool any_hit = false;
+};
+struct SceneRayAnswer {
+  std::int32_t primitive = -1;  // the nearest (or the blocking) primitive, -1 for none
+  Answer answer;                // its hit; failed(): the code died or hung on this ray (nothing is known)
+};
+
 class ExternalIntersector {
  public:
   virtual ~ExternalIntersector() = default;
   // out[i] = the answer to qs[i], in the variant's own rule. Thread-safe. `timing`: may be null.
   virtual void answer_all(std::span<const Query> qs, std::span<Answer> out, AnswerTiming* timing) = 0;
+  // Traces every ray through `scene` where the code runs, rayproof's own traversal calling the
+  // code at the leaves: one round trip per batch instead of one per leaf test. Returns false
+  // where the code cannot (an --exec command, an answers file): callers then ask leaf by leaf.
+  // `timing`: as for answer_all, the time of the whole traversal where it ran.
+  virtual bool trace_all(const KindIndex& scene, HitRule rule, std::span<const SceneRay> rays,
+                         std::span<SceneRayAnswer> out, AnswerTiming* timing) {
+    (void)scene, (void)rule, (void)rays, (void)out, (void)timing;
+    return false;
+  }
   // One line: why it stopped (signal, exit status, the unreadable line), empty while it runs.
   virtual std::string stop_reason() const { return {}; }
   // Why the last crash, hang or protocol error happened, also when a fresh worker went on after it.
