@@ -439,6 +439,11 @@ json disagreeing_answers(const std::vector<const Variant*>& variants, Oracle& or
   return out;
 }
 
+// Findings that can be shrunk: disagreements, plugin errors and crashes (each crash probe a fresh
+// process, kCrashProbes at most: a process start costs milliseconds, a Python one 25).
+bool is_shrinkable_failure(AnswerFailure f) { return !stops_variant(f) || f == AnswerFailure::crash; }
+constexpr int kCrashProbes = 100;
+
 // One finding as a replayable case line: shrunk for the variant that first disagreed, its
 // `expect` from the oracle, how it was found in "found".
 std::string finding_line(const Batch& b, const Finding& f, const std::vector<const Variant*>& variants,
@@ -449,9 +454,13 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
   c.ray = f.generated.ray;
   c.shape = f.generated.shape;
   const Case original = c;
-  // A variant that stopped (crash, timeout, protocol) cannot be asked again: its case stays as found.
-  const bool shrinkable = o.shrink && f.shrink && !stops_variant(f.failure);
-  if (shrinkable) c = shrink(c, *f.first_disagreeing, oracle, o.rule, 3000, f.failure);
+  // A crash shrinks while a fresh copy of the code still dies on the case (probe: a new process
+  // each, so fewer steps); a hang would cost --case-timeout a step and a protocol error
+  // stops the code for good: those cases stay as found.
+  const bool shrinkable = o.shrink && f.shrink && is_shrinkable_failure(f.failure);
+  if (shrinkable)
+    c = shrink(c, *f.first_disagreeing, oracle, o.rule, f.failure == AnswerFailure::crash ? kCrashProbes : 3000,
+               f.failure);
   // `expect` keeps the case format's meaning, the nearest contact, whatever rule found the case
   // (found.rule says which): the finding replays green under `check`.
   const Verdict exact = oracle.judge(c.ray, c.shape, HitRule::nearest_contact);
@@ -478,8 +487,12 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
     if (stops_variant(f.failure))
       c.found["disagreeing"][std::string(f.first_disagreeing->name)] = {{"error", c.found["kind"]}};
   }
-  if (o.shrink && stops_variant(f.failure))
-    c.found["not_shrunk"] = "code that stopped cannot be asked again";
+  if (o.shrink && !is_shrinkable_failure(f.failure))
+    c.found["not_shrunk"] = f.failure == AnswerFailure::timeout ? "each step would wait --case-timeout"
+                                                                : "code that stopped cannot be asked again";
+  else if (o.shrink && !f.shrink && f.failure == AnswerFailure::crash)
+    c.found["not_shrunk"] =
+        "one crash of " + std::string(f.first_disagreeing->name) + " is shrunk in this family and shape";
   else if (o.shrink && !f.shrink)
     c.found["not_shrunk"] =
         "beyond the " + std::to_string(o.max_shrunk) + " shrunk for " + f.kind + " in this family and shape";
@@ -565,10 +578,13 @@ CampaignReport run_campaign(const CampaignOptions& o) {
         judged.findings = std::move(kept);
       }
       // Shrink the first max_shrunk of each kind in this family and shape (in index order, so
-      // the choice does not depend on threads); the rest are written as found.
+      // the choice does not depend on threads), of crashes the first (each probe starts a
+      // process); the rest are written as found.
       for (Finding& f : judged.findings) {
         std::uint64_t& shrunk = cp.shrunk_in_pair[f.kind];
-        f.shrink = shrunk < o.max_shrunk && !stops_variant(f.failure);
+        const std::uint64_t cap =
+            f.failure == AnswerFailure::crash ? std::min<std::uint64_t>(1, o.max_shrunk) : o.max_shrunk;
+        f.shrink = shrunk < cap && is_shrinkable_failure(f.failure);
         shrunk += f.shrink;
         cp.report.findings_unshrunk += !f.shrink || !o.shrink;
       }

@@ -18,6 +18,11 @@ bool fails_the_same_way(const Variant& v, Oracle& oracle, const Ray& ray, const 
                         AnswerFailure failure) {
   if (failure == AnswerFailure::none) return disagrees(v, oracle, ray, shape, rule);
   const Query q{ray, shape, {}};
+  if (stops_variant(failure)) {  // a crash: each probe in a fresh copy of the code, outside its crash budget
+    if (!v.external) return false;
+    const std::optional<Query> given = v.precision == Precision::f32 ? rounded_to_float(q) : std::optional<Query>(q);
+    return given && v.external->probe(*given).failure == failure;
+  }
   return compare_variant(oracle, v, oracle.judge(ray, shape, rule), q, rule).answer.failure == failure;
 }
 

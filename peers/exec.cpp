@@ -243,6 +243,20 @@ class ExecVariant final : public ExternalIntersector {
       done += answer_until_failure(qs.subspan(done), out.subspan(done));
     }
   }
+  Answer probe(const Query& q) override {
+    ExecProcess process(command_);  // its own: a crash here spends no budget and stops nothing
+    std::vector<std::string> lines;
+    AnswerFailure kind = AnswerFailure::none;
+    const std::string ended =
+        process.exchange(exec_case_line(q, "probe"), 1, options_.case_timeout_seconds, lines, kind);
+    if (lines.empty()) return Answer::failure_of(kind != AnswerFailure::none ? kind : AnswerFailure::crash);
+    try {
+      const AnswerLine a = parse_answer_line(lines[0]);
+      return a.id == "probe" ? a.answer : Answer::failure_of(AnswerFailure::protocol);
+    } catch (const std::exception&) {
+      return Answer::failure_of(AnswerFailure::protocol);
+    }
+  }
   std::string stop_reason() const override { return budget_.stop_reason(); }
   std::string last_failure() const override { return budget_.last_failure(); }
 

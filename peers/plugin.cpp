@@ -350,6 +350,23 @@ class PluginVariant final : public ExternalIntersector {
     }
     if (timing) timing->inner_seconds = inside;
   }
+  Answer probe(const Query& q) override {
+    WorkerProcess worker(plugin_.path());  // its own: a crash here spends no budget and stops nothing
+    SharedBatch& b = worker.batch();
+    b.mode = BatchMode::cases, b.variant = index_, b.count = 1, b.repeats = 1;
+    double* x = b.queries[0].numbers;
+    for (int k = 0; k < 3; ++k) x[k] = q.ray.origin[k], x[3 + k] = q.ray.direction[k];
+    shape_numbers(q.shape, x + 6);
+    std::uint32_t stopped_at = 0;
+    bool timed_out = false;
+    if (!worker.run(options_.case_timeout_seconds, stopped_at, timed_out).empty())
+      return Answer::failure_of(worker.forked() ? AnswerFailure::protocol
+                                : timed_out     ? AnswerFailure::timeout
+                                                : AnswerFailure::crash);
+    Answer a = Hit{b.answers[0].cls, b.answers[0].t};
+    a.failure = b.answers[0].failure;
+    return a;
+  }
   bool trace_all(const KindIndex& scene, HitRule, std::span<const SceneRay> rays, std::span<SceneRayAnswer> out,
                  AnswerTiming* timing) override {
     if (scene.kind() != shape_) return false;

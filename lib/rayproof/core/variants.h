@@ -74,6 +74,14 @@ class ExternalIntersector {
     (void)scene, (void)rule, (void)rays, (void)out, (void)timing;
     return false;
   }
+  // One query asked of a fresh copy of the code (a new worker or command) that nothing else uses,
+  // outside the crash budget: how a crash is shrunk, each probe free to die. Code that keeps no
+  // process (an answers file) answers as answer_all does.
+  virtual Answer probe(const Query& q) {
+    Answer a;
+    answer_all(std::span(&q, 1), std::span(&a, 1), nullptr);
+    return a;
+  }
   // One line: why it stopped (signal, exit status, the unreadable line), empty while it runs.
   virtual std::string stop_reason() const { return {}; }
   // Why the last crash, hang or protocol error happened, also when a fresh worker went on after it.
