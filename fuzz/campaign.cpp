@@ -282,6 +282,7 @@ struct Worker {
   std::vector<Verdict> exact;
   std::vector<VariantOutcome> outcomes;
   std::vector<Answer> answers;
+  FloatView float_view;  // the chunk's float-rounded cases and their verdicts, for every f32 variant
 };
 
 struct Judged {
@@ -329,7 +330,8 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         if (keep_queries) queries.push_back(cases.back());
         exact.push_back(me.oracle.judge(cases.back().ray, cases.back().shape, o.rule));
       }
-      first.assign(n, nullptr), failure.assign(n, AnswerFailure::none), reported.assign(n, HitClass::miss);
+      me.float_view.clear(), first.assign(n, nullptr), failure.assign(n, AnswerFailure::none),
+          reported.assign(n, HitClass::miss);
       for (size_t k = 0; k < n && pairs_of_triangles; ++k) {
         EdgeEvidence& edge = judged.edges[chunk + k - b.start];
         edge.shared_edge = cases[k].shared_edge, edge.exact = exact[k], edge.variant_hit.resize(variants.size());
@@ -368,7 +370,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           }
           continue;
         }
-        judge_variant_all(me.oracle, v, queries, exact, o.rule, outcomes);
+        judge_variant_all(me.oracle, v, queries, exact, o.rule, outcomes, &me.float_view);
         for (size_t k = 0; k < n; ++k) {
           const VariantOutcome& r = outcomes[k];
           tally.add(exact[k].cls, r);

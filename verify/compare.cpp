@@ -28,27 +28,35 @@ float exact_t_as_float(const Query& q, HitRule rule, double d) {
 }
 
 void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs, std::span<const Verdict> exact,
-                       HitRule rule, std::vector<VariantOutcome>& out) {
+                       HitRule rule, std::vector<VariantOutcome>& out, FloatView* shared) {
   const HitRule own_rule = v.rule_for(rule);
   const bool f32 = v.precision == Precision::f32, own = f32 || own_rule != rule;
   out.assign(qs.size(), VariantOutcome{&v});
-  thread_local std::vector<Query> rounded;  // f32: what the variant is given, and where each came from
-  thread_local std::vector<size_t> from;
-  thread_local std::vector<Answer> answers;
-  rounded.clear(), from.clear();
-  if (f32) {
-    for (size_t i = 0; i < qs.size(); ++i) {
-      if (auto r = rounded_to_float(qs[i]))
-        rounded.push_back(std::move(*r)), from.push_back(i);
-      else
-        out[i].answer = Answer::failure_of(AnswerFailure::not_representable);
+  thread_local FloatView scratch;  // a view for this variant alone where none is shared
+  FloatView& view = shared && f32 ? *shared : scratch;
+  if (!shared || !f32 || !view.ready_ || view.rule_ != own_rule) {
+    view.queries_.clear(), view.from_.clear(), view.exact_.clear(), view.exact_t_.clear();
+    view.rule_ = own_rule, view.ready_ = f32;
+    if (f32) {
+      for (size_t i = 0; i < qs.size(); ++i)
+        if (auto r = rounded_to_float(qs[i])) view.queries_.push_back(std::move(*r)), view.from_.push_back(i);
+      for (const Query& q : view.queries_) view.exact_.push_back(oracle.judge(q.ray, q.shape, own_rule));
+      view.exact_t_.assign(view.queries_.size(), std::numeric_limits<float>::quiet_NaN());
     }
   }
-  const std::span<const Query> given = f32 ? std::span<const Query>(rounded) : qs;
-  answers.resize(given.size());
-  v.intersect_all(given, rule, answers);
-  for (size_t k = 0; k < given.size(); ++k) {
-    VariantOutcome& o = out[f32 ? from[k] : k];
+  if (f32) {  // the cases float cannot hold (from_ ascends)
+    for (size_t i = 0, next = 0; i < qs.size(); ++i)
+      if (next < view.from_.size() && view.from_[next] == i)
+        ++next;
+      else
+        out[i].answer = Answer::failure_of(AnswerFailure::not_representable);
+  }
+  thread_local std::vector<Answer> answers;
+  const std::span<const Query> asked = f32 ? std::span<const Query>(view.queries_) : qs;
+  answers.resize(asked.size());
+  v.intersect_all(asked, rule, answers);
+  for (size_t k = 0; k < asked.size(); ++k) {
+    VariantOutcome& o = out[f32 ? view.from_[k] : k];
     if (answers[k].failed()) {
       o.answer = answers[k];
       continue;
@@ -58,11 +66,13 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
       o.variant = &v;
       continue;
     }
-    const Verdict truth = oracle.judge(given[k].ray, given[k].shape, own_rule);
+    const Verdict truth = f32 ? view.exact_[k] : oracle.judge(asked[k].ray, asked[k].shape, own_rule);
     o = judge_answer(truth, answers[k]);
     o.variant = &v;
-    if (f32 && truth.t && answers[k].has_t())
-      o.ulp_own = ulp_distance_f32(to_nearest_float(answers[k].t), exact_t_as_float(given[k], own_rule, *truth.t));
+    if (f32 && truth.t && answers[k].has_t()) {
+      if (std::isnan(view.exact_t_[k])) view.exact_t_[k] = exact_t_as_float(asked[k], own_rule, *truth.t);
+      o.ulp_own = ulp_distance_f32(to_nearest_float(answers[k].t), view.exact_t_[k]);
+    }
     o.own_exact = VariantOutcome::OwnVerdict{truth.cls, truth.t, truth.front};
   }
 }

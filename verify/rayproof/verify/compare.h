@@ -65,9 +65,28 @@ inline VariantOutcome judge_answer(const Verdict& exact, const Answer& reported)
 // under `rule`, reused where the variant sees the same numbers and rule; the oracle judges the rest.
 std::vector<VariantOutcome> judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs,
                                               std::span<const Verdict> exact, HitRule rule);
-// The same into `out` (resized), whose storage a loop over chunks reuses.
+// What every float variant judged on one batch shares, computed by the first and reused by the
+// rest (they see the same float-rounded numbers): the rounded queries, where each came from, the
+// oracle's verdicts on them under `rule`, and those verdicts' t rounded to float. clear() it for
+// each new batch.
+class FloatView {
+ public:
+  void clear() { ready_ = false; }
+
+ private:
+  friend void judge_variant_all(Oracle&, const Variant&, std::span<const Query>, std::span<const Verdict>, HitRule,
+                                std::vector<VariantOutcome>&, FloatView*);
+  bool ready_ = false;
+  HitRule rule_ = HitRule::nearest_contact;
+  std::vector<Query> queries_;
+  std::vector<std::size_t> from_;
+  std::vector<Verdict> exact_;
+  std::vector<float> exact_t_;  // NaN: not yet computed (exact_t_as_float, asked only where a t agrees)
+};
+// The same into `out` (resized), whose storage a loop over chunks reuses; `shared`, where given,
+// is the batch's FloatView.
 void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> qs, std::span<const Verdict> exact,
-                       HitRule rule, std::vector<VariantOutcome>& out);
+                       HitRule rule, std::vector<VariantOutcome>& out, FloatView* shared = nullptr);
 // The same for one query.
 VariantOutcome compare_variant(Oracle& oracle, const Variant& v, const Verdict& exact, const Query& q, HitRule rule);
 
