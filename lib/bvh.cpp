@@ -27,8 +27,7 @@ int bin_of(double c, double lo, double hi) {
   return std::min(Bvh::kBins - 1, static_cast<int>(ratio * Bvh::kBins));
 }
 
-// Past this depth a node becomes a leaf whatever its size, so traversal's fixed stack holds.
-constexpr int kMaxDepth = 100;
+constexpr int kMaxDepth = Bvh::kMaxDepth;
 
 struct Builder {
   std::span<const Bounds> boxes;
@@ -120,6 +119,53 @@ Bvh::Bvh(std::span<const Bounds> boxes) {
   nodes_.emplace_back();
   Builder builder{boxes, std::move(centroids), order_, nodes_};
   builder.build(0, 0, static_cast<std::int32_t>(boxes.size()), 0);
+  collapse();
+}
+
+void Bvh::collapse() {
+  if (nodes_[0].count > 0) {  // a single leaf: no wide node is needed (traverse visits it directly)
+    wide_.push_back({});
+    return;
+  }
+  auto area = [](const Bounds& b) {
+    const Vec3 e = b.hi - b.lo;
+    return e.x() * e.y() + e.y() * e.z() + e.z() * e.x();
+  };
+  // Binary node b becomes wide node w: its children, then repeatedly the inner child of largest
+  // surface area replaced by its two children, until four slots are used or all are leaves.
+  std::vector<std::pair<std::int32_t, std::int32_t>> pending = {{0, 0}};  // (binary, wide)
+  wide_.emplace_back();
+  while (!pending.empty()) {
+    const auto [b, w] = pending.back();
+    pending.pop_back();
+    std::vector<std::int32_t> slots = {b + 1, nodes_[b].first};
+    while (slots.size() < 4) {
+      int widest = -1;
+      for (int i = 0; i < static_cast<int>(slots.size()); ++i)
+        if (nodes_[slots[i]].count == 0 && (widest < 0 || area(nodes_[slots[i]].box) > area(nodes_[slots[widest]].box)))
+          widest = i;
+      if (widest < 0) break;
+      const std::int32_t inner = slots[widest];
+      slots[widest] = inner + 1;
+      slots.insert(slots.begin() + widest + 1, nodes_[inner].first);
+    }
+    WideNode node;
+    for (int i = 0; i < 4; ++i) {
+      const Bounds box = i < static_cast<int>(slots.size()) ? nodes_[slots[i]].box : Bounds{};
+      for (int k = 0; k < 3; ++k) node.corners[k][i] = box.lo[k], node.corners[3 + k][i] = box.hi[k];
+      node.child[i] = 0, node.count[i] = -1;
+      if (i >= static_cast<int>(slots.size())) continue;
+      const Node& child = nodes_[slots[i]];
+      if (child.count > 0) {
+        node.child[i] = child.first, node.count[i] = child.count;
+      } else {
+        node.child[i] = static_cast<std::int32_t>(wide_.size()), node.count[i] = 0;
+        wide_.emplace_back();
+        pending.emplace_back(slots[i], node.child[i]);
+      }
+    }
+    wide_[w] = node;
+  }
 }
 
 }  // namespace rayproof

@@ -4,6 +4,10 @@
 // matter.
 #pragma once
 
+#include <bit>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -83,6 +87,57 @@ struct SlabRay {
     entry = lower > 0 ? lower : 0;
     return entry <= upper && entry <= t_limit;
   }
+  // meets() for four boxes at once, given as corners[axis][lane] and corners[3 + axis][lane] (lo,
+  // then hi): the same operations lane by lane (SSE2, two lanes an instruction, where the target
+  // has it: MAXPD and MINPD return their second operand on a NaN or a tie, as the comparisons of
+  // meets() keep `lower` and `upper`). Returns bit i for box i, with entry[i]. A lane whose box is
+  // empty (lo +inf, hi −inf) never meets.
+  unsigned meets4(const double (&corners)[6][4], double t_limit, double (&entry)[4]) const {
+    constexpr double kWiden = 3 * gamma(3), kTiny = 0x1p-1070, inf = std::numeric_limits<double>::infinity();
+#if defined(__SSE2__)
+    unsigned hits = 0;
+    const __m128d sign = _mm_set1_pd(-0.0), widen = _mm_set1_pd(kWiden), tiny = _mm_set1_pd(kTiny);
+    for (int half = 0; half < 4; half += 2) {
+      __m128d lower = _mm_set1_pd(-inf), upper = _mm_set1_pd(inf);
+      for (int k = 0; k < 3; ++k) {
+        const __m128d o = _mm_set1_pd(origin[k]), inv = _mm_set1_pd(inverse[k]);
+        const __m128d t_near = _mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(corners[near_index[k]] + half), o), inv);
+        const __m128d t_far = _mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(corners[far_index[k]] + half), o), inv);
+        lower = _mm_max_pd(t_near, lower);
+        upper = _mm_min_pd(t_far, upper);
+      }
+      const __m128d bounded = _mm_and_pd(_mm_cmplt_pd(lower, _mm_set1_pd(inf)), _mm_cmpgt_pd(upper, _mm_set1_pd(-inf)));
+      const __m128d lo = _mm_sub_pd(_mm_sub_pd(lower, _mm_mul_pd(_mm_andnot_pd(sign, lower), widen)), tiny);
+      const __m128d hi = _mm_add_pd(_mm_add_pd(upper, _mm_mul_pd(_mm_andnot_pd(sign, upper), widen)), tiny);
+      const __m128d at = _mm_max_pd(lo, _mm_setzero_pd());
+      _mm_storeu_pd(entry + half, at);
+      const __m128d met = _mm_and_pd(bounded, _mm_and_pd(_mm_cmple_pd(at, hi), _mm_cmple_pd(at, _mm_set1_pd(t_limit))));
+      hits |= static_cast<unsigned>(_mm_movemask_pd(met)) << half;
+    }
+    return hits;
+#else
+    double lower[4] = {-inf, -inf, -inf, -inf}, upper[4] = {inf, inf, inf, inf};
+    for (int k = 0; k < 3; ++k) {
+      const double* near_bound = corners[near_index[k]];
+      const double* far_bound = corners[far_index[k]];
+      for (int i = 0; i < 4; ++i) {
+        const double t_near = (near_bound[i] - origin[k]) * inverse[k];
+        const double t_far = (far_bound[i] - origin[k]) * inverse[k];
+        lower[i] = t_near > lower[i] ? t_near : lower[i];
+        upper[i] = t_far < upper[i] ? t_far : upper[i];
+      }
+    }
+    unsigned hits = 0;
+    for (int i = 0; i < 4; ++i) {
+      const bool bounded = lower[i] < inf && upper[i] > -inf;
+      const double lo = lower[i] - std::abs(lower[i]) * kWiden - kTiny;
+      const double hi = upper[i] + std::abs(upper[i]) * kWiden + kTiny;
+      entry[i] = lo > 0 ? lo : 0;
+      hits |= static_cast<unsigned>(bounded && entry[i] <= hi && entry[i] <= t_limit) << i;
+    }
+    return hits;
+#endif
+  }
 };
 
 class Bvh {
@@ -93,6 +148,7 @@ class Bvh {
     std::int32_t count = 0;  // leaf: number of primitives (> 0); inner: 0
   };
   static constexpr int kLeafSize = 4;
+  static constexpr int kMaxDepth = 100;  // past this depth a node becomes a leaf, so traversal's fixed stack holds
   static constexpr int kBins = 16;
 
   Bvh() = default;
@@ -105,48 +161,55 @@ class Bvh {
   // (boxes entered beyond t_limit are then skipped).
   template <class Visit>
   void traverse(const Ray& ray, double& t_limit, Visit&& visit) const {
-    if (nodes_.empty()) return;
+    if (wide_.empty()) return;
     const SlabRay slab(ray);
     if (slab.exotic) {  // outside the range where the widening is proved: visit everything
       for (std::int32_t i = 0; i < static_cast<std::int32_t>(order_.size()); ++i)
         if (visit(i)) return;
       return;
     }
+    // A pending entry is a wide node (count 0) or a leaf's run of positions, with the ray's
+    // widened entry into its box; the nearest is popped first.
     struct Pending {
-      std::int32_t node;
+      std::int32_t first, count;
       double entry;
     };
-    Pending stack[128];
+    Pending stack[3 * kMaxDepth + 4];  // each wide level pops one and pushes at most three
     int top = 0;
-    double entry;
-    if (!slab.meets(nodes_[0].box, t_limit, entry)) return;
-    stack[top++] = {0, entry};
-    while (top > 0) {
-      const Pending p = stack[--top];
-      if (p.entry > t_limit) continue;  // t_limit dropped since the push
-      const Node& node = nodes_[p.node];
-      if (node.count > 0) {
-        for (std::int32_t i = node.first; i < node.first + node.count; ++i)
+    double root_entry;
+    if (!slab.meets(nodes_[0].box, t_limit, root_entry)) return;
+    // `at` is the entry being taken: the nearest child met goes on without a trip through the
+    // stack, the others wait there, farthest deepest (on equal entries the lower slot first, as
+    // the binary traversal took the first child).
+    Pending at =
+        nodes_[0].count > 0 ? Pending{nodes_[0].first, nodes_[0].count, root_entry} : Pending{0, 0, root_entry};
+    for (;;) {
+      if (at.count > 0) {
+        for (std::int32_t i = at.first; i < at.first + at.count; ++i)
           if (visit(i)) return;
-        continue;
-      }
-      const std::int32_t a = p.node + 1, b = node.first;
-      double entry_a = 0, entry_b = 0;
-      const bool hit_a = slab.meets(nodes_[a].box, t_limit, entry_a);
-      const bool hit_b = slab.meets(nodes_[b].box, t_limit, entry_b);
-      if (hit_a && hit_b) {  // the nearer one on top
-        if (entry_a <= entry_b) {
-          stack[top++] = {b, entry_b};
-          stack[top++] = {a, entry_a};
-        } else {
-          stack[top++] = {a, entry_a};
-          stack[top++] = {b, entry_b};
+      } else {
+        const WideNode& node = wide_[at.first];
+        double entry[4];
+        unsigned hits = slab.meets4(node.corners, t_limit, entry);
+        if (hits != 0) {
+          Pending met[4];  // farthest first
+          int n = 0;
+          for (; hits; hits &= hits - 1) {
+            const int i = std::countr_zero(hits);
+            const Pending c{node.child[i], node.count[i], entry[i]};
+            int j = n++;
+            for (; j > 0 && met[j - 1].entry <= c.entry; --j) met[j] = met[j - 1];
+            met[j] = c;
+          }
+          for (int j = 0; j + 1 < n; ++j) stack[top++] = met[j];
+          at = met[n - 1];
+          continue;
         }
-      } else if (hit_a) {
-        stack[top++] = {a, entry_a};
-      } else if (hit_b) {
-        stack[top++] = {b, entry_b};
       }
+      do {  // the next that may still matter (t_limit may have dropped since its push)
+        if (top == 0) return;
+        at = stack[--top];
+      } while (at.entry > t_limit);
     }
   }
 
@@ -154,8 +217,20 @@ class Bvh {
   std::span<const std::int32_t> order() const { return order_; }
 
  private:
+  // The binary tree collapsed to four children a node (madmann91/bvh v2 and Embree do the same:
+  // one vector test of four boxes replaces three levels of two): corners[axis][slot] lo, then
+  // corners[3 + axis][slot] hi; child[slot] a wide node (count 0) or a leaf's first position
+  // (count > 0); an unused slot has an empty box.
+  struct WideNode {
+    double corners[6][4];
+    std::int32_t child[4];
+    std::int32_t count[4];
+  };
+  void collapse();
+
   std::vector<Node> nodes_;
   std::vector<std::int32_t> order_;
+  std::vector<WideNode> wide_;
 };
 
 }  // namespace rayproof
