@@ -63,16 +63,26 @@ std::vector<SpawnCell> spawn_study(const std::vector<const Variant*>& variants,
       const auto [v, k] = jobs[j];
       std::vector<SpawnCell> out;
       for (SpawnStrategy s : strategies) out.push_back({v, s, k});
+      // Every primary ray, then every spawned one, asked in one call each (Variant::intersect_all:
+      // external code answers a batch per round trip, not a case).
+      std::vector<Query> primaries(count);
       for (std::uint64_t i = 0; i < count; ++i) {
-        GeneratedCase g = generate(Family::random, v->shape, seed, i);
+        const GeneratedCase g = generate(Family::random, v->shape, seed, i);
         const double f = std::ldexp(1.0, k);
-        Ray primary{g.ray.origin * f, g.ray.direction * f};
-        const Shape shape = scaled(g.shape, f);
-        const Hit h = v->intersect(primary, shape, HitRule::nearest_contact);
+        primaries[i] = Query{Ray{g.ray.origin * f, g.ray.direction * f}, scaled(g.shape, f), {}};
+      }
+      std::vector<Answer> first(count);
+      v->intersect_all(primaries, HitRule::nearest_contact, first);
+      std::vector<Query> spawned;
+      std::vector<std::pair<size_t, double>> strategy_and_t_min;  // per spawned ray
+      for (std::uint64_t i = 0; i < count; ++i) {
+        const Hit& h = first[i];
         if (h.cls == HitClass::miss || !h.has_t()) continue;
         // From inside a sphere or box the far side is a genuine hit, not acne: only entries.
         const bool closed = v->shape == ShapeKind::sphere || v->shape == ShapeKind::box;
         if (closed && h.cls == HitClass::exit) continue;
+        const Ray& primary = primaries[i].ray;
+        const Shape& shape = primaries[i].shape;
         Vec3 n = outward_normal(shape, primary.at(h.t));
         if (dot(n, primary.direction) > 0) n = -n;
         // A direction in the hemisphere around n, from the case's own generator stream.
@@ -83,10 +93,16 @@ std::vector<SpawnCell> spawn_study(const std::vector<const Variant*>& variants,
         for (size_t si = 0; si < strategies.size(); ++si) {
           // Unit-length directions, as a renderer's secondary rays have: t is in world units.
           const SpawnedRay sr = spawn(strategies[si], primary, h.t, n, d);
-          const Hit again = v->intersect(sr.ray, shape, HitRule::nearest_contact);
-          ++out[si].rays;
-          if (again.cls != HitClass::miss && again.has_t() && again.t > sr.t_min) ++out[si].self_intersections;
+          spawned.push_back(Query{sr.ray, shape, {}});
+          strategy_and_t_min.emplace_back(si, sr.t_min);
         }
+      }
+      std::vector<Answer> again(spawned.size());
+      v->intersect_all(spawned, HitRule::nearest_contact, again);
+      for (size_t r = 0; r < spawned.size(); ++r) {
+        const auto [si, t_min] = strategy_and_t_min[r];
+        ++out[si].rays;
+        if (again[r].cls != HitClass::miss && again[r].has_t() && again[r].t > t_min) ++out[si].self_intersections;
       }
       partial[j] = std::move(out);
     }
