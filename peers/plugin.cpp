@@ -303,44 +303,100 @@ class PluginVariant final : public ExternalIntersector {
       : plugin_(plugin), index_(index), shape_(shape), options_(options), budget_(options.max_crashes) {}
 
   void answer_all(std::span<const Query> qs, std::span<Answer> out, AnswerTiming* timing) override {
+    in_batches(
+        qs.size(), BatchMode::cases, timing,
+        [&](WireQuery& w, std::size_t i) {
+          put_ray(qs[i].ray, w.numbers);
+          shape_numbers(qs[i].shape, w.numbers + 6);
+        },
+        [&](const WireAnswer& a, std::size_t i) {
+          out[i] = Hit{a.cls, a.t};
+          out[i].failure = a.failure;
+        },
+        [&](std::size_t i, AnswerFailure f) { out[i] = Answer::failure_of(f); });
+  }
+  Answer probe(const Query& q) override {
+    WorkerProcess worker(plugin_.path());  // its own: a crash here spends no budget and stops nothing
+    SharedBatch& b = worker.batch();
+    b.mode = BatchMode::cases, b.variant = index_, b.count = 1, b.repeats = 1;
+    put_ray(q.ray, b.queries[0].numbers);
+    shape_numbers(q.shape, b.queries[0].numbers + 6);
+    std::uint32_t stopped_at = 0;
+    bool timed_out = false;
+    if (!worker.run(options_.case_timeout_seconds, stopped_at, timed_out).empty())
+      return Answer::failure_of(why_stopped(worker, timed_out));
+    Answer a = Hit{b.answers[0].cls, b.answers[0].t};
+    a.failure = b.answers[0].failure;
+    return a;
+  }
+  bool trace_all(const KindIndex& scene, HitRule, std::span<const SceneRay> rays, std::span<SceneRayAnswer> out,
+                 AnswerTiming* timing) override {
+    if (scene.kind() != shape_) return false;
+    in_batches(
+        rays.size(), BatchMode::trace, timing,
+        [&](WireQuery& w, std::size_t i) {
+          put_ray(rays[i].ray, w.numbers);
+          w.numbers[6] = rays[i].skip, w.numbers[7] = rays[i].any_hit ? 1 : 0;
+        },
+        [&](const WireAnswer& a, std::size_t i) {
+          out[i] = {a.primitive, Hit{a.cls, a.t}};
+        },
+        [&](std::size_t i, AnswerFailure f) {
+          out[i] = {-1, Answer::failure_of(f)};
+        },
+        &scene);
+    return true;
+  }
+  std::string stop_reason() const override { return budget_.stop_reason(); }
+  std::string last_failure() const override { return budget_.last_failure(); }
+
+ private:
+  static void put_ray(const Ray& ray, double* numbers) {
+    for (int k = 0; k < 3; ++k) numbers[k] = ray.origin[k], numbers[3 + k] = ray.direction[k];
+  }
+  // Why a worker's run stopped, as the failure blamed on the item it was on.
+  static AnswerFailure why_stopped(const WorkerProcess& worker, bool timed_out) {
+    return worker.forked() ? AnswerFailure::protocol : timed_out ? AnswerFailure::timeout : AnswerFailure::crash;
+  }
+
+  // Items 0..count−1 in batches through the pool's workers (a scene first sent to a worker that
+  // lacks it): put(slot, i) writes item i, take(answer, i) keeps its answer, fail(i, why) marks
+  // an item not answered. A worker that dies or hangs is blamed for the item it was on, keeps
+  // what it answered, and a fresh one goes on from the next while the crash budget lasts (a
+  // forking plugin stops at once); once stopped, every item left is `stopped`. `timing`: the
+  // worker's own time for one pass over all items, or −1 where a batch failed.
+  template <class Put, class Take, class Fail>
+  void in_batches(std::size_t count, BatchMode mode, AnswerTiming* timing, Put&& put, Take&& take, Fail&& fail,
+                  const KindIndex* scene = nullptr) {
     double inside = 0;
-    for (std::size_t start = 0; start < qs.size();) {
-      const std::size_t n = std::min(kBatchCapacity, qs.size() - start);
+    for (std::size_t start = 0; start < count;) {
+      const std::size_t n = std::min(kBatchCapacity, count - start);
       if (budget_.stopped()) {
-        std::fill(out.begin() + start, out.end(), Answer::failure_of(AnswerFailure::stopped));
+        for (std::size_t i = start; i < count; ++i) fail(i, AnswerFailure::stopped);
         inside = -1;
         break;
       }
       std::unique_ptr<WorkerProcess> worker = plugin_.take();
-      SharedBatch& b = worker->batch();
-      b.mode = BatchMode::cases, b.variant = index_, b.count = static_cast<std::uint32_t>(n),
-      b.repeats = timing ? static_cast<std::uint32_t>(std::max(1, timing->repeats)) : 1;
-      for (std::size_t i = 0; i < n; ++i) {
-        const Query& q = qs[start + i];
-        double* x = b.queries[i].numbers;
-        for (int k = 0; k < 3; ++k) x[k] = q.ray.origin[k], x[3 + k] = q.ray.direction[k];
-        shape_numbers(q.shape, x + 6);
-      }
       std::uint32_t stopped_at = 0;
       bool timed_out = false;
-      const std::string why = worker->run(options_.case_timeout_seconds, stopped_at, timed_out);
-      const std::size_t answered = why.empty() ? n : std::min<std::size_t>(stopped_at, n);
-      for (std::size_t i = 0; i < answered; ++i) {
-        const WireAnswer& a = b.answers[i];
-        out[start + i] = Hit{a.cls, a.t};
-        out[start + i].failure = a.failure;
+      std::string why = scene && worker->scene_serial != scene->serial() ? send_scene(*worker, *scene, timed_out) : "";
+      std::size_t answered = 0;
+      if (why.empty()) {
+        SharedBatch& b = worker->batch();
+        b.mode = mode, b.variant = index_, b.count = static_cast<std::uint32_t>(n),
+        b.repeats = timing ? static_cast<std::uint32_t>(std::max(1, timing->repeats)) : 1;
+        for (std::size_t i = 0; i < n; ++i) put(b.queries[i], start + i);
+        why = worker->run(options_.case_timeout_seconds, stopped_at, timed_out);
+        answered = why.empty() ? n : std::min<std::size_t>(stopped_at, n);
+        for (std::size_t i = 0; i < answered; ++i) take(b.answers[i], start + i);
+        inside += b.inner_seconds;
       }
-      inside += b.inner_seconds;
       if (why.empty()) {
         plugin_.give_back(std::move(worker));
         start += n;
         continue;
       }
-      // The worker is gone: blame the case it was on, keep what it answered, and go on with a
-      // fresh worker from the next case while the crash budget lasts (a forking plugin stops now).
-      out[start + answered] = Answer::failure_of(worker->forked() ? AnswerFailure::protocol
-                                                 : timed_out      ? AnswerFailure::timeout
-                                                                  : AnswerFailure::crash);
+      fail(start + answered, why_stopped(*worker, timed_out));
       if (worker->forked())
         budget_.stop(why);
       else
@@ -350,80 +406,7 @@ class PluginVariant final : public ExternalIntersector {
     }
     if (timing) timing->inner_seconds = inside;
   }
-  Answer probe(const Query& q) override {
-    WorkerProcess worker(plugin_.path());  // its own: a crash here spends no budget and stops nothing
-    SharedBatch& b = worker.batch();
-    b.mode = BatchMode::cases, b.variant = index_, b.count = 1, b.repeats = 1;
-    double* x = b.queries[0].numbers;
-    for (int k = 0; k < 3; ++k) x[k] = q.ray.origin[k], x[3 + k] = q.ray.direction[k];
-    shape_numbers(q.shape, x + 6);
-    std::uint32_t stopped_at = 0;
-    bool timed_out = false;
-    if (!worker.run(options_.case_timeout_seconds, stopped_at, timed_out).empty())
-      return Answer::failure_of(worker.forked() ? AnswerFailure::protocol
-                                : timed_out     ? AnswerFailure::timeout
-                                                : AnswerFailure::crash);
-    Answer a = Hit{b.answers[0].cls, b.answers[0].t};
-    a.failure = b.answers[0].failure;
-    return a;
-  }
-  bool trace_all(const KindIndex& scene, HitRule, std::span<const SceneRay> rays, std::span<SceneRayAnswer> out,
-                 AnswerTiming* timing) override {
-    if (scene.kind() != shape_) return false;
-    double inside = 0;
-    for (std::size_t start = 0; start < rays.size();) {
-      const std::size_t n = std::min(kBatchCapacity, rays.size() - start);
-      if (budget_.stopped()) {
-        std::fill(out.begin() + start, out.end(), SceneRayAnswer{-1, Answer::failure_of(AnswerFailure::stopped)});
-        inside = -1;
-        break;
-      }
-      std::unique_ptr<WorkerProcess> worker = plugin_.take();
-      std::uint32_t stopped_at = 0;
-      bool timed_out = false;
-      std::string why = worker->scene_serial == scene.serial() ? "" : send_scene(*worker, scene, timed_out);
-      std::size_t answered = 0;
-      if (why.empty()) {
-        SharedBatch& b = worker->batch();
-        b.mode = BatchMode::trace, b.variant = index_, b.count = static_cast<std::uint32_t>(n),
-        b.repeats = timing ? static_cast<std::uint32_t>(std::max(1, timing->repeats)) : 1;
-        for (std::size_t i = 0; i < n; ++i) {
-          const SceneRay& r = rays[start + i];
-          double* x = b.queries[i].numbers;
-          for (int k = 0; k < 3; ++k) x[k] = r.ray.origin[k], x[3 + k] = r.ray.direction[k];
-          x[6] = r.skip, x[7] = r.any_hit ? 1 : 0;
-        }
-        why = worker->run(options_.case_timeout_seconds, stopped_at, timed_out);
-        answered = why.empty() ? n : std::min<std::size_t>(stopped_at, n);
-        for (std::size_t i = 0; i < answered; ++i) {
-          const WireAnswer& a = b.answers[i];
-          out[start + i] = {a.primitive, Hit{a.cls, a.t}};
-        }
-        inside += b.inner_seconds;
-      }
-      if (why.empty()) {
-        plugin_.give_back(std::move(worker));
-        start += n;
-        continue;
-      }
-      // As in answer_all: the ray it was on is blamed, the rest go to a fresh worker.
-      out[start + answered] = {-1, Answer::failure_of(worker->forked() ? AnswerFailure::protocol
-                                                      : timed_out      ? AnswerFailure::timeout
-                                                                       : AnswerFailure::crash)};
-      if (worker->forked())
-        budget_.stop(why);
-      else
-        budget_.spend(why);
-      inside = -1;
-      start += answered + 1;
-    }
-    if (timing) timing->inner_seconds = inside;
-    return true;
-  }
-  std::string stop_reason() const override { return budget_.stop_reason(); }
-  std::string last_failure() const override { return budget_.last_failure(); }
 
- private:
   // Sends the scene's primitives in id order (the worker builds the same KindIndex from them);
   // "" when it holds them, else why the worker died on the way.
   std::string send_scene(WorkerProcess& worker, const KindIndex& scene, bool& timed_out) {
