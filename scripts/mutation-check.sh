@@ -93,7 +93,7 @@ mutate "crash-budget-never-spent" peers/rayproof/peers/crash_budget.h \
 mutate "fingerprint-forgets-max-findings" fuzz/campaign.cpp \
   '{"max_findings", o.max_findings},' ""
 mutate "shrink-budget-ignored" fuzz/campaign.cpp \
-  "f.shrink = shrunk < o.max_shrunk && !stops_variant(f.failure);" "f.shrink = !stops_variant(f.failure);"
+  "f.shrink = shrunk < cap && is_shrinkable_failure(f.failure);" "f.shrink = is_shrinkable_failure(f.failure);"
 mutate "merge-in-name-order" cmd/cmd_merge.cpp \
   "if (k.tracer.empty()) k.pair_rank = order.of(k.family, k.shape);" ""
 mutate "audit-acne-never-counted" studies/scene_audit.cpp \
