@@ -69,9 +69,8 @@ class ExternalIntersector {
   // code at the leaves: one round trip per batch instead of one per leaf test. Returns false
   // where the code cannot (an --exec command, an answers file): callers then ask leaf by leaf.
   // `timing`: as for answer_all, the time of the whole traversal where it ran.
-  virtual bool trace_all(const KindIndex& scene, HitRule rule, std::span<const SceneRay> rays,
-                         std::span<SceneRayAnswer> out, AnswerTiming* timing) {
-    (void)scene, (void)rule, (void)rays, (void)out, (void)timing;
+  virtual bool trace_all(const KindIndex& /*scene*/, HitRule /*rule*/, std::span<const SceneRay> /*rays*/,
+                         std::span<SceneRayAnswer> /*out*/, AnswerTiming* /*timing*/) {
     return false;
   }
   // One query asked of a fresh copy of the code (a new worker or command) that nothing else uses,
