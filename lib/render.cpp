@@ -36,13 +36,7 @@ bool Intersectors::use(std::string_view name) {
 SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray) {
   const SceneRay r{ray};
   SceneRayAnswer a;
-  if (variant.kernel) {  // built-in code, called directly at each leaf
-    const HitRule own = variant.rule_for(rule);
-    a = trace_scene_ray(index.of_kind(kind), r, [&](const Shape& shape) { return variant.kernel(ray, shape, own); });
-  } else {
-    a = trace_scene_ray(index.of_kind(kind), r,
-                        [&](const Shape& shape) { return variant.intersect(ray, shape, rule); });
-  }
+  trace_scene_rays(variant, index.of_kind(kind), rule, std::span(&r, 1), std::span(&a, 1));
   return a.primitive < 0 ? SceneHit{} : SceneHit{index.primitive(a.primitive).object, a.primitive, a.answer};
 }
 
