@@ -9,6 +9,7 @@
 
 #include "rayproof/core/render.h"
 #include "rayproof/core/scene_index.h"
+#include "rayproof/core/scene_rays.h"
 #ifdef RAYPROOF_BENCH_EMBREE
 #include "rayproof/peers/embree.h"
 #endif
@@ -77,11 +78,13 @@ void BM_BvhPrimary(benchmark::State& state, const MeshScene* (*scene)(), const c
   const MeshScene* s = scene();
   if (!s) return state.SkipWithError("bunny scene not built (libcgal-demo missing)");
   const Variant& v = *find_variant(variant);
+  const KindIndex& triangles = s->index->of_kind(ShapeKind::triangle);
+  std::vector<SceneRay> rays(s->rays.begin(), s->rays.end());
   size_t i = 0;
-  for (auto _ : state) {
-    const SceneHit h =
-        trace_kind(*s->index, ShapeKind::triangle, v, HitRule::nearest_contact, s->rays[i++ % s->rays.size()]);
-    benchmark::DoNotOptimize(h.primitive);
+  for (auto _ : state) {  // one ray a call, as rtcIntersect1: the nearest primitive and its t
+    SceneRayAnswer a;
+    trace_scene_rays(v, triangles, HitRule::nearest_contact, std::span(&rays[i++ % rays.size()], 1), std::span(&a, 1));
+    benchmark::DoNotOptimize(a.primitive);
   }
   rays_counter(state);
 }

@@ -159,26 +159,31 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
     } else {
       const std::uint32_t repeats = std::max(1u, shared->repeats);  // timing: the batch again, inputs in cache
       const Stopwatch watch;  // the code alone (and, tracing, rayproof's traversal), where it runs
-      for (std::uint32_t pass = 0; pass < repeats; ++pass) {
-        for (std::uint32_t i = 0; i < shared->count; ++i) {
-          shared->progress.store(i, std::memory_order_relaxed);
-          const double* x = shared->queries[i].numbers;
-          if (shared->mode == BatchMode::cases) {
-            shared->answers[i] = call(x);
-            continue;
+      with_best_box_lanes([&](auto lanes) {
+        for (std::uint32_t pass = 0; pass < repeats; ++pass) {
+          for (std::uint32_t i = 0; i < shared->count; ++i) {
+            shared->progress.store(i, std::memory_order_relaxed);
+            const double* x = shared->queries[i].numbers;
+            if (shared->mode == BatchMode::cases) {
+              shared->answers[i] = call(x);
+              continue;
+            }
+            const SceneRay ray{Ray{Vec3(x[0], x[1], x[2]), Vec3(x[3], x[4], x[5])}, static_cast<std::int32_t>(x[6]),
+                               x[7] != 0};
+            double numbers[6 + kMaxShapeNumbers];
+            std::copy(x, x + 6, numbers);
+            const SceneRayAnswer found = trace_scene_ray(
+                scene, ray,
+                [&](const Shape& shape) {
+                  shape_numbers(shape, numbers + 6);
+                  const WireAnswer a = call(numbers);  // a plugin error counts as no contact, as it does leaf by leaf
+                  return a.failure == AnswerFailure::none ? Hit{a.cls, a.t} : Hit::miss();
+                },
+                lanes);
+            shared->answers[i] = {found.answer.t, found.answer.cls, AnswerFailure::none, found.primitive};
           }
-          const SceneRay ray{Ray{Vec3(x[0], x[1], x[2]), Vec3(x[3], x[4], x[5])}, static_cast<std::int32_t>(x[6]),
-                             x[7] != 0};
-          double numbers[6 + kMaxShapeNumbers];
-          std::copy(x, x + 6, numbers);
-          const SceneRayAnswer found = trace_scene_ray(scene, ray, [&](const Shape& shape) {
-            shape_numbers(shape, numbers + 6);
-            const WireAnswer a = call(numbers);  // a plugin error counts as no contact, as it does leaf by leaf
-            return a.failure == AnswerFailure::none ? Hit{a.cls, a.t} : Hit::miss();
-          });
-          shared->answers[i] = {found.answer.t, found.answer.cls, AnswerFailure::none, found.primitive};
         }
-      }
+      });
       shared->inner_seconds = watch.seconds() / repeats;
     }
     if (library_forked()) shared->forked.store(1);  // told before the answer, so this batch is never judged

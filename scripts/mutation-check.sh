@@ -82,6 +82,9 @@ mutate "watertight-fallback-dropped" lib/variants.cpp \
 # what the widening's proof needs.)
 mutate "bvh-exotic-direction-check-dropped" lib/rayproof/core/bvh.h \
   "if (d != 0 && !(std::abs(d) >= 0x1p-1000 && std::abs(d) <= 0x1p1000)) exotic = true;" ""
+mutate "bvh-slab-not-widened" lib/rayproof/core/bvh.h \
+  "static constexpr double kShrink = 1 - 3 * gamma(3), kGrow = 1 + 3 * gamma(3), kTiny = 0x1p-1070;" \
+  "static constexpr double kShrink = 1, kGrow = 1, kTiny = 0;"
 mutate "sphere-box-not-rounded-outward" lib/scene_index.cpp \
   "b.hi[k] = next_up(s->center[k] + s->radius);" "b.hi[k] = s->center[k] + s->radius;"
 mutate "obj-negative-index-off-by-one" lib/mesh.cpp \

@@ -66,9 +66,10 @@ long expect_visits_every_contact(const SceneIndex& index, ShapeKind kind, const 
   return contacts;
 }
 
-// The wide nodes' four-box test (SSE2 where built for it) is the one-box test lane by lane: the
-// same hits and the same entries, on rays with zero components (infinite reciprocals), origins on
-// a slab's plane (0·∞ = NaN), and boxes empty, flat, infinite and at extreme magnitudes.
+// The wide nodes' four-box test (the baseline build's, and the AVX2 build's where the CPU has
+// it) is the one-box test lane by lane: the same hits and the same entries, on rays with zero
+// components (infinite reciprocals), origins on a slab's plane (0·∞ = NaN), and boxes empty,
+// flat, infinite and at extreme magnitudes.
 TEST(Bvh, FourBoxTestEqualsTheOneBoxTestLaneByLane) {
   std::mt19937_64 rng(22);
   std::uniform_real_distribution<double> u(-4, 4);
@@ -96,15 +97,19 @@ TEST(Bvh, FourBoxTestEqualsTheOneBoxTestLaneByLane) {
       for (int k = 0; k < 3; ++k) corners[k][i] = boxes[i].lo[k], corners[3 + k][i] = boxes[i].hi[k];
     }
     const double t_limit = trial % 5 == 0 ? inf : std::abs(u(rng)) * 4;
-    double entries[4];
+    double entries[4], best_entries[4];
     const unsigned mask = slab.meets4(corners, t_limit, entries);
+    unsigned best_mask = 0;  // the same test built for AVX2, where this CPU has it
+    with_best_box_lanes([&](auto lanes) { best_mask = slab.meets4(corners, t_limit, best_entries, lanes); });
     for (int i = 0; i < 4; ++i) {
       double entry = -1;
       const bool one = slab.meets(boxes[i], t_limit, entry);
       ASSERT_EQ(bool(mask >> i & 1), one) << trial << " lane " << i;
+      ASSERT_EQ(bool(best_mask >> i & 1), one) << trial << " lane " << i << " (best lanes)";
       if (one) {
         ++hits;
         ASSERT_EQ(entries[i], entry) << trial << " lane " << i;
+        ASSERT_EQ(best_entries[i], entry) << trial << " lane " << i << " (best lanes)";
       }
     }
   }

@@ -5,16 +5,18 @@
 #pragma once
 
 #include <bit>
-#if defined(__SSE2__)
-#include <emmintrin.h>
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
 #endif
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <span>
 #include <vector>
 
+#include "rayproof/core/batch.h"
 #include "rayproof/core/fp.h"
 #include "rayproof/core/geometry.h"
 
@@ -39,12 +41,66 @@ struct Bounds {
 };
 static_assert(sizeof(Vec3) == 3 * sizeof(double) && offsetof(Bounds, hi) == sizeof(Vec3));
 
-// The parameter interval [lower, upper] over which a ray may be inside a box, widened so that it
-// contains the exact interval (robust slab test). Per axis t = (bound − o)·(1/d) rounds three
-// times (difference, reciprocal, product): the computed t lies within γ(3)·|t| of the exact one
-// (Higham §3.1; pbrt-v4 widens tMax by 1 + 2γ(3) for the same reason). Widening each end by
-// 3γ(3)·|t| covers that and the rounding of the widening itself, and 2^-1070 covers a product
-// that underflowed. The bound holds while no reciprocal or difference over- or underflows:
+// Four doubles, and four lanes' yes/no (all bits set or clear), as GCC and Clang vector
+// extensions: the four-box test is written once over them. In code built for the baseline
+// (x86-64: SSE2) each operation is two instructions; inlined into a function built for AVX2
+// (with_best_box_lanes) the same source becomes one instruction an operation.
+using Double4 = double __attribute__((vector_size(32)));
+using Mask4 = std::int64_t __attribute__((vector_size(32)));
+
+// Which instructions turn a Mask4 into four bits: all the lanes differ in. AVX2's needs its
+// caller built for AVX2 (with_best_box_lanes); the baseline reads the lanes one by one.
+struct BaselineLanes {
+  static unsigned bits(const Mask4& m) {
+    return static_cast<unsigned>((m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8));
+  }
+};
+#if defined(__x86_64__) || defined(__i386__)
+struct Avx2Lanes {
+  [[gnu::target("avx2")]] static unsigned bits(const Mask4& m) {
+    return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(m)));
+  }
+};
+namespace bvh_detail {
+// flatten: the whole body, traversal and leaf rules included, is inlined here and compiled for
+// AVX2 (never FMA: no product is fused, so every result is the baseline's bit for bit).
+template <class Body>
+[[gnu::flatten, gnu::target("avx2")]] void run_with_avx2(Body& body) {
+  body(Avx2Lanes{});
+}
+}  // namespace bvh_detail
+#endif
+
+// Calls body(lanes) once, with lanes the best this CPU runs (Avx2Lanes, or BaselineLanes), body
+// compiled for it: pass `lanes` on to Bvh::traverse. Chosen per call from best_batch_isa(), which
+// asks the CPU once per process.
+template <class Body>
+void with_best_box_lanes(Body&& body) {
+#if defined(__x86_64__) || defined(__i386__)
+  if (best_batch_isa() != BatchIsa::sse2) return bvh_detail::run_with_avx2(body);
+#endif
+  body(BaselineLanes{});
+}
+
+// The parameter interval over which a ray may be inside a box, widened so that it contains the
+// exact interval [ℓ*, υ*] wherever that meets t ≥ 0 (robust slab test). Per axis
+// t = (bound − o)·(1/d) rounds three times (difference, reciprocal, product), so the computed
+// t lies within γ(3)·|t*| of the exact t* and has its sign (Higham §3.1; pbrt-v4 widens tMax by
+// 1 + 2γ(3) for the same reason); max and min are exact and x ↦ x ± γ(3)|x| is increasing, so
+// the computed ends ℓ, υ obey the same bound. The widening, proved here once (meets and meets4
+// use the same constants):
+//  - entry = max(fl(fl(ℓ·kShrink) − kTiny), 0) ≤ max(ℓ*, 0): for ℓ ≤ 0 it is 0; for ℓ > 0,
+//    fl(ℓ·kShrink) ≤ ℓ*(1 + γ(3))(1 − 3γ(3))(1 + u) < ℓ*, and subtracting rounds down to at most
+//    its operand.
+//  - exit = fl(fl(υ·kGrow) + kTiny) ≥ υ* wherever υ* ≥ 0: υ ≥ υ*(1 − γ(3)) ≥ 0, so
+//    fl(υ·kGrow) ≥ υ*(1 − γ(3))(1 + 3γ(3))(1 − u) > υ*. (Where υ* < 0 the box lies behind the
+//    ray and any answer is conservative.)
+//  - kTiny = 2^-1070 covers products that underflowed (absolute error ≤ 2^-1075 each).
+//  - The constants themselves round to within u/2 of 1 ∓ 3γ(3); with γ(3) > 3u the margins
+//    above stay positive (about 2γ(3) − 1.5u).
+// So the exact interval meets [0, t_limit] only if entry ≤ exit and entry ≤ t_limit. A product
+// by a constant replaces the earlier x ∓ |x|·w (one rounding and no absolute value on the path
+// every box waits for). The bound holds while no reciprocal or difference over- or underflows:
 // SlabRay::exotic flags the rays where it might not (|d| components outside [2^-1000, 2^1000],
 // |o| beyond 2^1000), and Bvh::traverse visits every primitive for them instead.
 struct SlabRay {
@@ -67,10 +123,8 @@ struct SlabRay {
   //  - A zero component (infinite reciprocal) gives ±inf ends, so the slab constrains nothing or
   //    excludes everything, as it should; an origin exactly on that slab's plane gives 0·inf =
   //    NaN, which the comparisons below ignore (no constraint: the closed slab holds the ray).
-  //  - The widening is applied once, to the max of the lower ends and the min of the upper ends:
-  //    x ↦ x ∓ |x|·w is increasing for w < 1, so that equals widening every end first.
+  static constexpr double kShrink = 1 - 3 * gamma(3), kGrow = 1 + 3 * gamma(3), kTiny = 0x1p-1070;
   bool meets(const Bounds& b, double t_limit, double& entry) const {
-    constexpr double kWiden = 3 * gamma(3), kTiny = 0x1p-1070;
     double lower = -std::numeric_limits<double>::infinity(), upper = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 3; ++k) {
       const double t_near = (b.corners()[near_index[k]] - origin[k]) * inverse[k];
@@ -82,61 +136,32 @@ struct SlabRay {
     // of, and no widening makes that a hit (widening inf would give NaN).
     if (!(lower < std::numeric_limits<double>::infinity()) || !(upper > -std::numeric_limits<double>::infinity()))
       return false;
-    lower = lower - std::abs(lower) * kWiden - kTiny;
-    upper = upper + std::abs(upper) * kWiden + kTiny;
+    lower = lower * kShrink - kTiny;
+    upper = upper * kGrow + kTiny;
     entry = lower > 0 ? lower : 0;
     return entry <= upper && entry <= t_limit;
   }
   // meets() for four boxes at once, given as corners[axis][lane] and corners[3 + axis][lane] (lo,
-  // then hi): the same operations lane by lane (SSE2, two lanes an instruction, where the target
-  // has it: MAXPD and MINPD return their second operand on a NaN or a tie, as the comparisons of
-  // meets() keep `lower` and `upper`). Returns bit i for box i, with entry[i]. A lane whose box is
-  // empty (lo +inf, hi −inf) never meets.
-  unsigned meets4(const double (&corners)[6][4], double t_limit, double (&entry)[4]) const {
-    constexpr double kWiden = 3 * gamma(3), kTiny = 0x1p-1070, inf = std::numeric_limits<double>::infinity();
-#if defined(__SSE2__)
-    unsigned hits = 0;
-    const __m128d sign = _mm_set1_pd(-0.0), widen = _mm_set1_pd(kWiden), tiny = _mm_set1_pd(kTiny);
-    for (int half = 0; half < 4; half += 2) {
-      __m128d lower = _mm_set1_pd(-inf), upper = _mm_set1_pd(inf);
-      for (int k = 0; k < 3; ++k) {
-        const __m128d o = _mm_set1_pd(origin[k]), inv = _mm_set1_pd(inverse[k]);
-        const __m128d t_near = _mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(corners[near_index[k]] + half), o), inv);
-        const __m128d t_far = _mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(corners[far_index[k]] + half), o), inv);
-        lower = _mm_max_pd(t_near, lower);
-        upper = _mm_min_pd(t_far, upper);
-      }
-      const __m128d bounded = _mm_and_pd(_mm_cmplt_pd(lower, _mm_set1_pd(inf)), _mm_cmpgt_pd(upper, _mm_set1_pd(-inf)));
-      const __m128d lo = _mm_sub_pd(_mm_sub_pd(lower, _mm_mul_pd(_mm_andnot_pd(sign, lower), widen)), tiny);
-      const __m128d hi = _mm_add_pd(_mm_add_pd(upper, _mm_mul_pd(_mm_andnot_pd(sign, upper), widen)), tiny);
-      const __m128d at = _mm_max_pd(lo, _mm_setzero_pd());
-      _mm_storeu_pd(entry + half, at);
-      const __m128d met = _mm_and_pd(bounded, _mm_and_pd(_mm_cmple_pd(at, hi), _mm_cmple_pd(at, _mm_set1_pd(t_limit))));
-      hits |= static_cast<unsigned>(_mm_movemask_pd(met)) << half;
-    }
-    return hits;
-#else
-    double lower[4] = {-inf, -inf, -inf, -inf}, upper[4] = {inf, inf, inf, inf};
+  // then hi): the same operations lane by lane, written once over Double4 (`a > b ? a : b` is
+  // MAXPD's rule, so NaN and ties keep `lower` and `upper` as meets() does). Returns bit i for box
+  // i, with entry[i]. A lane whose box is empty (lo +inf, hi −inf) never meets.
+  template <class Lanes = BaselineLanes>
+  unsigned meets4(const double (&corners)[6][4], double t_limit, double (&entry)[4], Lanes = {}) const {
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    Double4 lower = Double4{} - inf, upper = Double4{} + inf;
     for (int k = 0; k < 3; ++k) {
-      const double* near_bound = corners[near_index[k]];
-      const double* far_bound = corners[far_index[k]];
-      for (int i = 0; i < 4; ++i) {
-        const double t_near = (near_bound[i] - origin[k]) * inverse[k];
-        const double t_far = (far_bound[i] - origin[k]) * inverse[k];
-        lower[i] = t_near > lower[i] ? t_near : lower[i];
-        upper[i] = t_far < upper[i] ? t_far : upper[i];
-      }
+      Double4 near_bound, far_bound;
+      std::memcpy(&near_bound, corners[near_index[k]], sizeof(Double4));
+      std::memcpy(&far_bound, corners[far_index[k]], sizeof(Double4));
+      const Double4 t_near = (near_bound - origin[k]) * inverse[k], t_far = (far_bound - origin[k]) * inverse[k];
+      lower = t_near > lower ? t_near : lower;
+      upper = t_far < upper ? t_far : upper;
     }
-    unsigned hits = 0;
-    for (int i = 0; i < 4; ++i) {
-      const bool bounded = lower[i] < inf && upper[i] > -inf;
-      const double lo = lower[i] - std::abs(lower[i]) * kWiden - kTiny;
-      const double hi = upper[i] + std::abs(upper[i]) * kWiden + kTiny;
-      entry[i] = lo > 0 ? lo : 0;
-      hits |= static_cast<unsigned>(bounded && entry[i] <= hi && entry[i] <= t_limit) << i;
-    }
-    return hits;
-#endif
+    const Mask4 bounded = (lower < inf) & (upper > -inf);
+    const Double4 lo = lower * kShrink - kTiny, hi = upper * kGrow + kTiny;
+    const Double4 zero{}, at = lo > zero ? lo : zero;
+    std::memcpy(entry, &at, sizeof(Double4));
+    return Lanes::bits(bounded & (at <= hi) & (at <= t_limit));
   }
 };
 
@@ -147,9 +172,9 @@ class Bvh {
     std::int32_t first = 0;  // leaf: first index into order(); inner: the second child (the first is next)
     std::int32_t count = 0;  // leaf: number of primitives (> 0); inner: 0
   };
-  static constexpr int kLeafSize = 4;
+  static constexpr int kLeafSize = 2;
   static constexpr int kMaxDepth = 100;  // past this depth a node becomes a leaf, so traversal's fixed stack holds
-  static constexpr int kBins = 16;
+  static constexpr int kBins = 32;
 
   Bvh() = default;
   // Builds over one box per primitive (binned SAH on the box centroids, ties broken by index).
@@ -159,8 +184,9 @@ class Bvh {
   // 0 ≤ t ≤ t_limit, nearer boxes first (leaves hold consecutive positions, so callers keep
   // their primitives in this order). visit returns true to stop; it may lower t_limit as it goes
   // (boxes entered beyond t_limit are then skipped).
-  template <class Visit>
-  void traverse(const Ray& ray, double& t_limit, Visit&& visit) const {
+  // `lanes`: the four-box test's instructions (with_best_box_lanes).
+  template <class Visit, class Lanes = BaselineLanes>
+  void traverse(const Ray& ray, double& t_limit, Visit&& visit, Lanes lanes = {}) const {
     if (wide_.empty()) return;
     const SlabRay slab(ray);
     if (slab.exotic) {  // outside the range where the widening is proved: visit everything
@@ -190,7 +216,7 @@ class Bvh {
       } else {
         const WideNode& node = wide_[at.first];
         double entry[4];
-        unsigned hits = slab.meets4(node.corners, t_limit, entry);
+        unsigned hits = slab.meets4(node.corners, t_limit, entry, lanes);
         if (hits != 0) {
           Pending met[4];  // farthest first
           int n = 0;
@@ -222,7 +248,7 @@ class Bvh {
   // corners[3 + axis][slot] hi; child[slot] a wide node (count 0) or a leaf's first position
   // (count > 0); an unused slot has an empty box.
   struct WideNode {
-    double corners[6][4];
+    alignas(32) double corners[6][4];
     std::int32_t child[4];
     std::int32_t count[4];
   };

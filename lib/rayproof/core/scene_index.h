@@ -41,15 +41,16 @@ class KindIndex {
   // Calls visit(primitive id, its shape) for each primitive that the ray may meet at
   // 0 ≤ t ≤ t_limit (conservatively: Bvh), nearer boxes first; planes are all visited. visit
   // returns true to stop and may lower t_limit.
-  template <class Visit>
-  void traverse(const Ray& ray, double& t_limit, Visit&& visit) const {
+  // `lanes`: the BVH's four-box instructions (with_best_box_lanes).
+  template <class Visit, class Lanes = BaselineLanes>
+  void traverse(const Ray& ray, double& t_limit, Visit&& visit, Lanes lanes = {}) const {
     auto at = [&](std::int32_t i) { return visit(ids_[i], shapes_[i]); };
     if (kind_ == ShapeKind::plane) {
       for (std::int32_t i = 0; i < static_cast<std::int32_t>(ids_.size()); ++i)
         if (at(i)) return;
       return;
     }
-    bvh_.traverse(ray, t_limit, at);
+    bvh_.traverse(ray, t_limit, at, lanes);
   }
 
  private:

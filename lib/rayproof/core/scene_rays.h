@@ -18,27 +18,31 @@ namespace rayproof {
 //  - nearest: the contact with the smallest t ≥ 0, ties to the lower primitive id (the scene's
 //    order, SceneIndex::listed_before); farther boxes are skipped as t drops.
 //  - any_hit: the first primitive but `skip` met at 0 ≤ t < 1.
-template <class Intersect>
-SceneRayAnswer trace_scene_ray(const KindIndex& index, const SceneRay& r, Intersect&& intersect) {
+//  - lanes: the BVH's four-box instructions (with_best_box_lanes).
+template <class Intersect, class Lanes = BaselineLanes>
+SceneRayAnswer trace_scene_ray(const KindIndex& index, const SceneRay& r, Intersect&& intersect, Lanes lanes = {}) {
   SceneRayAnswer best;
   double t_limit = r.any_hit ? 1.0 : std::numeric_limits<double>::infinity();
-  index.traverse(r.ray, t_limit, [&](std::int32_t id, const Shape& shape) {
-    if (id == r.skip) return false;
-    const Hit h = intersect(shape);
-    if (h.cls == HitClass::miss || !h.has_t()) return false;
-    if (r.any_hit) {
-      if (!(h.t < 1)) return false;
-      best = {id, h};
-      return true;
-    }
-    if (!(h.t >= 0)) return false;
-    if (best.primitive < 0 || h.t < best.answer.t ||
-        (h.t == best.answer.t && SceneIndex::listed_before(id, best.primitive))) {
-      best = {id, h};
-      t_limit = h.t;
-    }
-    return false;
-  });
+  index.traverse(
+      r.ray, t_limit,
+      [&](std::int32_t id, const Shape& shape) {
+        if (id == r.skip) return false;
+        const Hit h = intersect(shape);
+        if (h.cls == HitClass::miss || !h.has_t()) return false;
+        if (r.any_hit) {
+          if (!(h.t < 1)) return false;
+          best = {id, h};
+          return true;
+        }
+        if (!(h.t >= 0)) return false;
+        if (best.primitive < 0 || h.t < best.answer.t ||
+            (h.t == best.answer.t && SceneIndex::listed_before(id, best.primitive))) {
+          best = {id, h};
+          t_limit = h.t;
+        }
+        return false;
+      },
+      lanes);
   return best;
 }
 
