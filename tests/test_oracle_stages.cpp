@@ -1,8 +1,8 @@
 // The oracle's fast stages may only ever answer what the exact stage answers: every stage
-// configuration gives the same class, side and correctly rounded t on every generated family and
-// shape, the same cases scaled by 2^±500 and 2^-537 (subnormal products), and rays whose products
-// overflow. RAYPROOF_STAGE_CASES sets the cases per family and shape (default 1,000; the README's
-// figure is 10^6 per shape).
+// configuration gives the same class (judged, and classified alone), side and correctly rounded t
+// on every generated family and shape, the same cases scaled by 2^±500 and 2^-537 (subnormal
+// products), and rays whose products overflow. RAYPROOF_STAGE_CASES sets the cases per family
+// and shape (default 1,000; the README's figure is 10^6 per shape).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -49,8 +49,9 @@ TEST(OracleStages, EveryConfigurationAnswersLikeTheRationalStage) {
           const Verdict truth = exact.judge(q.ray, q.shape);
           for (size_t c = 0; c < fast.size(); ++c) {
             const Verdict v = fast[c].judge(q.ray, q.shape);
+            const HitClass cls = fast[c].classify(q.ray, q.shape);  // the class alone takes its own path
             ++compared;
-            if (v.cls != truth.cls || v.t != truth.t || v.front != truth.front) {
+            if (v.cls != truth.cls || v.t != truth.t || v.front != truth.front || cls != truth.cls) {
               if (++differences <= 5)
                 ADD_FAILURE() << kConfigurations[c].name << " differs on " << to_string(family) << "/"
                               << to_string(shape) << " case " << i << " scaled 2^" << k << ": " << to_string(v.cls)

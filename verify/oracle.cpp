@@ -152,6 +152,34 @@ struct SpherePolicy : NoSpecialCase {
     }
     return {NT(t.b + t.b), NT(0), t.a, 0};  // roots 0 and 2b′/a
   }
+
+  // The static filter: the terms in plain doubles, bounds by hand (filtered.h's model). With
+  // every input 0 or in [2^-200, 2^200], every product's magnitude (of degree ≤ 4) is 0 or in
+  // [2^-800, 2^808], inside [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the deepest path
+  // (a product adds both operands' and one; a sum one more than the deeper operand):
+  // f = o − m: 1; a = (d₀² + d₁²) + d₂²: 3; b′ = −((f₀d₀ + f₁d₁) + f₂d₂): 4;
+  // c = ((f₀² + f₁²) + f₂²) − r²: 6; D′ = b′² − a·c: 11. Magnitudes m are the same trees over
+  // |leaves| (|f| = |o| + |m|), evaluated alongside.
+  static std::optional<Decision<Source>> decide_static(const Ray& ray, const Sphere& s) {
+    const Vec3 &o = ray.origin, &d = ray.direction, &centre = s.center;
+    constexpr double lo = 0x1p-200, hi = 0x1p+200;
+    bool ok = static_input_range(s.radius, lo, hi);
+    for (int i = 0; i < 3; ++i)
+      ok &= static_input_range(o[i], lo, hi) & static_input_range(d[i], lo, hi) & static_input_range(centre[i], lo, hi);
+    if (!ok) return std::nullopt;
+    const Vec3 f = o - centre, mf = o.cwiseAbs() + centre.cwiseAbs(), ad = d.cwiseAbs();
+    const double a = (d.x() * d.x() + d.y() * d.y()) + d.z() * d.z();
+    const double b = -((f.x() * d.x() + f.y() * d.y()) + f.z() * d.z());
+    const double m_b = (mf.x() * ad.x() + mf.y() * ad.y()) + mf.z() * ad.z();
+    const double c = ((f.x() * f.x() + f.y() * f.y()) + f.z() * f.z()) - s.radius * s.radius;
+    const double m_c = ((mf.x() * mf.x() + mf.y() * mf.y()) + mf.z() * mf.z()) + s.radius * s.radius;
+    const double disc = b * b - a * c, m_disc = m_b * m_b + a * m_c;  // a is its own magnitude
+    using filter_detail::kGammaDouble;
+    return decide(Terms<StaticallyBounded>{{a, kGammaDouble[3] * a},
+                                           {b, kGammaDouble[4] * m_b},
+                                           {c, kGammaDouble[6] * m_c},
+                                           {disc, kGammaDouble[11] * m_disc}});
+  }
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -184,6 +212,26 @@ struct PlanePolicy : NoSpecialCase {
   template <class NT>
   static ParameterOf<NT> parameter(const Terms<NT>& t, Source) {
     return ratio_parameter(t.num, t.den);
+  }
+
+  // The static filter: the terms in plain doubles, bounds by hand (filtered.h's model). With
+  // every input 0 or in [2^-400, 2^400], every product's magnitude is 0 or in [2^-800, 2^800] and
+  // every sum's below 2^802: inside [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the
+  // deepest path: den = (n₀d₀ + n₁d₁) + n₂d₂, k = 3; num = k − ((n₀o₀ + n₁o₁) + n₂o₂), k = 4.
+  static std::optional<Decision<Source>> decide_static(const Ray& ray, const Plane& p) {
+    const Vec3 &n = p.normal, &o = ray.origin, &d = ray.direction;
+    constexpr double lo = 0x1p-400, hi = 0x1p+400;
+    bool ok = static_input_range(p.offset, lo, hi);
+    for (int i = 0; i < 3; ++i)
+      ok &= static_input_range(n[i], lo, hi) & static_input_range(o[i], lo, hi) & static_input_range(d[i], lo, hi);
+    if (!ok) return std::nullopt;
+    const Vec3 an = n.cwiseAbs(), ao = o.cwiseAbs(), ad = d.cwiseAbs();
+    const double den = (n.x() * d.x() + n.y() * d.y()) + n.z() * d.z();
+    const double m_den = (an.x() * ad.x() + an.y() * ad.y()) + an.z() * ad.z();
+    const double num = p.offset - ((n.x() * o.x() + n.y() * o.y()) + n.z() * o.z());
+    const double m_num = std::abs(p.offset) + ((an.x() * ao.x() + an.y() * ao.y()) + an.z() * ao.z());
+    using filter_detail::kGammaDouble;
+    return decide(Terms<StaticallyBounded>{{num, kGammaDouble[4] * m_num}, {den, kGammaDouble[3] * m_den}});
   }
 };
 
@@ -391,8 +439,11 @@ template <class P>
 Decided<P> decide_filtered(const Ray& ray, const typename P::ShapeType& shape, const Oracle::Options& options,
                            OracleStats& stats) {
   if (options.filter) {
-    if (options.static_filter)
+    if (options.static_filter) {
+      if constexpr (requires { P::decide_static(ray, shape); })
+        if (const auto d = P::decide_static(ray, shape)) return {*d, nullptr, nullptr};
       if (const auto d = P::decide(P::template terms<FilteredDouble>(ray, shape))) return {*d, nullptr, nullptr};
+    }
     std::optional<Decision<typename P::Source>> d;
     {
       CGAL::Protect_FPU_rounding<true> upward;
@@ -601,12 +652,11 @@ double round_to_nearest(const ExactParameter& t, RoundingStats& stats) {
 
 // ---------------------------------------------------------------------------------------------
 namespace {
-Verdict apply_rule(Verdict v, HitRule rule) {
-  // Enter-only keeps a contact only where the ray enters: an entry, or an edge hit from the front.
-  if (rule == HitRule::enter_only && !(v.cls == HitClass::enter || (v.cls == HitClass::boundary && v.front)))
-    return Verdict{};
-  return v;
+// Enter-only keeps a contact only where the ray enters: an entry, or an edge hit from the front.
+bool kept_by_rule(HitClass cls, bool front, HitRule rule) {
+  return rule != HitRule::enter_only || cls == HitClass::enter || (cls == HitClass::boundary && front);
 }
+Verdict apply_rule(Verdict v, HitRule rule) { return kept_by_rule(v.cls, v.front, rule) ? v : Verdict{}; }
 
 // t from the fastest stage that proves its rounding: double-double, expansions, rationals.
 template <class P>
@@ -650,10 +700,7 @@ HitClass classify_with(const Ray& ray, const typename P::ShapeType& shape, HitRu
     Verdict v = *P::special_case(ray, shape, r.decision, stats.rounding);
     return apply_rule(std::move(v), rule).cls;
   }
-  const HitClass cls = r.decision.cls;
-  if (rule == HitRule::enter_only && !(cls == HitClass::enter || (cls == HitClass::boundary && r.decision.front)))
-    return HitClass::miss;
-  return cls;
+  return kept_by_rule(r.decision.cls, r.decision.front, rule) ? r.decision.cls : HitClass::miss;
 }
 
 // The policy of each shape type: a table, kept one line per shape.
@@ -772,6 +819,21 @@ Verdict Oracle::judge_as_given(const Ray& ray, const Shape& shape) {
 HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
   OracleStats& stats = stats_[shape.index()];
   ++stats.queries;
+  // A shape's static filter first, on the query as given: it checks its own input range, so no
+  // scaling is needed where it decides (nearly always, on random rays).
+  if (options_.filter && options_.static_filter) {
+    const std::optional<HitClass> decided = std::visit(
+        [&](const auto& s) -> std::optional<HitClass> {
+          using P = typename PolicyOf<std::decay_t<decltype(s)>>::type;
+          if constexpr (requires { P::decide_static(ray, s); }) {
+            if (const auto d = P::decide_static(ray, s))
+              return kept_by_rule(d->cls, d->front, rule) ? d->cls : HitClass::miss;
+          }
+          return std::nullopt;
+        },
+        shape);
+    if (decided) return *decided;
+  }
   const auto n = options_.filter ? normalized(ray, shape) : std::nullopt;
   const Ray& r = n ? n->ray : ray;
   return std::visit(

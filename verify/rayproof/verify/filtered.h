@@ -171,6 +171,27 @@ class FilteredDD {
   bool valid_;
 };
 
+// A double from one fixed expression whose bound is worked out by hand for that expression: a
+// shape's static filter (oracle.cpp), CGAL's Static_filters in spirit. The bound is
+// filter_detail::kGammaDouble[k]·m as above, with k and the tree of m fixed per term; the inputs
+// are first checked into static_input_range, where every product's magnitude is 0 or in the
+// model's range, so bound 0 means every term is exactly 0.
+struct StaticallyBounded {
+  double value, bound;
+};
+[[gnu::always_inline]] inline std::optional<int> sign_of(const StaticallyBounded& x) {
+  if (x.value > x.bound) return 1;
+  if (x.value < -x.bound) return -1;
+  if (x.bound == 0) return 0;  // (and value is 0)
+  return std::nullopt;
+}
+// Whether |x| is 0 or in [lo, hi] (never for NaN or ±inf). Without branches: filters call it on
+// every input, and a branch per input mispredicts more than the comparisons cost.
+[[gnu::always_inline]] inline bool static_input_range(double x, double lo, double hi) {
+  const double a = std::abs(x);
+  return (a == 0) | ((a >= lo) & (a <= hi));
+}
+
 [[gnu::always_inline]] inline std::optional<int> sign_of(const FilteredDouble& x) { return x.sign(); }
 [[gnu::always_inline]] inline std::optional<int> sign_of(const FilteredDD& x) { return x.sign(); }
 
