@@ -289,6 +289,43 @@ struct TrianglePolicy {
     return ratio_parameter(t.num, t.den);
   }
 
+  // The static filter: the terms in plain doubles, bounds by hand (filtered.h's model). With
+  // every input 0 or in [2^-250, 2^250], every product's magnitude (of degree ≤ 3) is 0 or in
+  // [2^-750, 2^757], inside [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the deepest path:
+  // differences of inputs 1; n = e₁ × e₂ (each component a·b − c·d) 4; den = n·d (dot:
+  // (x + y) + z) 7; num = n·(v₀ − o) 8; each edge d·(rel_i × rel_i+1) 7. Magnitudes: the same
+  // trees over |leaves| with every − read as +.
+  static std::optional<Decision<Source>> decide_static(const Ray& ray, const Triangle& tri) {
+    constexpr double lo = 0x1p-250, hi = 0x1p+250;
+    bool ok = true;
+    for (int i = 0; i < 3; ++i) {
+      ok &= static_input_range(ray.origin[i], lo, hi) & static_input_range(ray.direction[i], lo, hi);
+      for (const Vec3& p : tri.v) ok &= static_input_range(p[i], lo, hi);
+    }
+    if (!ok) return std::nullopt;
+    auto cross_of = [](const Vec3& a, const Vec3& b) {
+      return Vec3(a.y() * b.z() - a.z() * b.y(), a.z() * b.x() - a.x() * b.z(), a.x() * b.y() - a.y() * b.x());
+    };
+    auto cross_magnitude = [](const Vec3& a, const Vec3& b) {
+      return Vec3(a.y() * b.z() + a.z() * b.y(), a.z() * b.x() + a.x() * b.z(), a.x() * b.y() + a.y() * b.x());
+    };
+    auto dot_of = [](const Vec3& a, const Vec3& b) { return (a.x() * b.x() + a.y() * b.y()) + a.z() * b.z(); };
+    const Vec3 &o = ray.origin, &d = ray.direction, ao = o.cwiseAbs(), ad = d.cwiseAbs();
+    const Vec3 av[3] = {tri.v[0].cwiseAbs(), tri.v[1].cwiseAbs(), tri.v[2].cwiseAbs()};
+    const Vec3 rel[3] = {tri.v[0] - o, tri.v[1] - o, tri.v[2] - o};
+    const Vec3 m_rel[3] = {av[0] + ao, av[1] + ao, av[2] + ao};
+    const Vec3 n = cross_of(tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]);
+    const Vec3 m_n = cross_magnitude(av[1] + av[0], av[2] + av[0]);
+    using filter_detail::kGammaDouble;
+    Terms<StaticallyBounded> t;
+    t.den = {dot_of(n, d), kGammaDouble[7] * dot_of(m_n, ad)};
+    t.num = {dot_of(n, rel[0]), kGammaDouble[8] * dot_of(m_n, m_rel[0])};
+    for (int i = 0; i < 3; ++i)
+      t.edge[i] = {dot_of(d, cross_of(rel[i], rel[(i + 1) % 3])),
+                   kGammaDouble[7] * dot_of(ad, cross_magnitude(m_rel[i], m_rel[(i + 1) % 3]))};
+    return decide(t);
+  }
+
   // A coplanar ray is a 2D problem the 3D terms cannot settle.
   static bool special_case_needed(const Decision<Source>& d) { return d.source == Source::coplanar; }
   static std::optional<Verdict> special_case(const Ray& ray, const Triangle& tri, const Decision<Source>& d,
@@ -826,8 +863,8 @@ HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
         [&](const auto& s) -> std::optional<HitClass> {
           using P = typename PolicyOf<std::decay_t<decltype(s)>>::type;
           if constexpr (requires { P::decide_static(ray, s); }) {
-            if (const auto d = P::decide_static(ray, s))
-              return kept_by_rule(d->cls, d->front, rule) ? d->cls : HitClass::miss;
+            const auto d = P::decide_static(ray, s);
+            if (d && !P::special_case_needed(*d)) return kept_by_rule(d->cls, d->front, rule) ? d->cls : HitClass::miss;
           }
           return std::nullopt;
         },
