@@ -456,6 +456,20 @@ struct BoxPolicy : NoSpecialCase {
   static ParameterOf<NT> parameter(const Terms<NT>& t, Source source) {
     return {source.far ? t.far[source.slab] : t.near[source.slab], NT(0), t.den[source.slab], 0};
   }
+
+  // The static filter: decide() over StaticFiltered<3>. Every sign it asks is of a near or far
+  // difference (1 rounding) or of a·d_b − b·d_a, a and b such differences and the d's inputs
+  // (products 2, difference 3). With every input 0 or in [2^-400, 2^400], every product's
+  // magnitude is 0 or in [2^-800, 2^801], inside [kSafeMagnitudeMin, kSafeMagnitudeMax].
+  static std::optional<Decision<Source>> decide_static(const Ray& ray, const Box& b) {
+    constexpr double lo = 0x1p-400, hi = 0x1p+400;
+    bool ok = true;
+    for (int i = 0; i < 3; ++i)
+      ok &= static_input_range(ray.origin[i], lo, hi) & static_input_range(ray.direction[i], lo, hi) &
+            static_input_range(b.min[i], lo, hi) & static_input_range(b.max[i], lo, hi);
+    if (!ok) return std::nullopt;
+    return decide(terms<StaticFiltered<3>>(ray, b));
+  }
 };
 
 // ---------------------------------------------------------------------------------------------

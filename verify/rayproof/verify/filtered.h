@@ -185,6 +185,38 @@ struct StaticallyBounded {
   if (x.bound == 0) return 0;  // (and value is 0)
   return std::nullopt;
 }
+// A value and its magnitude m, for a shape's static filter whose every sign asked has at most
+// kRounds roundings on its deepest path (counted by hand beside the filter), over inputs first
+// checked into static_input_range: FilteredDouble without a round count or a range check per
+// operation. The bound is filter_detail::kGammaDouble[kRounds]·m.
+template <int kRounds>
+class StaticFiltered {
+ public:
+  StaticFiltered() = default;
+  StaticFiltered(double x) : v_(x), m_(std::abs(x)) {}  // NOLINT(google-explicit-constructor)
+  [[gnu::always_inline]] friend StaticFiltered operator+(const StaticFiltered& a, const StaticFiltered& b) {
+    return {a.v_ + b.v_, a.m_ + b.m_};
+  }
+  [[gnu::always_inline]] friend StaticFiltered operator-(const StaticFiltered& a, const StaticFiltered& b) {
+    return {a.v_ - b.v_, a.m_ + b.m_};
+  }
+  [[gnu::always_inline]] StaticFiltered operator-() const { return {-v_, m_}; }
+  [[gnu::always_inline]] friend StaticFiltered operator*(const StaticFiltered& a, const StaticFiltered& b) {
+    return {a.v_ * b.v_, a.m_ * b.m_};
+  }
+  [[gnu::always_inline]] std::optional<int> sign() const {
+    return sign_of(StaticallyBounded{v_, filter_detail::kGammaDouble[kRounds] * m_});
+  }
+
+ private:
+  StaticFiltered(double v, double m) : v_(v), m_(m) {}
+  double v_, m_;  // uninitialised by default, as a double is (see FilteredDouble)
+};
+template <int kRounds>
+[[gnu::always_inline]] inline std::optional<int> sign_of(const StaticFiltered<kRounds>& x) {
+  return x.sign();
+}
+
 // Whether |x| is 0 or in [lo, hi] (never for NaN or ±inf). Without branches: filters call it on
 // every input, and a branch per input mispredicts more than the comparisons cost.
 [[gnu::always_inline]] inline bool static_input_range(double x, double lo, double hi) {
