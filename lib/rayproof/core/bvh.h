@@ -48,8 +48,8 @@ static_assert(sizeof(Vec3) == 3 * sizeof(double) && offsetof(Bounds, hi) == size
 using Double4 = double __attribute__((vector_size(32)));
 using Mask4 = std::int64_t __attribute__((vector_size(32)));
 
-// Which instructions turn a Mask4 into four bits: all the lanes differ in. AVX2's needs its
-// caller built for AVX2 (with_best_box_lanes); the baseline reads the lanes one by one.
+// The one step the two builds write differently: a Mask4 into four bits. AVX2's MOVMSKPD needs
+// its caller built for AVX2 (with_best_box_lanes); the baseline reads the lanes one by one.
 struct BaselineLanes {
   static unsigned bits(const Mask4& m) {
     return static_cast<unsigned>((m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8));
