@@ -162,11 +162,7 @@ struct SpherePolicy : NoSpecialCase {
   // |leaves| (|f| = |o| + |m|), evaluated alongside.
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Sphere& s) {
     const Vec3 &o = ray.origin, &d = ray.direction, &centre = s.center;
-    constexpr double lo = 0x1p-200, hi = 0x1p+200;
-    bool ok = static_input_range(s.radius, lo, hi);
-    for (int i = 0; i < 3; ++i)
-      ok &= static_input_range(o[i], lo, hi) & static_input_range(d[i], lo, hi) & static_input_range(centre[i], lo, hi);
-    if (!ok) return std::nullopt;
+    if (!static_inputs_in_range(0x1p-200, 0x1p+200, o, d, centre, s.radius)) return std::nullopt;
     const Vec3 f = o - centre, mf = o.cwiseAbs() + centre.cwiseAbs(), ad = d.cwiseAbs();
     const double a = (d.x() * d.x() + d.y() * d.y()) + d.z() * d.z();
     const double b = -((f.x() * d.x() + f.y() * d.y()) + f.z() * d.z());
@@ -220,11 +216,7 @@ struct PlanePolicy : NoSpecialCase {
   // deepest path: den = (n₀d₀ + n₁d₁) + n₂d₂, k = 3; num = k − ((n₀o₀ + n₁o₁) + n₂o₂), k = 4.
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Plane& p) {
     const Vec3 &n = p.normal, &o = ray.origin, &d = ray.direction;
-    constexpr double lo = 0x1p-400, hi = 0x1p+400;
-    bool ok = static_input_range(p.offset, lo, hi);
-    for (int i = 0; i < 3; ++i)
-      ok &= static_input_range(n[i], lo, hi) & static_input_range(o[i], lo, hi) & static_input_range(d[i], lo, hi);
-    if (!ok) return std::nullopt;
+    if (!static_inputs_in_range(0x1p-400, 0x1p+400, n, o, d, p.offset)) return std::nullopt;
     const Vec3 an = n.cwiseAbs(), ao = o.cwiseAbs(), ad = d.cwiseAbs();
     const double den = (n.x() * d.x() + n.y() * d.y()) + n.z() * d.z();
     const double m_den = (an.x() * ad.x() + an.y() * ad.y()) + an.z() * ad.z();
@@ -296,13 +288,8 @@ struct TrianglePolicy {
   // (x + y) + z) 7; num = n·(v₀ − o) 8; each edge d·(rel_i × rel_i+1) 7. Magnitudes: the same
   // trees over |leaves| with every − read as +.
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Triangle& tri) {
-    constexpr double lo = 0x1p-250, hi = 0x1p+250;
-    bool ok = true;
-    for (int i = 0; i < 3; ++i) {
-      ok &= static_input_range(ray.origin[i], lo, hi) & static_input_range(ray.direction[i], lo, hi);
-      for (const Vec3& p : tri.v) ok &= static_input_range(p[i], lo, hi);
-    }
-    if (!ok) return std::nullopt;
+    if (!static_inputs_in_range(0x1p-250, 0x1p+250, ray.origin, ray.direction, tri.v[0], tri.v[1], tri.v[2]))
+      return std::nullopt;
     auto cross_of = [](const Vec3& a, const Vec3& b) {
       return Vec3(a.y() * b.z() - a.z() * b.y(), a.z() * b.x() - a.x() * b.z(), a.x() * b.y() - a.y() * b.x());
     };
@@ -462,12 +449,7 @@ struct BoxPolicy : NoSpecialCase {
   // (products 2, difference 3). With every input 0 or in [2^-400, 2^400], every product's
   // magnitude is 0 or in [2^-800, 2^801], inside [kSafeMagnitudeMin, kSafeMagnitudeMax].
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Box& b) {
-    constexpr double lo = 0x1p-400, hi = 0x1p+400;
-    bool ok = true;
-    for (int i = 0; i < 3; ++i)
-      ok &= static_input_range(ray.origin[i], lo, hi) & static_input_range(ray.direction[i], lo, hi) &
-            static_input_range(b.min[i], lo, hi) & static_input_range(b.max[i], lo, hi);
-    if (!ok) return std::nullopt;
+    if (!static_inputs_in_range(0x1p-400, 0x1p+400, ray.origin, ray.direction, b.min, b.max)) return std::nullopt;
     return decide(terms<StaticFiltered<3>>(ray, b));
   }
 };

@@ -31,6 +31,7 @@
 #include <array>
 #include <cmath>
 #include <optional>
+#include <type_traits>
 
 #include "rayproof/core/eft.h"
 #include "rayproof/core/fp.h"
@@ -222,6 +223,17 @@ template <int kRounds>
 [[gnu::always_inline]] inline bool static_input_range(double x, double lo, double hi) {
   const double a = std::abs(x);
   return (a == 0) | ((a >= lo) & (a <= hi));
+}
+// The same for every input of a query: doubles and vectors alike.
+template <class... Inputs>
+[[gnu::always_inline]] inline bool static_inputs_in_range(double lo, double hi, const Inputs&... inputs) {
+  auto in_range = [&](const auto& x) {
+    if constexpr (std::is_arithmetic_v<std::decay_t<decltype(x)>>)
+      return static_input_range(x, lo, hi);
+    else
+      return static_input_range(x[0], lo, hi) & static_input_range(x[1], lo, hi) & static_input_range(x[2], lo, hi);
+  };
+  return (in_range(inputs) & ...);
 }
 
 [[gnu::always_inline]] inline std::optional<int> sign_of(const FilteredDouble& x) { return x.sign(); }
