@@ -153,28 +153,14 @@ struct SpherePolicy : NoSpecialCase {
     return {NT(t.b + t.b), NT(0), t.a, 0};  // roots 0 and 2b′/a
   }
 
-  // The static filter: the terms in plain doubles, bounds by hand (filtered.h's model). With
-  // every input 0 or in [2^-200, 2^200], every product's magnitude (of degree ≤ 4) is 0 or in
-  // [2^-800, 2^808], inside [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the deepest path
-  // (a product adds both operands' and one; a sum one more than the deeper operand):
-  // f = o − m: 1; a = (d₀² + d₁²) + d₂²: 3; b′ = −((f₀d₀ + f₁d₁) + f₂d₂): 4;
-  // c = ((f₀² + f₁²) + f₂²) − r²: 6; D′ = b′² − a·c: 11. Magnitudes m are the same trees over
-  // |leaves| (|f| = |o| + |m|), evaluated alongside.
+  // The static filter: decide() over StaticFiltered<11> (filtered.h's model, one bound for every
+  // term). With every input 0 or in [2^-200, 2^200], every product's magnitude (of degree ≤ 4) is
+  // 0 or in [2^-800, 2^808], inside [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the
+  // deepest path of terms() (a product adds both operands' and one; a sum one more than the
+  // deeper operand): f = o − m: 1; a: 3; b′: 4; c: 6; D′ = b′² − a·c: 11, the most.
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Sphere& s) {
-    const Vec3 &o = ray.origin, &d = ray.direction, &centre = s.center;
-    if (!static_inputs_in_range(0x1p-200, 0x1p+200, o, d, centre, s.radius)) return std::nullopt;
-    const Vec3 f = o - centre, mf = o.cwiseAbs() + centre.cwiseAbs(), ad = d.cwiseAbs();
-    const double a = (d.x() * d.x() + d.y() * d.y()) + d.z() * d.z();
-    const double b = -((f.x() * d.x() + f.y() * d.y()) + f.z() * d.z());
-    const double m_b = (mf.x() * ad.x() + mf.y() * ad.y()) + mf.z() * ad.z();
-    const double c = ((f.x() * f.x() + f.y() * f.y()) + f.z() * f.z()) - s.radius * s.radius;
-    const double m_c = ((mf.x() * mf.x() + mf.y() * mf.y()) + mf.z() * mf.z()) + s.radius * s.radius;
-    const double disc = b * b - a * c, m_disc = m_b * m_b + a * m_c;  // a is its own magnitude
-    using filter_detail::kGammaDouble;
-    return decide(Terms<StaticallyBounded>{{a, kGammaDouble[3] * a},
-                                           {b, kGammaDouble[4] * m_b},
-                                           {c, kGammaDouble[6] * m_c},
-                                           {disc, kGammaDouble[11] * m_disc}});
+    if (!static_inputs_in_range(0x1p-200, 0x1p+200, ray.origin, ray.direction, s.center, s.radius)) return std::nullopt;
+    return decide(terms<StaticFiltered<11>>(ray, s));
   }
 };
 
@@ -210,20 +196,13 @@ struct PlanePolicy : NoSpecialCase {
     return ratio_parameter(t.num, t.den);
   }
 
-  // The static filter: the terms in plain doubles, bounds by hand (filtered.h's model). With
-  // every input 0 or in [2^-400, 2^400], every product's magnitude is 0 or in [2^-800, 2^800] and
-  // every sum's below 2^802: inside [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the
-  // deepest path: den = (n₀d₀ + n₁d₁) + n₂d₂, k = 3; num = k − ((n₀o₀ + n₁o₁) + n₂o₂), k = 4.
+  // The static filter: decide() over StaticFiltered<4>. With every input 0 or in [2^-400, 2^400],
+  // every product's magnitude is 0 or in [2^-800, 2^800] and every sum's below 2^802: inside
+  // [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the deepest path of terms(): den = n·d
+  // ((x + y) + z) 3; num = k − n·o 4, the most.
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Plane& p) {
-    const Vec3 &n = p.normal, &o = ray.origin, &d = ray.direction;
-    if (!static_inputs_in_range(0x1p-400, 0x1p+400, n, o, d, p.offset)) return std::nullopt;
-    const Vec3 an = n.cwiseAbs(), ao = o.cwiseAbs(), ad = d.cwiseAbs();
-    const double den = (n.x() * d.x() + n.y() * d.y()) + n.z() * d.z();
-    const double m_den = (an.x() * ad.x() + an.y() * ad.y()) + an.z() * ad.z();
-    const double num = p.offset - ((n.x() * o.x() + n.y() * o.y()) + n.z() * o.z());
-    const double m_num = std::abs(p.offset) + ((an.x() * ao.x() + an.y() * ao.y()) + an.z() * ao.z());
-    using filter_detail::kGammaDouble;
-    return decide(Terms<StaticallyBounded>{{num, kGammaDouble[4] * m_num}, {den, kGammaDouble[3] * m_den}});
+    if (!static_inputs_in_range(0x1p-400, 0x1p+400, p.normal, ray.origin, ray.direction, p.offset)) return std::nullopt;
+    return decide(terms<StaticFiltered<4>>(ray, p));
   }
 };
 
@@ -281,36 +260,15 @@ struct TrianglePolicy {
     return ratio_parameter(t.num, t.den);
   }
 
-  // The static filter: the terms in plain doubles, bounds by hand (filtered.h's model). With
-  // every input 0 or in [2^-250, 2^250], every product's magnitude (of degree ≤ 3) is 0 or in
-  // [2^-750, 2^757], inside [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the deepest path:
-  // differences of inputs 1; n = e₁ × e₂ (each component a·b − c·d) 4; den = n·d (dot:
-  // (x + y) + z) 7; num = n·(v₀ − o) 8; each edge d·(rel_i × rel_i+1) 7. Magnitudes: the same
-  // trees over |leaves| with every − read as +.
+  // The static filter: decide() over StaticFiltered<8>. With every input 0 or in [2^-250, 2^250],
+  // every product's magnitude (of degree ≤ 3) is 0 or in [2^-750, 2^757], inside
+  // [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the deepest path of terms(): differences
+  // of inputs 1; n = e₁ × e₂ (each component a·b − c·d) 4; den = n·d 7; each edge
+  // d·(rel_i × rel_i+1) 7; num = n·(v₀ − o) 8, the most.
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Triangle& tri) {
     if (!static_inputs_in_range(0x1p-250, 0x1p+250, ray.origin, ray.direction, tri.v[0], tri.v[1], tri.v[2]))
       return std::nullopt;
-    auto cross_of = [](const Vec3& a, const Vec3& b) {
-      return Vec3(a.y() * b.z() - a.z() * b.y(), a.z() * b.x() - a.x() * b.z(), a.x() * b.y() - a.y() * b.x());
-    };
-    auto cross_magnitude = [](const Vec3& a, const Vec3& b) {
-      return Vec3(a.y() * b.z() + a.z() * b.y(), a.z() * b.x() + a.x() * b.z(), a.x() * b.y() + a.y() * b.x());
-    };
-    auto dot_of = [](const Vec3& a, const Vec3& b) { return (a.x() * b.x() + a.y() * b.y()) + a.z() * b.z(); };
-    const Vec3 &o = ray.origin, &d = ray.direction, ao = o.cwiseAbs(), ad = d.cwiseAbs();
-    const Vec3 av[3] = {tri.v[0].cwiseAbs(), tri.v[1].cwiseAbs(), tri.v[2].cwiseAbs()};
-    const Vec3 rel[3] = {tri.v[0] - o, tri.v[1] - o, tri.v[2] - o};
-    const Vec3 m_rel[3] = {av[0] + ao, av[1] + ao, av[2] + ao};
-    const Vec3 n = cross_of(tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]);
-    const Vec3 m_n = cross_magnitude(av[1] + av[0], av[2] + av[0]);
-    using filter_detail::kGammaDouble;
-    Terms<StaticallyBounded> t;
-    t.den = {dot_of(n, d), kGammaDouble[7] * dot_of(m_n, ad)};
-    t.num = {dot_of(n, rel[0]), kGammaDouble[8] * dot_of(m_n, m_rel[0])};
-    for (int i = 0; i < 3; ++i)
-      t.edge[i] = {dot_of(d, cross_of(rel[i], rel[(i + 1) % 3])),
-                   kGammaDouble[7] * dot_of(ad, cross_magnitude(m_rel[i], m_rel[(i + 1) % 3]))};
-    return decide(t);
+    return decide(terms<StaticFiltered<8>>(ray, tri));
   }
 
   // A coplanar ray is a 2D problem the 3D terms cannot settle.
@@ -473,8 +431,7 @@ Decided<P> decide_filtered(const Ray& ray, const typename P::ShapeType& shape, c
                            OracleStats& stats) {
   if (options.filter) {
     if (options.static_filter) {
-      if constexpr (requires { P::decide_static(ray, shape); })
-        if (const auto d = P::decide_static(ray, shape)) return {*d, nullptr, nullptr};
+      if (const auto d = P::decide_static(ray, shape)) return {*d, nullptr, nullptr};
       if (const auto d = P::decide(P::template terms<FilteredDouble>(ray, shape))) return {*d, nullptr, nullptr};
     }
     std::optional<Decision<typename P::Source>> d;
@@ -858,10 +815,8 @@ HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
     const std::optional<HitClass> decided = std::visit(
         [&](const auto& s) -> std::optional<HitClass> {
           using P = typename PolicyOf<std::decay_t<decltype(s)>>::type;
-          if constexpr (requires { P::decide_static(ray, s); }) {
-            const auto d = P::decide_static(ray, s);
-            if (d && !P::special_case_needed(*d)) return kept_by_rule(d->cls, d->front, rule) ? d->cls : HitClass::miss;
-          }
+          const auto d = P::decide_static(ray, s);
+          if (d && !P::special_case_needed(*d)) return kept_by_rule(d->cls, d->front, rule) ? d->cls : HitClass::miss;
           return std::nullopt;
         },
         shape);
