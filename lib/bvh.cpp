@@ -119,6 +119,7 @@ Bvh::Bvh(std::span<const Bounds> boxes) {
   nodes_.emplace_back();
   Builder builder{boxes, std::move(centroids), order_, nodes_};
   builder.build(0, 0, static_cast<std::int32_t>(boxes.size()), 0);
+  magnitude_ = std::max(nodes_[0].box.lo.cwiseAbs().maxCoeff(), nodes_[0].box.hi.cwiseAbs().maxCoeff());
   collapse();
 }
 

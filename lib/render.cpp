@@ -33,18 +33,28 @@ bool Intersectors::use(std::string_view name) {
   return true;
 }
 
-SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray) {
+SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray,
+                    double reach) {
   const SceneRay r{ray};
   SceneRayAnswer a;
-  trace_scene_rays(variant, index.of_kind(kind), rule, std::span(&r, 1), std::span(&a, 1));
+  trace_scene_rays(variant, index.of_kind(kind), rule, std::span(&r, 1), std::span(&a, 1), nullptr, reach);
   return a.primitive < 0 ? SceneHit{} : SceneHit{index.primitive(a.primitive).object, a.primitive, a.answer};
+}
+
+void calibrate_reach(const SceneIndex& index, Intersectors& isect) {
+  const std::vector<SceneRay> sample = primary_sample(index.scene().camera);
+  for (ShapeKind kind : index.shapes_used()) {
+    const int k = static_cast<int>(kind);
+    isect.reach[k] = calibrated_reach(*isect.by_shape[k], index.of_kind(kind), isect.rule, sample);
+  }
 }
 
 SceneHit trace(const SceneIndex& index, const Intersectors& isect, const Ray& ray) {
   SceneHit best;
   for (ShapeKind kind : kAllShapeKinds) {
     if (index.count(kind) == 0) continue;
-    const SceneHit h = trace_kind(index, kind, *isect.by_shape[static_cast<int>(kind)], isect.rule, ray);
+    const int k = static_cast<int>(kind);
+    const SceneHit h = trace_kind(index, kind, *isect.by_shape[k], isect.rule, ray, isect.reach[k]);
     if (h.primitive >= 0 && nearer(h.hit.t, h.primitive, best, index)) best = h;
   }
   return best;
@@ -84,7 +94,8 @@ std::vector<Vec3> shade_all(const SceneIndex& index, const Intersectors& isect, 
   auto trace_kinds = [&](const std::vector<SceneRay>& what, HitRule rule, auto&& take) {
     answers.resize(what.size());
     for (ShapeKind kind : index.shapes_used()) {
-      trace_scene_rays(*isect.by_shape[static_cast<int>(kind)], index.of_kind(kind), rule, what, answers);
+      const int k = static_cast<int>(kind);
+      trace_scene_rays(*isect.by_shape[k], index.of_kind(kind), rule, what, answers, nullptr, isect.reach[k]);
       for (size_t i = 0; i < what.size(); ++i)
         if (answers[i].primitive >= 0) take(i, answers[i]);
     }
@@ -133,6 +144,8 @@ Image render(const Scene& scene, const RenderOptions& options) {
   const Camera& cam = scene.camera;
   Image image{cam.width, cam.height, std::vector<std::uint8_t>(3 * size_t(cam.width) * cam.height)};
   const SceneIndex index(scene);
+  Intersectors isect = options.intersectors;
+  calibrate_reach(index, isect);
   const int grid = static_cast<int>(std::lround(std::sqrt(scene.samples)));
   std::atomic<int> next_row{0}, rows_done{0};
   auto worker = [&](int) {
@@ -143,7 +156,7 @@ Image render(const Scene& scene, const RenderOptions& options) {
         for (int sy = 0; sy < grid; ++sy)
           for (int sx = 0; sx < grid; ++sx)
             rays.push_back(cam.ray_through(x + (sx + 0.5) / grid, y + (sy + 0.5) / grid));
-      const std::vector<Vec3> colours = shade_all(index, options.intersectors, rays);
+      const std::vector<Vec3> colours = shade_all(index, isect, rays);
       for (int x = 0; x < cam.width; ++x) {
         Vec3 sum = Vec3::Zero();
         for (int k = 0; k < grid * grid; ++k) sum += colours[size_t(x) * grid * grid + k];

@@ -10,6 +10,7 @@
 #include "rayproof/core/bvh.h"
 #include "rayproof/core/fp.h"
 #include "rayproof/core/mesh.h"
+#include "rayproof/core/scene_rays.h"
 
 namespace rayproof {
 
@@ -112,12 +113,15 @@ class BvhTracerScene final : public TracerScene {
       const TracerRay& tr = rays[r];
       TraceAnswer best;
       double t_limit = tr.tmax;
-      bvh_.traverse(tr.ray, t_limit, [&](std::int32_t i) {
-        const Hit h = variant_.kernel(tr.ray, triangles_[i], HitRule::nearest_contact);
-        if (h.cls == HitClass::miss || !h.has_t() || !(h.t > tr.tmin && h.t < tr.tmax)) return false;
-        if (!best.hit() || h.t < best.t) best = {ids_[i], h.t}, t_limit = h.t;
-        return false;
-      });
+      bvh_.traverse(
+          tr.ray, t_limit,
+          [&](std::int32_t i) {
+            const Hit h = variant_.kernel(tr.ray, triangles_[i], HitRule::nearest_contact);
+            if (h.cls == HitClass::miss || !h.has_t() || !(h.t > tr.tmin && h.t < tr.tmax)) return false;
+            if (!best.hit() || h.t < best.t) best = {ids_[i], h.t}, t_limit = h.t;
+            return false;
+          },
+          BaselineLanes{}, leaf_reach(variant_.precision));
       out[r] = best;
     }
   }
@@ -127,11 +131,15 @@ class BvhTracerScene final : public TracerScene {
       const TracerRay& tr = rays[r];
       out[r] = {};
       double t_limit = tr.tmax;
-      bvh_.traverse(tr.ray, t_limit, [&](std::int32_t i) {
-        const Hit h = variant_.kernel(tr.ray, triangles_[i], HitRule::nearest_contact);
-        if (h.cls != HitClass::miss && h.has_t() && h.t > tr.tmin && h.t < tr.tmax) out[r].triangles.push_back(ids_[i]);
-        return false;
-      });
+      bvh_.traverse(
+          tr.ray, t_limit,
+          [&](std::int32_t i) {
+            const Hit h = variant_.kernel(tr.ray, triangles_[i], HitRule::nearest_contact);
+            if (h.cls != HitClass::miss && h.has_t() && h.t > tr.tmin && h.t < tr.tmax)
+              out[r].triangles.push_back(ids_[i]);
+            return false;
+          },
+          BaselineLanes{}, leaf_reach(variant_.precision));
     }
   }
 

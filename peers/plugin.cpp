@@ -64,7 +64,8 @@ struct WireAnswer {
 // What a batch holds. cases: queries (ray, shape) answered one by one. scene_shapes: shapes of
 // one kind (numbers[0] the primitive id, numbers + 6 the shape), appended from `scene_offset` of
 // `scene_total`; the last chunk builds the worker's KindIndex. trace: rays (numbers 0–5, skip in
-// numbers[6], any_hit in numbers[7]) traced through that index (core/scene_rays.h).
+// numbers[6], any_hit in numbers[7], the reach in numbers[8]) traced through that index
+// (core/scene_rays.h).
 enum class BatchMode : std::uint32_t { cases, scene_shapes, trace };
 struct SharedBatch {
   std::atomic<std::uint32_t> progress;  // the index of the case (ray) the worker is on
@@ -179,7 +180,7 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
                   const WireAnswer a = call(numbers);  // a plugin error counts as no contact, as it does leaf by leaf
                   return a.failure == AnswerFailure::none ? Hit{a.cls, a.t} : Hit::miss();
                 },
-                lanes);
+                lanes, x[8]);
             shared->answers[i] = {found.answer.t, found.answer.cls, AnswerFailure::none, found.primitive};
           }
         }
@@ -334,14 +335,15 @@ class PluginVariant final : public ExternalIntersector {
     a.failure = b.answers[0].failure;
     return a;
   }
+  bool can_trace() const override { return true; }
   bool trace_all(const KindIndex& scene, HitRule, std::span<const SceneRay> rays, std::span<SceneRayAnswer> out,
-                 AnswerTiming* timing) override {
+                 AnswerTiming* timing, double reach) override {
     if (scene.kind() != shape_) return false;
     in_batches(
         rays.size(), BatchMode::trace, timing,
         [&](WireQuery& w, std::size_t i) {
           put_ray(rays[i].ray, w.numbers);
-          w.numbers[6] = rays[i].skip, w.numbers[7] = rays[i].any_hit ? 1 : 0;
+          w.numbers[6] = rays[i].skip, w.numbers[7] = rays[i].any_hit ? 1 : 0, w.numbers[8] = reach;
         },
         [&](const WireAnswer& a, std::size_t i) {
           out[i] = {a.primitive, Hit{a.cls, a.t}};

@@ -213,6 +213,7 @@ class Auditor {
       out->diff = out->render;
     }
     std::vector<RowResult> per_row(cam.height);
+    const double reach = c.variant ? reach_of(*c.variant, c.kind) : kLeafReach;
     struct State {
       ExactTracer tracer;
       void finish() {}
@@ -228,15 +229,15 @@ class Auditor {
           if (batch_shadows) {
             RowResult ignored;
             for (int x = 0; x < cam.width; ++x)
-              variant_pixel(st.tracer, {c, nullptr, nullptr, nullptr, &shadows}, row[x], x, y, ignored);
+              variant_pixel(st.tracer, {c, nullptr, nullptr, nullptr, &shadows, reach}, row[x], x, y, ignored);
             shadows.answers.resize(shadows.asked.size());
             trace_scene_rays(*c.variant, index_.of_kind(c.kind), HitRule::nearest_contact, shadows.asked,
-                             shadows.answers);
+                             shadows.answers, nullptr, reach);
             shadows.recording = false;
           }
           for (int x = 0; x < cam.width; ++x)
-            variant_pixel(st.tracer, {c, tracer.get(), out, exact_image, batch_shadows ? &shadows : nullptr}, row[x], x,
-                          y, per_row[y]);
+            variant_pixel(st.tracer, {c, tracer.get(), out, exact_image, batch_shadows ? &shadows : nullptr, reach},
+                          row[x], x, y, per_row[y]);
         },
         stage_progress((c.tracer ? c.tracer->name : std::string(c.variant->name)) + " (" +
                        std::string(to_string(c.kind)) + ")"));
@@ -293,6 +294,7 @@ class Auditor {
       return {own * 1e9 / rays, wall * 1e9 / rays, timed_inside};
     }
     double checksum = 0;
+    const double reach = reach_of(v, c.kind);
     const double best = fastest_of(3, [&] {  // ns per ray of whole frames, at least 0.05 s a round
       long traced = 0;
       double seconds = 0;
@@ -301,7 +303,7 @@ class Auditor {
         for (int y = 0; y < cam.height; ++y)
           for (int x = 0; x < cam.width; ++x) {
             const SceneHit h =
-                trace_kind(index_, c.kind, v, HitRule::nearest_contact, cam.ray_through(x + 0.5, y + 0.5));
+                trace_kind(index_, c.kind, v, HitRule::nearest_contact, cam.ray_through(x + 0.5, y + 0.5), reach);
             checksum += h.primitive;
             ++traced;
           }
@@ -343,7 +345,7 @@ class Auditor {
     std::vector<SceneRay> rays(cam.width);
     for (int x = 0; x < cam.width; ++x) rays[x].ray = cam.ray_through(x + 0.5, y + 0.5);
     std::vector<SceneRayAnswer> answers(rays.size());
-    trace_scene_rays(v, index_.of_kind(kind), HitRule::nearest_contact, rays, answers, timing);
+    trace_scene_rays(v, index_.of_kind(kind), HitRule::nearest_contact, rays, answers, timing, reach_of(v, kind));
     std::vector<SceneHit> out(rays.size());
     for (size_t x = 0; x < rays.size(); ++x)
       if (answers[x].primitive >= 0)
@@ -430,6 +432,7 @@ class Auditor {
     VariantAudit* out;               // null: counts only
     const Image* exact_image;        // dimmed under the diff marks
     ShadowBatch* shadows = nullptr;  // null: shadow segments asked one by one
+    double reach = kLeafReach;       // how far off each segment the variant is asked (reach_of)
   };
   struct Blocker {
     bool blocked = false;
@@ -456,13 +459,16 @@ class Auditor {
     } else {
       const Variant& v = *c.variant;
       double t_limit = 1;
-      index_.traverse(c.kind, segment, t_limit, [&](std::int32_t id, const Shape& shape) {
-        if (id == self || (adjacent_only && !index_.same_or_adjacent(self, id))) return false;
-        const Hit h = v.intersect(segment, shape, HitRule::nearest_contact);
-        if (h.cls == HitClass::miss || !h.has_t() || !(h.t < 1)) return false;
-        b = {true, id};
-        return true;
-      });
+      index_.of_kind(c.kind).traverse(
+          segment, t_limit,
+          [&](std::int32_t id, const Shape& shape) {
+            if (id == self || (adjacent_only && !index_.same_or_adjacent(self, id))) return false;
+            const Hit h = v.intersect(segment, shape, HitRule::nearest_contact);
+            if (h.cls == HitClass::miss || !h.has_t() || !(h.t < 1)) return false;
+            b = {true, id};
+            return true;
+          },
+          BaselineLanes{}, pass.reach);
     }
     if (b.blocked || adjacent_only) return b;
     for (ShapeKind other : index_.shapes_used())
@@ -620,6 +626,18 @@ class Auditor {
   const SceneAuditOptions& options_;
   int threads_;
   std::vector<ExactPixel> exact_;
+  // Per variant and kind, the reach it is traced with in this scene (calibrated_reach on the
+  // camera's sample), found on first use.
+  mutable std::mutex reach_mutex_;
+  mutable std::map<std::pair<const Variant*, ShapeKind>, double> reach_;
+
+  double reach_of(const Variant& v, ShapeKind kind) const {
+    const std::lock_guard lock(reach_mutex_);
+    auto [at, inserted] = reach_.try_emplace({&v, kind}, 0.0);
+    if (inserted)
+      at->second = calibrated_reach(v, index_.of_kind(kind), HitRule::nearest_contact, primary_sample(scene_.camera));
+    return at->second;
+  }
 };
 
 }  // namespace

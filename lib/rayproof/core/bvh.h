@@ -4,6 +4,7 @@
 // matter.
 #pragma once
 
+#include <algorithm>
 #include <bit>
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -103,18 +104,24 @@ void with_best_box_lanes(Body&& body) {
 // every box waits for). The bound holds while no reciprocal or difference over- or underflows:
 // SlabRay::exotic flags the rays where it might not (|d| components outside [2^-1000, 2^1000],
 // |o| beyond 2^1000), and Bvh::traverse visits every primitive for them instead.
+// A margin m ≥ 0 grows every box by m on each side: per axis the near bound moves by −m along
+// the ray and the far bound by +m, written as the origin moved the other way (near_origin,
+// far_origin: (lo − m) − o = lo − (o + m)), so m = 0 is the plain test bit for bit and the proof
+// above holds for the box grown by the margin the rounded origins give exactly.
 struct SlabRay {
-  Vec3 origin, inverse;  // 1/d per axis: ±inf for a zero component (its sign from d's sign bit)
+  Vec3 near_origin, far_origin, inverse;  // inverse: 1/d per axis, ±inf for a zero component (sign from d's sign bit)
   // Per axis the index of the near and the far bound in Bounds::corners() (lo k, hi k + 3;
   // swapped where d_k is negative or −0).
   std::array<int, 3> near_index{}, far_index{};
   bool exotic = false;
-  explicit SlabRay(const Ray& ray) : origin(ray.origin) {
+  explicit SlabRay(const Ray& ray, double margin = 0) : near_origin(ray.origin), far_origin(ray.origin) {
     for (int k = 0; k < 3; ++k) {
       const double d = ray.direction[k];
       inverse[k] = 1 / d;
       near_index[k] = std::signbit(d) ? k + 3 : k;
       far_index[k] = std::signbit(d) ? k : k + 3;
+      near_origin[k] += std::signbit(d) ? -margin : margin;
+      far_origin[k] -= std::signbit(d) ? -margin : margin;
       if (d != 0 && !(std::abs(d) >= 0x1p-1000 && std::abs(d) <= 0x1p1000)) exotic = true;
       if (!(std::abs(ray.origin[k]) <= 0x1p1000)) exotic = true;
     }
@@ -127,8 +134,8 @@ struct SlabRay {
   bool meets(const Bounds& b, double t_limit, double& entry) const {
     double lower = -std::numeric_limits<double>::infinity(), upper = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 3; ++k) {
-      const double t_near = (b.corners()[near_index[k]] - origin[k]) * inverse[k];
-      const double t_far = (b.corners()[far_index[k]] - origin[k]) * inverse[k];
+      const double t_near = (b.corners()[near_index[k]] - near_origin[k]) * inverse[k];
+      const double t_far = (b.corners()[far_index[k]] - far_origin[k]) * inverse[k];
       lower = t_near > lower ? t_near : lower;
       upper = t_far < upper ? t_far : upper;
     }
@@ -153,7 +160,8 @@ struct SlabRay {
       Double4 near_bound, far_bound;
       std::memcpy(&near_bound, corners[near_index[k]], sizeof(Double4));
       std::memcpy(&far_bound, corners[far_index[k]], sizeof(Double4));
-      const Double4 t_near = (near_bound - origin[k]) * inverse[k], t_far = (far_bound - origin[k]) * inverse[k];
+      const Double4 t_near = (near_bound - near_origin[k]) * inverse[k];
+      const Double4 t_far = (far_bound - far_origin[k]) * inverse[k];
       lower = t_near > lower ? t_near : lower;
       upper = t_far < upper ? t_far : upper;
     }
@@ -164,6 +172,9 @@ struct SlabRay {
     return Lanes::bits(bounded & (at <= hi) & (at <= t_limit));
   }
 };
+
+// A reach (Bvh::traverse) at which every primitive is visited.
+constexpr double kEveryPrimitive = std::numeric_limits<double>::infinity();
 
 class Bvh {
  public:
@@ -184,12 +195,18 @@ class Bvh {
   // 0 ≤ t ≤ t_limit, nearer boxes first (leaves hold consecutive positions, so callers keep
   // their primitives in this order). visit returns true to stop; it may lower t_limit as it goes
   // (boxes entered beyond t_limit are then skipped).
-  // `lanes`: the four-box test's instructions (with_best_box_lanes).
+  // `lanes`: the four-box test's instructions (with_best_box_lanes). `reach` ≥ 0: every box grown
+  // on each side by reach · M, M the largest magnitude among the boxes' and the origin's
+  // coordinates (SlabRay's margin), for leaves whose test may find contacts off the exact ray
+  // (scene_rays.h's leaf_reach says how far); kEveryPrimitive visits every primitive.
   template <class Visit, class Lanes = BaselineLanes>
-  void traverse(const Ray& ray, double& t_limit, Visit&& visit, Lanes lanes = {}) const {
+  void traverse(const Ray& ray, double& t_limit, Visit&& visit, Lanes lanes = {}, double reach = 0) const {
     if (wide_.empty()) return;
-    const SlabRay slab(ray);
-    if (slab.exotic) {  // outside the range where the widening is proved: visit everything
+    const double margin = reach == 0 ? 0 : reach * std::max(magnitude_, ray.origin.cwiseAbs().maxCoeff());
+    const SlabRay slab(ray, margin);
+    // Outside the range where the widening is proved, or boxes grown without end (an infinite
+    // margin would meet an empty slot's box, ∞ − ∞; M = 0 would make it NaN): visit everything.
+    if (slab.exotic || !(margin < std::numeric_limits<double>::infinity()) || reach == kEveryPrimitive) {
       for (std::int32_t i = 0; i < static_cast<std::int32_t>(order_.size()); ++i)
         if (visit(i)) return;
       return;
@@ -257,6 +274,7 @@ class Bvh {
   std::vector<Node> nodes_;
   std::vector<std::int32_t> order_;
   std::vector<WideNode> wide_;
+  double magnitude_ = 0;  // the largest |coordinate| of any box
 };
 
 }  // namespace rayproof

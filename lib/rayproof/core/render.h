@@ -30,6 +30,9 @@ struct Image {
 struct Intersectors {
   std::array<const Variant*, 4> by_shape{};  // indexed by ShapeKind
   HitRule rule = HitRule::nearest_contact;
+  // Per kind, how far off each ray its variant is asked (scene_rays.h; calibrate_reach sets it
+  // for a scene, negative: leaf_reach of the variant's precision).
+  std::array<double, 4> reach{-1, -1, -1, -1};
   static Intersectors defaults();
   // Picks `variant` for its own shape; returns false for an unknown name.
   bool use(std::string_view variant);
@@ -47,8 +50,12 @@ struct SceneHit {
   int primitive = -1;
   Hit hit;
 };
-// The nearest hit among the primitives of one kind, by that kind's variant.
-SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray);
+// The nearest hit among the primitives of one kind, by that kind's variant (`reach`: scene_rays.h).
+SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray,
+                    double reach = -1);
+// Sets isect.reach for each kind of the scene (calibrated_reach on a sample of the camera's rays),
+// so each variant is drawn as it answers testing every primitive, not clipped by rayproof's boxes.
+void calibrate_reach(const SceneIndex& index, Intersectors& isect);
 // The nearest over all kinds; on equal t the object listed first.
 SceneHit trace(const SceneIndex& index, const Intersectors& isect, const Ray& ray);
 // Whether t is nearer than `best` (the scene's order: smaller t, then the object listed first,

@@ -41,16 +41,17 @@ class KindIndex {
   // Calls visit(primitive id, its shape) for each primitive that the ray may meet at
   // 0 ≤ t ≤ t_limit (conservatively: Bvh), nearer boxes first; planes are all visited. visit
   // returns true to stop and may lower t_limit.
-  // `lanes`: the BVH's four-box instructions (with_best_box_lanes).
+  // `lanes`: the BVH's four-box instructions (with_best_box_lanes). `reach`: how far off the
+  // exact ray primitives are visited (Bvh::traverse; leaf_reach in scene_rays.h).
   template <class Visit, class Lanes = BaselineLanes>
-  void traverse(const Ray& ray, double& t_limit, Visit&& visit, Lanes lanes = {}) const {
+  void traverse(const Ray& ray, double& t_limit, Visit&& visit, Lanes lanes = {}, double reach = 0) const {
     auto at = [&](std::int32_t i) { return visit(ids_[i], shapes_[i]); };
     if (kind_ == ShapeKind::plane) {
       for (std::int32_t i = 0; i < static_cast<std::int32_t>(ids_.size()); ++i)
         if (at(i)) return;
       return;
     }
-    bvh_.traverse(ray, t_limit, at, lanes);
+    bvh_.traverse(ray, t_limit, at, lanes, reach);
   }
 
  private:

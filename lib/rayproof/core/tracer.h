@@ -117,8 +117,9 @@ const Tracer& register_tracer(Tracer t);
 const Tracer* find_tracer(std::string_view name);
 
 // rayproof's BVH (core/bvh.h, conservative traversal) with a triangle variant at the leaves:
-// the tracer "bvh-VARIANT". Its answers are what the variant decides over every triangle the
-// exact ray could meet, so what it gets wrong is the triangle test's alone.
+// the tracer "bvh-VARIANT". Its answers are what the variant decides over every triangle within
+// its leaf_reach of the exact ray (core/scene_rays.h), so what it gets wrong is the triangle
+// test's alone.
 BuiltScene build_bvh_tracer_scene(const Variant& triangle_variant, const TriangleMesh& mesh);
 
 }  // namespace rayproof

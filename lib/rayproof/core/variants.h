@@ -66,13 +66,15 @@ class ExternalIntersector {
   // out[i] = the answer to qs[i], in the variant's own rule. Thread-safe. `timing`: may be null.
   virtual void answer_all(std::span<const Query> qs, std::span<Answer> out, AnswerTiming* timing) = 0;
   // Traces every ray through `scene` where the code runs, rayproof's own traversal calling the
-  // code at the leaves: one round trip per batch instead of one per leaf test. Returns false
-  // where the code cannot (an --exec command, an answers file): callers then ask leaf by leaf.
+  // code at the leaves (asked as far off the ray as `reach` says, scene_rays.h): one round trip
+  // per batch instead of one per leaf test. Returns false where the code cannot (can_trace()
+  // false: an --exec command, an answers file): callers then ask leaf by leaf.
   // `timing`: as for answer_all, the time of the whole traversal where it ran.
   virtual bool trace_all(const KindIndex& /*scene*/, HitRule /*rule*/, std::span<const SceneRay> /*rays*/,
-                         std::span<SceneRayAnswer> /*out*/, AnswerTiming* /*timing*/) {
+                         std::span<SceneRayAnswer> /*out*/, AnswerTiming* /*timing*/, double /*reach*/) {
     return false;
   }
+  virtual bool can_trace() const { return false; }
   // One query asked of a fresh copy of the code (a new worker or command) that nothing else uses,
   // outside the crash budget: how a crash is shrunk, each probe free to die. Code that keeps no
   // process (an answers file) answers as answer_all does.
