@@ -85,6 +85,13 @@ mutate "bvh-exotic-direction-check-dropped" lib/rayproof/core/bvh.h \
 mutate "bvh-slab-not-widened" lib/rayproof/core/bvh.h \
   "static constexpr double kShrink = 1 - 3 * gamma(3), kGrow = 1 + 3 * gamma(3), kTiny = 0x1p-1070;" \
   "static constexpr double kShrink = 1, kGrow = 1, kTiny = 0;"
+mutate "leaf-reach-zero" lib/rayproof/core/scene_rays.h \
+  "constexpr double leaf_reach(Precision p) { return p == Precision::f32 ? 0x1p-16 : 0x1p-45; }" \
+  "constexpr double leaf_reach(Precision) { return 0; }"
+mutate "reach-never-calibrated" lib/scene_rays.cpp \
+  "    if (same) return reach;" "    if (same || true) return reach;"
+mutate "worker-ignores-the-reach" peers/plugin.cpp \
+  "                lanes, x[8]);" "                lanes, 0.0);"
 mutate "sphere-box-not-rounded-outward" lib/scene_index.cpp \
   "b.hi[k] = next_up(s->center[k] + s->radius);" "b.hi[k] = s->center[k] + s->radius;"
 mutate "obj-negative-index-off-by-one" lib/mesh.cpp \

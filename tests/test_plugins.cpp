@@ -13,6 +13,7 @@
 
 #include "rayproof/core/casefile.h"
 #include "rayproof/core/json_fields.h"
+#include "rayproof/core/scene.h"
 #include "rayproof/core/scene_index.h"
 #include "rayproof/core/scene_rays.h"
 #include "rayproof/peers/external.h"
@@ -280,11 +281,20 @@ TEST(Plugins, RenderSaysWhenThePluginItDrawsWithStopped) {
 // Issue 22, item 1: a plugin traces a scene's rays where it runs (rayproof's traversal, the plugin
 // at the leaves, one round trip per batch) and answers exactly what the built-in with the same
 // formula answers here leaf by leaf: nearest contacts and shadow segments alike.
+// The plugin with the built-in Möller–Trumbore's arithmetic, loaded once per process (a second
+// load would register its names twice).
+const Variant* same_formula_plugin() {
+  static const Variant* plugin = [] {
+    const Variant* found = nullptr;
+    for (const Variant* v : peers::load_plugin(std::string(RAYPROOF_PLUGIN_DIR) + "/bench_same_as_builtin.so", {}))
+      if (v->name == "moller-trumbore-plugin") found = v;
+    return found;
+  }();
+  return plugin;
+}
+
 TEST(Plugins, SceneRaysTracedInTheWorkerEqualTheBuiltInsLeafByLeaf) {
-  const auto loaded = peers::load_plugin(std::string(RAYPROOF_PLUGIN_DIR) + "/bench_same_as_builtin.so", {});
-  const Variant* plugin = nullptr;
-  for (const Variant* v : loaded)
-    if (v->name == "moller-trumbore-plugin") plugin = v;
+  const Variant* plugin = same_formula_plugin();
   ASSERT_NE(plugin, nullptr);
   const Variant& builtin = *find_variant("moller-trumbore");
   // A 40 × 40 grid of quads (shared edges and vertices) with a bump, 3200 triangles.
@@ -325,6 +335,37 @@ TEST(Plugins, SceneRaysTracedInTheWorkerEqualTheBuiltInsLeafByLeaf) {
     EXPECT_EQ(there[i].answer.t, here[i].answer.t) << i;
   }
   EXPECT_GT(hits, 3000);
+}
+
+// The worker asks the leaves as far off the ray as it is told (scene_rays.h's reach): on the
+// tilted edge grid, where a Möller–Trumbore hit lies just outside the box the double ray meets,
+// the same-formula plugin answers every pixel as the built-in does, at leaf_reach and visiting
+// every primitive — and the two reaches differ somewhere, so the reach is what decides.
+TEST(Plugins, TheWorkerTracesWithTheReachItIsGiven) {
+  const Variant* plugin = same_formula_plugin();
+  ASSERT_NE(plugin, nullptr);
+  const Variant& builtin = *find_variant("moller-trumbore");
+  const Scene scene = load_scene(std::string(RAYPROOF_SOURCE_DIR) + "/scenes/audit/edge-grid-tilted.json");
+  const SceneIndex index(scene);
+  const KindIndex& triangles = index.of_kind(ShapeKind::triangle);
+  std::vector<SceneRay> rays;
+  for (int y = 0; y < scene.camera.height; ++y)
+    for (int x = 0; x < scene.camera.width; ++x) rays.push_back({scene.camera.ray_through(x + 0.5, y + 0.5)});
+  std::vector<std::vector<SceneRayAnswer>> by_reach;
+  for (double reach : {0.0, leaf_reach(Precision::f64), kEveryPrimitive}) {
+    std::vector<SceneRayAnswer> here(rays.size()), there(rays.size());
+    trace_scene_rays(builtin, triangles, HitRule::nearest_contact, rays, here, nullptr, reach);
+    trace_scene_rays(*plugin, triangles, HitRule::nearest_contact, rays, there, nullptr, reach);
+    for (size_t i = 0; i < rays.size(); ++i) {
+      ASSERT_EQ(there[i].primitive, here[i].primitive) << "reach " << reach << ", pixel " << i;
+      if (here[i].primitive >= 0)
+        EXPECT_EQ(there[i].answer.t, here[i].answer.t) << "reach " << reach << ", pixel " << i;
+    }
+    by_reach.push_back(here);
+  }
+  int differ = 0;
+  for (size_t i = 0; i < rays.size(); ++i) differ += by_reach[0][i].primitive != by_reach[2][i].primitive;
+  EXPECT_GT(differ, 0) << "no pixel where the reach matters: the test shows nothing";
 }
 
 // A crash while tracing blames the one ray the plugin died on; the rays before it keep their
