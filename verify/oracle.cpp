@@ -222,14 +222,20 @@ struct TrianglePolicy {
   };
   static constexpr bool kExpansionTerms = true;
 
+  // Where the ray crosses the triangle's plane: t = num/den, n = (v₁ − v₀) × (v₂ − v₀).
+  template <class NT>
+  static void plane_crossing(const V<NT>& o, const V<NT>& d, const V<NT> (&v)[3], NT& num, NT& den) {
+    const V<NT> n = cross(v[1] - v[0], v[2] - v[0]);
+    den = dot(n, d);
+    num = dot(n, v[0] - o);
+  }
+
   template <class NT>
   static Terms<NT> terms(const Ray& ray, const Triangle& tri) {
     const V<NT> o = lift<NT>(ray.origin), d = lift<NT>(ray.direction);
     const V<NT> v[3] = {lift<NT>(tri.v[0]), lift<NT>(tri.v[1]), lift<NT>(tri.v[2])};
-    const V<NT> n = cross(v[1] - v[0], v[2] - v[0]);
     Terms<NT> t;
-    t.den = dot(n, d);
-    t.num = dot(n, v[0] - o);
+    plane_crossing(o, d, v, t.num, t.den);
     const V<NT> rel[3] = {v[0] - o, v[1] - o, v[2] - o};
     for (int i = 0; i < 3; ++i) t.edge[i] = dot(d, cross(rel[i], rel[(i + 1) % 3]));
     return t;
@@ -258,6 +264,15 @@ struct TrianglePolicy {
   template <class NT>
   static ParameterOf<NT> parameter(const Terms<NT>& t, Source) {
     return ratio_parameter(t.num, t.den);
+  }
+  // t alone, without the edges (three triple products the class needs and t does not).
+  template <class NT>
+  static ParameterOf<NT> parameter_alone(const Ray& ray, const Triangle& tri, Source) {
+    const V<NT> o = lift<NT>(ray.origin), d = lift<NT>(ray.direction);
+    const V<NT> v[3] = {lift<NT>(tri.v[0]), lift<NT>(tri.v[1]), lift<NT>(tri.v[2])};
+    NT num, den;
+    plane_crossing(o, d, v, num, den);
+    return ratio_parameter(num, den);
   }
 
   // The static filter: decide() over StaticFiltered<8>. With every input 0 or in [2^-250, 2^250],
@@ -532,6 +547,33 @@ std::optional<double> walk_to_nearest(const Parameter& t, double x, int max_step
   return std::nullopt;
 }
 
+// t = x0 + R/Q exactly, R and Q known as double-doubles within their error bounds: the double
+// nearest t where the whole enclosure of x0 + R/Q rounds to one double, else nullopt (a midpoint
+// lies within it; walk_to_nearest decides). Rounding to nearest is monotone, so if both ends of
+// [x0 + δ_lo, x0 + δ_hi] ∋ t round alike (each sum rounds once), t rounds to the same double.
+// The ends are made rigorous in plain doubles: every operation below rounds to nearest, within
+// 2^-53·|result| + 2^-1075 of it, and down/up move each result outward by 2^-50·|x| + 2^-1074,
+// more than that; a double-double's estimate hi + lo rounds once too (covered by 2^-52·|est|).
+// Magnitudes stay inside FilteredDD's range, and x0 inside the safe range, so nothing overflows.
+std::optional<double> round_ratio_directly(double x0, const FilteredDD& r, const FilteredDD& q) {
+  if (!r.valid() || !q.valid() || !(x0 > kSafeMagnitudeMin && x0 < kSafeMagnitudeMax)) return std::nullopt;
+  auto down = [](double x) { return x - (std::abs(x) * 0x1p-50 + 0x1p-1074); };
+  auto up = [](double x) { return x + (std::abs(x) * 0x1p-50 + 0x1p-1074); };
+  auto enclose = [&](const FilteredDD& x, double& lo, double& hi) {
+    const double e = x.estimate(), w = up(up(x.error_bound()) + up(std::abs(e) * 0x1p-52));
+    lo = down(e - w), hi = up(e + w);
+  };
+  double r_lo, r_hi, q_lo, q_hi;
+  enclose(r, r_lo, r_hi);
+  enclose(q, q_lo, q_hi);
+  if (!(q_lo > 0)) return std::nullopt;
+  const double delta_lo = down(r_lo >= 0 ? r_lo / q_hi : r_lo / q_lo);
+  const double delta_hi = up(r_hi >= 0 ? r_hi / q_lo : r_hi / q_hi);
+  const double a = x0 + delta_lo, b = x0 + delta_hi;
+  if (a != b) return std::nullopt;
+  return a;
+}
+
 // The fast paths (double-double with error bounds, then exact expansions): a double estimate of
 // t in a cancellation-free form, then midpoint tests in the same number type. nullopt when a
 // sign is uncertain (FilteredDD) or a product left the exact range (expansions); the rational
@@ -541,15 +583,19 @@ std::optional<double> round_fast(const ParameterOf<NT>& t) {
   if (!t.p.valid() || !t.q.valid() || !t.radicand.valid() || sign_of(t.q) != 1) return std::nullopt;
   const auto sign_radicand = sign_of(t.radicand), sign_p = sign_of(t.p);
   if (!sign_radicand || !sign_p) return std::nullopt;
-  const double p = t.p.estimate(), q = t.q.estimate(), root = std::sqrt(std::max(0.0, t.radicand.estimate()));
+  const double p = t.p.estimate(), q = t.q.estimate();
   double estimate;
   if (t.s == 0 || *sign_radicand == 0) {
     estimate = p / q;
-    // One Newton-like correction with the exact-ish residual p − estimate·q (in NT) lands on
-    // the nearest double nearly always, so the walk below takes a single step.
+    // t = estimate + residual/q exactly, with the residual p − estimate·q in NT: over
+    // double-doubles that encloses t tightly enough to round it without any midpoint test
+    // nearly always; else one Newton-like correction lands on the nearest double nearly always,
+    // so the walk below takes a single step.
     const NT residual = t.p - t.q * NT(estimate);
+    if constexpr (std::is_same_v<NT, FilteredDD>)
+      if (const auto direct = round_ratio_directly(estimate, residual, t.q)) return direct;
     if (residual.valid()) estimate += residual.estimate() / q;
-  } else if (*sign_p == 0 || *sign_p == t.s) {
+  } else if (const double root = std::sqrt(std::max(0.0, t.radicand.estimate())); *sign_p == 0 || *sign_p == t.s) {
     estimate = (p + t.s * root) / q;
   } else {  // (p + s√D)/q = (p² − D) / (q·(p − s√D)), no cancellation
     const NT num = t.p * t.p - t.radicand;
@@ -663,8 +709,13 @@ Verdict judge_with(const Ray& ray, const typename P::ShapeType& shape, const Ora
     return P::parameter(r.exact ? *r.exact : P::template terms<Exact>(ray, shape), source);
   };
   std::optional<double> t;
-  if (options.filter && options.double_double)
-    t = round_fast(P::parameter(P::template terms<FilteredDD>(ray, shape), source));
+  if (options.filter && options.double_double) {
+    // A policy that can compute t from fewer terms than the class needs says so (parameter_alone).
+    if constexpr (requires { P::template parameter_alone<FilteredDD>(ray, shape, source); })
+      t = round_fast(P::template parameter_alone<FilteredDD>(ray, shape, source));
+    else
+      t = round_fast(P::parameter(P::template terms<FilteredDD>(ray, shape), source));
+  }
   if (!t && options.filter && options.expansions) {
     t = round_fast(P::parameter(r.expansion ? *r.expansion : P::template terms<Expansion>(ray, shape), source));
     if (t) ++stats.rounding.expansion;

@@ -143,6 +143,8 @@ class FilteredDD {
 
   bool valid() const { return valid_ && m_ <= kMagnitudeMax && k_ < 64; }
   double estimate() const { return hi_ + lo_; }
+  // A bound on |exact − (hi + lo)| (valid() values only), as sign() uses it.
+  double error_bound() const { return filter_detail::kGammaDD[k_] * m_; }
   [[gnu::always_inline]] std::optional<int> sign() const {
     if (!valid()) return std::nullopt;
     if (m_ == 0) return 0;
