@@ -13,6 +13,7 @@
 #include "rayproof/core/hit.h"
 #include "rayproof/core/scene.h"
 #include "rayproof/core/scene_index.h"
+#include "rayproof/core/scene_rays.h"
 #include "rayproof/core/variants.h"
 
 namespace rayproof {
@@ -31,8 +32,8 @@ struct Intersectors {
   std::array<const Variant*, 4> by_shape{};  // indexed by ShapeKind
   HitRule rule = HitRule::nearest_contact;
   // Per kind, how far off each ray its variant is asked (scene_rays.h; calibrate_reach sets it
-  // for a scene, negative: leaf_reach of the variant's precision).
-  std::array<double, 4> reach{-1, -1, -1, -1};
+  // for a scene, kLeafReach: leaf_reach of the variant's precision).
+  std::array<double, 4> reach{kLeafReach, kLeafReach, kLeafReach, kLeafReach};
   static Intersectors defaults();
   // Picks `variant` for its own shape; returns false for an unknown name.
   bool use(std::string_view variant);
@@ -52,7 +53,7 @@ struct SceneHit {
 };
 // The nearest hit among the primitives of one kind, by that kind's variant (`reach`: scene_rays.h).
 SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray,
-                    double reach = -1);
+                    double reach = kLeafReach);
 // Sets isect.reach for each kind of the scene (calibrated_reach on a sample of the camera's rays),
 // so each variant is drawn as it answers testing every primitive, not clipped by rayproof's boxes.
 void calibrate_reach(const SceneIndex& index, Intersectors& isect);
