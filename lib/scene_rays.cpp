@@ -33,7 +33,7 @@ double calibrated_reach(const Variant& v, const KindIndex& index, HitRule rule, 
     return leaf;  // planes: every one is visited anyway
   std::vector<SceneRayAnswer> every(rays.size()), through(rays.size());
   trace_scene_rays(v, index, rule, rays, every, nullptr, kEveryPrimitive);
-  for (double reach = leaf; reach <= 0x1p-8; reach = reach > 0 ? reach * 0x1p8 : 0x1p-64) {
+  for (double reach = leaf; reach <= 0x1p-4; reach = reach > 0 ? reach * 0x1p4 : 0x1p-64) {
     trace_scene_rays(v, index, rule, rays, through, nullptr, reach);
     bool same = true;
     for (size_t i = 0; i < rays.size() && same; ++i)

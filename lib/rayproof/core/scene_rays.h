@@ -77,9 +77,10 @@ SceneRayAnswer trace_scene_ray(const KindIndex& index, const SceneRay& r, Inters
 void trace_scene_rays(const Variant& v, const KindIndex& index, HitRule rule, std::span<const SceneRay> rays,
                       std::span<SceneRayAnswer> out, AnswerTiming* timing = nullptr, double reach = kLeafReach);
 
-// The reach `v` needs in `index`: leaf_reach(v.precision), grown 2^8-fold at a time (past 2^-8,
+// The reach `v` needs in `index`: leaf_reach(v.precision), grown 16-fold at a time (past 2^-4,
 // every primitive) until v answers each nearest-contact ray of `sample` through the tree as it
-// does visiting every primitive. Code whose errors exceed rounding (a textbook sphere at 10^7,
+// does visiting every primitive (small steps: a test with a tolerance of a few percent of a
+// triangle needs a reach of ~2^-10, and every primitive would cost a sweep a ray). Code whose errors exceed rounding (a textbook sphere at 10^7,
 // drawing noise far outside the sphere) is then traced as if it tested every primitive, not
 // clipped by rayproof's boxes. Code that answers leaf by leaf (an --exec command: a round trip
 // per test) keeps leaf_reach, as visiting every primitive would cost a round trip per primitive.
