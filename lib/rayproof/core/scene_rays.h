@@ -79,8 +79,8 @@ void trace_scene_rays(const Variant& v, const KindIndex& index, HitRule rule, st
 
 // The reach `v` needs in `index`: leaf_reach(v.precision), grown 16-fold at a time (past 2^-4,
 // every primitive) until v answers each nearest-contact ray of `sample` through the tree as it
-// does visiting every primitive (small steps: a test with a tolerance of a few percent of a
-// triangle needs a reach of ~2^-10, and every primitive would cost a sweep a ray). Code whose errors exceed rounding (a textbook sphere at 10^7,
+// does visiting every primitive (small steps: code whose contacts stray a little further than
+// rounding explains, a test with a tolerance, gets boxes grown a little, not a sweep a ray). Code whose errors exceed rounding (a textbook sphere at 10^7,
 // drawing noise far outside the sphere) is then traced as if it tested every primitive, not
 // clipped by rayproof's boxes. Code that answers leaf by leaf (an --exec command: a round trip
 // per test) keeps leaf_reach, as visiting every primitive would cost a round trip per primitive.
