@@ -80,10 +80,11 @@ void trace_scene_rays(const Variant& v, const KindIndex& index, HitRule rule, st
 // The reach `v` needs in `index`: leaf_reach(v.precision), grown 16-fold at a time (past 2^-4,
 // every primitive) until v answers each nearest-contact ray of `sample` through the tree as it
 // does visiting every primitive (small steps: code whose contacts stray a little further than
-// rounding explains, a test with a tolerance, gets boxes grown a little, not a sweep a ray). Code whose errors exceed rounding (a textbook sphere at 10^7,
-// drawing noise far outside the sphere) is then traced as if it tested every primitive, not
-// clipped by rayproof's boxes. Code that answers leaf by leaf (an --exec command: a round trip
-// per test) keeps leaf_reach, as visiting every primitive would cost a round trip per primitive.
+// rounding explains, a test with a tolerance, gets boxes grown a little, not a sweep a ray).
+// Code whose errors exceed rounding (a textbook sphere at 10^7, drawing noise far outside the
+// sphere) is then traced as if it tested every primitive, not clipped by rayproof's boxes. Code
+// that answers leaf by leaf (an --exec command: a round trip per test) keeps leaf_reach, as
+// visiting every primitive would cost a round trip per primitive.
 double calibrated_reach(const Variant& v, const KindIndex& index, HitRule rule, std::span<const SceneRay> sample);
 
 // Primary rays through an n × n grid of pixel centres spread over the image: calibrated_reach's
