@@ -204,9 +204,10 @@ class Bvh {
     if (wide_.empty()) return;
     const double margin = reach == 0 ? 0 : reach * std::max(magnitude_, ray.origin.cwiseAbs().maxCoeff());
     const SlabRay slab(ray, margin);
-    // Outside the range where the widening is proved, or boxes grown without end (an infinite
-    // margin would meet an empty slot's box, ∞ − ∞; M = 0 would make it NaN): visit everything.
-    if (slab.exotic || !(margin < std::numeric_limits<double>::infinity()) || reach == kEveryPrimitive) {
+    // Outside the range where the widening is proved, or boxes grown without end (kEveryPrimitive:
+    // an infinite margin would meet an empty slot's box, ∞ − ∞; with M = 0 it is NaN): visit
+    // everything.
+    if (slab.exotic || !(margin < std::numeric_limits<double>::infinity())) {
       for (std::int32_t i = 0; i < static_cast<std::int32_t>(order_.size()); ++i)
         if (visit(i)) return;
       return;
