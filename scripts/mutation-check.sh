@@ -85,6 +85,17 @@ mutate "bvh-exotic-direction-check-dropped" lib/rayproof/core/bvh.h \
 mutate "bvh-slab-not-widened" lib/rayproof/core/bvh.h \
   "static constexpr double kShrink = 1 - 3 * gamma(3), kGrow = 1 + 3 * gamma(3), kTiny = 0x1p-1070;" \
   "static constexpr double kShrink = 1, kGrow = 1, kTiny = 0;"
+# The shapes' hand-written static filters (issue 22), each with a bound dropped.
+mutate "sphere-filter-discriminant-unbounded" verify/oracle.cpp \
+  "certain_sign(b * b - a * c, kGammaDouble[11] * disc_m);" "certain_sign(b * b - a * c, 0 * disc_m);"
+mutate "plane-filter-numerator-unbounded" verify/oracle.cpp \
+  "certain_sign(p.offset - dot(n, o), kGammaDouble[4] * num_m);" "certain_sign(p.offset - dot(n, o), 0 * num_m);"
+mutate "triangle-filter-edges-unbounded" verify/oracle.cpp \
+  "const double edge_bound = kGammaDouble[7] * edge_m;" "const double edge_bound = 0 * edge_m;"
+mutate "triangle-filter-degenerate-den-unchecked" verify/oracle.cpp \
+  "      if (!(std::abs(den) > 4 * edge_bound + kGammaDouble[2] * sum)) return std::nullopt;" ""
+mutate "box-filter-ratios-exact" verify/oracle.cpp \
+  "near_error[k] = kGammaDouble[6] * std::abs(near[k]) + 0x1p-1073;" "near_error[k] = 0;"
 mutate "direct-rounding-ignores-its-enclosure" verify/oracle.cpp \
   "  if (a != b) return std::nullopt;" "  (void)b;"
 mutate "leaf-reach-zero" lib/rayproof/core/scene_rays.h \

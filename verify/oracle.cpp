@@ -49,6 +49,15 @@ template <class NT>
   return {NT(a.y * b.z - a.z * b.y), NT(a.z * b.x - a.x * b.z), NT(a.x * b.y - a.y * b.x)};
 }
 
+// Per axis |v|, the larger of two per axis, and the largest component: the static filters' maxima.
+[[gnu::always_inline]] inline V<double> abs_of(const V<double>& v) {
+  return {std::abs(v.x), std::abs(v.y), std::abs(v.z)};
+}
+[[gnu::always_inline]] inline V<double> max_of(const V<double>& a, const V<double>& b) {
+  return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)};
+}
+[[gnu::always_inline]] inline double largest(const V<double>& v) { return std::max(std::max(v.x, v.y), v.z); }
+
 // The sign of x, or nullopt when an interval straddles zero.
 std::optional<int> sign_of(const Interval& x) {
   const auto s = CGAL::sign(x);
@@ -70,6 +79,18 @@ struct Decision {
   std::optional<Source> source;
 };
 
+// A plane crossing at t = num/den with den and num of certain, non-zero signs: a hit where they
+// agree (t > 0), entering where den < 0 (the ray arrives against the normal, from the front).
+// Read from a table, without branches on the signs (random rays take either way: certain_sign)
+// and without assembling the answer field by field (a wide load of narrow stores stalls).
+template <class Source, Source kCrossing>
+[[gnu::always_inline]] inline Decision<Source> crossing_decision(bool den_negative, bool num_negative) {
+  static constexpr Decision<Source> kOutcomes[3] = {
+      {}, {HitClass::enter, true, kCrossing}, {HitClass::exit, false, kCrossing}};
+  const int hit = den_negative == num_negative;
+  return kOutcomes[hit * (2 - den_negative)];
+}
+
 // num/den as a parameter with a positive denominator (where the number type can tell den's
 // sign; round_fast refuses a parameter whose q is not certainly positive).
 template <class NT>
@@ -85,7 +106,9 @@ ParameterOf<NT> ratio_parameter(const NT& num, const NT& den) {
 //   decide(terms)         the class from their signs, or nullopt when a sign is uncertain;
 //   parameter(terms, src) the contact parameter t the decision names;
 //   kExpansionTerms       whether the terms are polynomial (expansions can hold them);
-//   special_case(...)     a verdict the terms alone cannot give (nullopt nearly always).
+//   special_case(...)     a verdict the terms alone cannot give (nullopt nearly always);
+//   decide_static(ray, s) decide()'s answer from a filter written by hand for the shape (plain
+//                         doubles, bounds from the inputs' maxima), or nullopt.
 // The driver below (decide_filtered, judge_with) layers the stages over any policy.
 struct NoSpecialCase {
   template <class Decision>
@@ -153,14 +176,35 @@ struct SpherePolicy : NoSpecialCase {
     return {NT(t.b + t.b), NT(0), t.a, 0};  // roots 0 and 2b′/a
   }
 
-  // The static filter: decide() over StaticFiltered<11> (filtered.h's model, one bound for every
-  // term). With every input 0 or in [2^-200, 2^200], every product's magnitude (of degree ≤ 4) is
-  // 0 or in [2^-800, 2^808], inside [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the
-  // deepest path of terms() (a product adds both operands' and one; a sum one more than the
-  // deeper operand): f = o − m: 1; a: 3; b′: 4; c: 6; D′ = b′² − a·c: 11, the most.
-  static std::optional<Decision<Source>> decide_static(const Ray& ray, const Sphere& s) {
-    if (!static_inputs_in_range(0x1p-200, 0x1p+200, ray.origin, ray.direction, s.center, s.radius)) return std::nullopt;
-    return decide(terms<StaticFiltered<11>>(ray, s));
+  // The static filter, specialised by hand: the terms in plain doubles with f = o − m rounded,
+  // bounded from the maxima F, D of |f_i|, |d_i| and R = |r| (Higham Lemma 3.1, as filtered.h).
+  // Each f_i is the exact difference times (1 + θ), |θ| ≤ γ(1); counting roundings per monomial
+  // (a product adds both operands' and one, a sum one more than the deeper operand):
+  //   b′ = −f·d:        3 monomials f_i·d_i, 1 + 1 + 2 = 4:                     γ(4)·3FD
+  //   c = f·f − r²:     f_i² 2 + 1 + 2 + 1 = 6, r² 2:                           γ(6)·(3F² + R²)
+  //   D′ = b′² − a·c:   b′² 4 + 4 + 1, a·c 3 + 6 + 1, then the difference: 11;
+  //                     9 monomials f_i d_i f_j d_j, 9 d_i² f_j², 3 d_i² r²:   γ(11)·3D²(6F² + R²)
+  // kGammaDouble[k]·m pays for m's own roundings. Range: with F, D, R ≤ 2^100 nothing overflows;
+  // with every m ≥ 2^-800 the products that underflow (≤ 2^-1075 each, later multiplied by at
+  // most 2^203: under 2^-866 in all) stay below the bounds' two spare roundings (≥ 2^-52·m). The
+  // signs asked follow decide(): D′ first, then c, then b′ where c > 0. Zero or uncertain: nullopt.
+  [[gnu::always_inline]] static std::optional<Decision<Source>> decide_static(const Ray& ray, const Sphere& s) {
+    using filter_detail::kGammaDouble;
+    const V<double> f = lift<double>(ray.origin) - lift<double>(s.center), d = lift<double>(ray.direction);
+    const double F = largest(abs_of(f)), D = largest(abs_of(d)), R = std::abs(s.radius);
+    if (!(F <= 0x1p100 && D <= 0x1p100 && R <= 0x1p100)) return std::nullopt;
+    const double b_m = 3 * F * D, c_m = 3 * F * F + R * R, disc_m = 3 * (D * D) * (6 * (F * F) + R * R);
+    if (!(b_m >= 0x1p-800 && c_m >= 0x1p-800 && disc_m >= 0x1p-800)) return std::nullopt;
+    const double a = dot(d, d), b = -dot(f, d), c = dot(f, f) - s.radius * s.radius;
+    const int disc = certain_sign(b * b - a * c, kGammaDouble[11] * disc_m);
+    if (disc == 0) return std::nullopt;
+    if (disc < 0) return Decision<Source>{};
+    const int outside = certain_sign(c, kGammaDouble[6] * c_m);
+    if (outside == 0) return std::nullopt;
+    if (outside < 0) return Decision<Source>{HitClass::exit, false, Source::far_root};
+    const int ahead = certain_sign(b, kGammaDouble[4] * b_m);
+    if (ahead == 0) return std::nullopt;
+    return ahead > 0 ? Decision<Source>{HitClass::enter, true, Source::near_root} : Decision<Source>{};
   }
 };
 
@@ -196,13 +240,24 @@ struct PlanePolicy : NoSpecialCase {
     return ratio_parameter(t.num, t.den);
   }
 
-  // The static filter: decide() over StaticFiltered<4>. With every input 0 or in [2^-400, 2^400],
-  // every product's magnitude is 0 or in [2^-800, 2^800] and every sum's below 2^802: inside
-  // [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the deepest path of terms(): den = n·d
-  // ((x + y) + z) 3; num = k − n·o 4, the most.
-  static std::optional<Decision<Source>> decide_static(const Ray& ray, const Plane& p) {
-    if (!static_inputs_in_range(0x1p-400, 0x1p+400, p.normal, ray.origin, ray.direction, p.offset)) return std::nullopt;
-    return decide(terms<StaticFiltered<4>>(ray, p));
+  // The static filter, specialised by hand: den = n·d and num = k − n·o in plain doubles, with
+  // bounds from the maxima N, D, O of |n_i|, |d_i|, |o_i| (Higham Lemma 3.1, as filtered.h):
+  // den's monomials carry three roundings (product, two sums), num's at most four (and k one), so
+  //   |den̂ − den| ≤ γ(3)·3·N·D,   |num̂ − num| ≤ γ(4)·(|k| + 3·N·O);
+  // kGammaDouble[k]·m pays for m's own roundings. Range: with N, D, O, |k| ≤ 2^300 nothing
+  // overflows; with both m ≥ 2^-800 the products that underflow (≤ 2^-1075 each) stay below the
+  // bounds' two spare roundings (≥ 2^-52·m). A zero or uncertain sign: nullopt.
+  [[gnu::always_inline]] static std::optional<Decision<Source>> decide_static(const Ray& ray, const Plane& p) {
+    using filter_detail::kGammaDouble;
+    const V<double> n = lift<double>(p.normal), d = lift<double>(ray.direction), o = lift<double>(ray.origin);
+    const double N = largest(abs_of(n)), D = largest(abs_of(d)), O = largest(abs_of(o)), K = std::abs(p.offset);
+    const double den_m = 3 * N * D, num_m = K + 3 * N * O;
+    if (!(N <= 0x1p300 && D <= 0x1p300 && O <= 0x1p300 && K <= 0x1p300)) return std::nullopt;
+    if (!(den_m >= 0x1p-800 && num_m >= 0x1p-800)) return std::nullopt;
+    const int den = certain_sign(dot(n, d), kGammaDouble[3] * den_m);
+    const int num = certain_sign(p.offset - dot(n, o), kGammaDouble[4] * num_m);
+    if (den == 0 || num == 0) return std::nullopt;
+    return crossing_decision<Source, Source::crossing>(den < 0, num < 0);
   }
 };
 
@@ -275,15 +330,51 @@ struct TrianglePolicy {
     return ratio_parameter(num, den);
   }
 
-  // The static filter: decide() over StaticFiltered<8>. With every input 0 or in [2^-250, 2^250],
-  // every product's magnitude (of degree ≤ 3) is 0 or in [2^-750, 2^757], inside
-  // [kSafeMagnitudeMin, kSafeMagnitudeMax]. Roundings on the deepest path of terms(): differences
-  // of inputs 1; n = e₁ × e₂ (each component a·b − c·d) 4; den = n·d 7; each edge
-  // d·(rel_i × rel_i+1) 7; num = n·(v₀ − o) 8, the most.
+  // The static filter, specialised by hand as CGAL's Static_filters/Orientation_3 is: every term
+  // a triple product of translated vertices a = v₀ − o, b = v₁ − o, c = v₂ − o (rounded) and d,
+  // bounded from per-axis maxima, and only the terms the answer needs:
+  //   e₀ = d·(a × b), e₁ = d·(b × c), e₂ = d·(c × a): the policy's edges exactly;
+  //   den = n·d = e₀ + e₁ + e₂ and num = n·(v₀ − o) = a·(b × c) (expand (b − a) × (c − a)).
+  // Edges of both signs are a miss unless den = num = 0 (a degenerate triangle, which the terms
+  // read as coplanar), so there den ≠ 0 is checked; edges of one strict sign s make den's sign s
+  // and leave num's sign to decide t > 0. Anything else (a zero or uncertain sign): nullopt.
+  // Bounds (Higham Lemma 3.1, as filtered.h): each rounded difference is the exact one times
+  // (1 + θ), |θ| ≤ γ(1); a triple product's monomials carry two such factors (three for num)
+  // and five roundings of evaluation (q_y·r_z − q_z·r_y, times p_x, two sums), so
+  //   |ê − e| ≤ γ(7)·2W,  W = D_x·A_y·A_z + D_y·A_z·A_x + D_z·A_x·A_y,
+  //   |num̂ − num| ≤ γ(8)·6·A_x·A_y·A_z,
+  // with A_k the largest of |a_k|, |b_k|, |c_k| and D_k = |d_k|; kGammaDouble[k]·m pays for m's
+  // own roundings. den = fl(fl(ê₀ + ê₁) + ê₂) is within 3·(edge bound) + γ(2)·Σ|ê_i| of den; the
+  // bound used, fl(4·(edge bound) + fl(γ(4)·fl(Σ|ê_i|))), exceeds that after its own roundings.
+  // Range: with every A_k, D_k ≤ 2^200 no term overflows (≤ 2^603); with both m ≥ 2^-800 the
+  // products that underflow (≤ 2^-1075 each, then times at most 2^200: under 2^-871 in all) stay
+  // below the bounds' two spare roundings (≥ 2^-52·m). A NaN input makes a term NaN, never
+  // certain; an infinite one an A_k or D_k infinite.
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Triangle& tri) {
-    if (!static_inputs_in_range(0x1p-250, 0x1p+250, ray.origin, ray.direction, tri.v[0], tri.v[1], tri.v[2]))
-      return std::nullopt;
-    return decide(terms<StaticFiltered<8>>(ray, tri));
+    using filter_detail::kGammaDouble;
+    const V<double> o = lift<double>(ray.origin), d = lift<double>(ray.direction);
+    const V<double> a = lift<double>(tri.v[0]) - o, b = lift<double>(tri.v[1]) - o, c = lift<double>(tri.v[2]) - o;
+    const V<double> A = max_of(max_of(abs_of(a), abs_of(b)), abs_of(c)), D = abs_of(d);
+    const double edge_m = 2 * (D.x * A.y * A.z + D.y * A.z * A.x + D.z * A.x * A.y);
+    if (!(largest(A) <= 0x1p200 && largest(D) <= 0x1p200 && edge_m >= 0x1p-800)) return std::nullopt;
+    const double edge_bound = kGammaDouble[7] * edge_m;
+    const double e[3] = {dot(d, cross(a, b)), dot(d, cross(b, c)), dot(d, cross(c, a))};
+    int positive = 0, negative = 0;
+    for (double x : e) positive += x > edge_bound, negative += x < -edge_bound;
+    if (positive + negative < 3) return std::nullopt;
+    // Both signs: positive is 1 or 2 (of 3), one unsigned comparison; two tests would branch on
+    // which of positive and negative is zero, a coin toss on random rays.
+    if (static_cast<unsigned>(positive - 1) < 2) {
+      const double den = (e[0] + e[1]) + e[2];
+      const double sum = (std::abs(e[0]) + std::abs(e[1])) + std::abs(e[2]);
+      if (!(std::abs(den) > 4 * edge_bound + kGammaDouble[2] * sum)) return std::nullopt;
+      return Decision<Source>{};
+    }
+    const double num_m = 6 * A.x * A.y * A.z;
+    if (!(num_m >= 0x1p-800)) return std::nullopt;
+    const int num = certain_sign(dot(a, cross(b, c)), kGammaDouble[8] * num_m);
+    if (num == 0) return std::nullopt;
+    return crossing_decision<Source, Source::plane_crossing>(negative == 3, num < 0);
   }
 
   // A coplanar ray is a 2D problem the 3D terms cannot settle.
@@ -417,13 +508,75 @@ struct BoxPolicy : NoSpecialCase {
     return {source.far ? t.far[source.slab] : t.near[source.slab], NT(0), t.den[source.slab], 0};
   }
 
-  // The static filter: decide() over StaticFiltered<3>. Every sign it asks is of a near or far
-  // difference (1 rounding) or of a·d_b − b·d_a, a and b such differences and the d's inputs
-  // (products 2, difference 3). With every input 0 or in [2^-400, 2^400], every product's
-  // magnitude is 0 or in [2^-800, 2^801], inside [kSafeMagnitudeMin, kSafeMagnitudeMax].
+  // The static filter, specialised by hand: decide()'s comparisons of two slab ratios made on the
+  // ratios themselves, t̂ = fl(fl(plane − o)·fl(1/d)), instead of on cross-multiplied products;
+  // per axis t_near = min and t_far = max of the two planes' (the rounding is monotone, so the
+  // computed order is the exact one, lo < hi), without a branch on the sign of d, a coin toss on
+  // random rays.
+  //  - Error: three roundings give t̂ = t·(1 + θ₃), and a product that underflows adds ≤ 2^-1075,
+  //    so |t̂ − t| ≤ γ(4)·|t̂| + 2^-1074 (Higham Lemma 3.1). With |inputs| ≤ 2^300 and every
+  //    non-zero |d_k| ≥ 2^-300, |t| ≤ 2^601: nothing overflows.
+  //  - Two ratios compare with certainty where fl(t̂_b − t̂_a) > fl(ê_a + ê_b), ê = fl(γ(8)·|t̂|) +
+  //    2^-1073: the spare γ(4)·|t̂| pays for the difference's rounding and the sum's.
+  //  - A non-zero t̂ has the exact t's sign (plane − o is 0 only where plane = o, and 1/d is never
+  //    0 here); t̂ = 0 may be an underflow: nullopt.
+  //  - An axis with d = 0 is a miss when the origin lies outside its slab (decide's `outside`),
+  //    t_near = −∞, t_far = +∞ (exact) when strictly inside, and nullopt on a face.
+  // Ties are never certain, so a certain maximum is decide()'s first one: the same source.
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Box& b) {
-    if (!static_inputs_in_range(0x1p-400, 0x1p+400, ray.origin, ray.direction, b.min, b.max)) return std::nullopt;
-    return decide(terms<StaticFiltered<3>>(ray, b));
+    using filter_detail::kGammaDouble;
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    bool in_range = true;
+    for (int k = 0; k < 3; ++k)
+      in_range &= (std::abs(ray.origin[k]) <= 0x1p300) & (std::abs(ray.direction[k]) <= 0x1p300) &
+                  (std::abs(b.min[k]) <= 0x1p300) & (std::abs(b.max[k]) <= 0x1p300) & (b.min[k] < b.max[k]);
+    if (!in_range) return std::nullopt;  // (also NaN)
+    double near[3], far[3], near_error[3], far_error[3];
+    int slab_of[3], slabs = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double o = ray.origin[k], d = ray.direction[k], lo = b.min[k], hi = b.max[k];
+      slab_of[k] = slabs;
+      if (d == 0) {
+        if (o < lo || o > hi) return Decision<Source>{};
+        if (o == lo || o == hi) return std::nullopt;
+        near[k] = -inf, far[k] = inf, near_error[k] = far_error[k] = 0;
+        continue;
+      }
+      if (std::abs(d) < 0x1p-300) return std::nullopt;
+      const double inverse = 1 / d, t_lo = (lo - o) * inverse, t_hi = (hi - o) * inverse;
+      near[k] = std::min(t_lo, t_hi), far[k] = std::max(t_lo, t_hi);
+      near_error[k] = kGammaDouble[6] * std::abs(near[k]) + 0x1p-1073;
+      far_error[k] = kGammaDouble[6] * std::abs(far[k]) + 0x1p-1073;
+      ++slabs;
+    }
+    if (slabs == 0) return std::nullopt;
+    // The last slab entered and the first left (ties: the lower axis), chosen by arithmetic on the
+    // comparisons: which axis it is is random on random rays, and a branch on it mispredicts.
+    const bool near_1 = near[1] > near[0], near_2 = near[2] > std::max(near[0], near[1]);
+    const bool far_1 = far[1] < far[0], far_2 = far[2] < std::min(far[0], far[1]);
+    const int enter = near_2 ? 2 : near_1, leave = far_2 ? 2 : far_1;
+    // t_a < t_b for certain.
+    auto below = [](double ta, double ea, double tb, double eb) { return tb - ta > ea + eb; };
+    bool certain = true;
+    for (int k = 0; k < 3; ++k) {
+      certain &= (k == enter) | below(near[k], near_error[k], near[enter], near_error[enter]);
+      certain &= (k == leave) | below(far[leave], far_error[leave], far[k], far_error[k]);
+    }
+    // t_min < t_max, or t_min > t_max, for certain; a tie is never certain.
+    const bool crossed = below(near[enter], near_error[enter], far[leave], far_error[leave]);
+    const bool missed = below(far[leave], far_error[leave], near[enter], near_error[enter]);
+    if (!certain || !(crossed || missed) || near[enter] == 0 || far[leave] == 0) return std::nullopt;
+    // From a table (see crossing_decision): a miss (t_max < 0: behind the ray), an entry at the
+    // last slab entered, or an exit at the first left (the origin inside).
+    static constexpr Decision<Source> kOutcomes[7] = {{},
+                                                      {HitClass::enter, true, Source{false, 0}},
+                                                      {HitClass::enter, true, Source{false, 1}},
+                                                      {HitClass::enter, true, Source{false, 2}},
+                                                      {HitClass::exit, false, Source{true, 0}},
+                                                      {HitClass::exit, false, Source{true, 1}},
+                                                      {HitClass::exit, false, Source{true, 2}}};
+    const bool hit = !missed && far[leave] > 0, outside = near[enter] > 0;
+    return kOutcomes[hit * (outside ? 1 + slab_of[enter] : 4 + slab_of[leave])];
   }
 };
 

@@ -31,7 +31,6 @@
 #include <array>
 #include <cmath>
 #include <optional>
-#include <type_traits>
 
 #include "rayproof/core/eft.h"
 #include "rayproof/core/fp.h"
@@ -174,68 +173,15 @@ class FilteredDD {
   bool valid_;
 };
 
-// A double from one fixed expression whose bound is worked out by hand for that expression: a
-// shape's static filter (oracle.cpp), CGAL's Static_filters in spirit. The bound is
-// filter_detail::kGammaDouble[k]·m as above, with k and the tree of m fixed per term; the inputs
-// are first checked into static_input_range, where every product's magnitude is 0 or in the
-// model's range, so bound 0 means every term is exactly 0.
-struct StaticallyBounded {
-  double value, bound;
-};
-[[gnu::always_inline]] inline std::optional<int> sign_of(const StaticallyBounded& x) {
-  if (x.value > x.bound) return 1;
-  if (x.value < -x.bound) return -1;
-  if (x.bound == 0) return 0;  // (and value is 0)
-  return std::nullopt;
-}
-// A value and its magnitude m, for a shape's static filter whose every sign asked has at most
-// kRounds roundings on its deepest path (counted by hand beside the filter), over inputs first
-// checked into static_input_range: FilteredDouble without a round count or a range check per
-// operation. The bound is filter_detail::kGammaDouble[kRounds]·m.
-template <int kRounds>
-class StaticFiltered {
- public:
-  StaticFiltered() = default;
-  StaticFiltered(double x) : v_(x), m_(std::abs(x)) {}  // NOLINT(google-explicit-constructor)
-  [[gnu::always_inline]] friend StaticFiltered operator+(const StaticFiltered& a, const StaticFiltered& b) {
-    return {a.v_ + b.v_, a.m_ + b.m_};
-  }
-  [[gnu::always_inline]] friend StaticFiltered operator-(const StaticFiltered& a, const StaticFiltered& b) {
-    return {a.v_ - b.v_, a.m_ + b.m_};
-  }
-  [[gnu::always_inline]] StaticFiltered operator-() const { return {-v_, m_}; }
-  [[gnu::always_inline]] friend StaticFiltered operator*(const StaticFiltered& a, const StaticFiltered& b) {
-    return {a.v_ * b.v_, a.m_ * b.m_};
-  }
-  [[gnu::always_inline]] std::optional<int> sign() const {
-    return sign_of(StaticallyBounded{v_, filter_detail::kGammaDouble[kRounds] * m_});
-  }
-
- private:
-  StaticFiltered(double v, double m) : v_(v), m_(m) {}
-  double v_, m_;  // uninitialised by default, as a double is (see FilteredDouble)
-};
-template <int kRounds>
-[[gnu::always_inline]] inline std::optional<int> sign_of(const StaticFiltered<kRounds>& x) {
-  return x.sign();
-}
-
-// Whether |x| is 0 or in [lo, hi] (never for NaN or ±inf). Without branches: filters call it on
-// every input, and a branch per input mispredicts more than the comparisons cost.
-[[gnu::always_inline]] inline bool static_input_range(double x, double lo, double hi) {
-  const double a = std::abs(x);
-  return (a == 0) | ((a >= lo) & (a <= hi));
-}
-// The same for every input of a query: doubles and vectors alike.
-template <class... Inputs>
-[[gnu::always_inline]] inline bool static_inputs_in_range(double lo, double hi, const Inputs&... inputs) {
-  auto in_range = [&](const auto& x) {
-    if constexpr (std::is_arithmetic_v<std::decay_t<decltype(x)>>)
-      return static_input_range(x, lo, hi);
-    else
-      return static_input_range(x[0], lo, hi) & static_input_range(x[1], lo, hi) & static_input_range(x[2], lo, hi);
-  };
-  return (in_range(inputs) & ...);
+// The shapes' static filters (oracle.cpp's decide_static, CGAL's Static_filters/Orientation_3 in
+// spirit) are written by hand per shape: each term evaluated in plain doubles, its bound
+// filter_detail::kGammaDouble[k]·m with k its roundings counted and m a bound on its monomials'
+// magnitudes from the inputs' maxima, the derivation and the input range beside each filter.
+// This is the sign of such a value, with a positive bound: 0 when the sign is uncertain (an exact
+// zero included, which the filters term by term then decide). No branch on which sign: random
+// rays take either about half the time, and a mispredicted branch costs more than the arithmetic.
+[[gnu::always_inline]] inline int certain_sign(double value, double bound) {
+  return (value > bound) - (value < -bound);
 }
 
 [[gnu::always_inline]] inline std::optional<int> sign_of(const FilteredDouble& x) { return x.sign(); }
