@@ -49,7 +49,8 @@ template <class NT>
   return {NT(a.y * b.z - a.z * b.y), NT(a.z * b.x - a.x * b.z), NT(a.x * b.y - a.y * b.x)};
 }
 
-// Per axis |v|, the larger of two per axis, and the largest component: the static filters' maxima.
+// Per axis |v|, the larger of two per axis, and the largest component: the static filters' maxima
+// of computed differences (of inputs, geometry.h's max_abs).
 [[gnu::always_inline]] inline V<double> abs_of(const V<double>& v) {
   return {std::abs(v.x), std::abs(v.y), std::abs(v.z)};
 }
@@ -191,7 +192,7 @@ struct SpherePolicy : NoSpecialCase {
   [[gnu::always_inline]] static std::optional<Decision<Source>> decide_static(const Ray& ray, const Sphere& s) {
     using filter_detail::kGammaDouble;
     const V<double> f = lift<double>(ray.origin) - lift<double>(s.center), d = lift<double>(ray.direction);
-    const double F = largest(abs_of(f)), D = largest(abs_of(d)), R = std::abs(s.radius);
+    const double F = largest(abs_of(f)), D = max_abs(ray.direction), R = std::abs(s.radius);
     if (!(F <= 0x1p100 && D <= 0x1p100 && R <= 0x1p100)) return std::nullopt;
     const double b_m = 3 * F * D, c_m = 3 * F * F + R * R, disc_m = 3 * (D * D) * (6 * (F * F) + R * R);
     if (!(b_m >= 0x1p-800 && c_m >= 0x1p-800 && disc_m >= 0x1p-800)) return std::nullopt;
@@ -250,7 +251,7 @@ struct PlanePolicy : NoSpecialCase {
   [[gnu::always_inline]] static std::optional<Decision<Source>> decide_static(const Ray& ray, const Plane& p) {
     using filter_detail::kGammaDouble;
     const V<double> n = lift<double>(p.normal), d = lift<double>(ray.direction), o = lift<double>(ray.origin);
-    const double N = largest(abs_of(n)), D = largest(abs_of(d)), O = largest(abs_of(o)), K = std::abs(p.offset);
+    const double N = max_abs(p.normal), D = max_abs(ray.direction), O = max_abs(ray.origin), K = std::abs(p.offset);
     const double den_m = 3 * N * D, num_m = K + 3 * N * O;
     if (!(N <= 0x1p300 && D <= 0x1p300 && O <= 0x1p300 && K <= 0x1p300)) return std::nullopt;
     if (!(den_m >= 0x1p-800 && num_m >= 0x1p-800)) return std::nullopt;
@@ -356,7 +357,7 @@ struct TrianglePolicy {
     const V<double> a = lift<double>(tri.v[0]) - o, b = lift<double>(tri.v[1]) - o, c = lift<double>(tri.v[2]) - o;
     const V<double> A = max_of(max_of(abs_of(a), abs_of(b)), abs_of(c)), D = abs_of(d);
     const double edge_m = 2 * (D.x * A.y * A.z + D.y * A.z * A.x + D.z * A.x * A.y);
-    if (!(largest(A) <= 0x1p200 && largest(D) <= 0x1p200 && edge_m >= 0x1p-800)) return std::nullopt;
+    if (!(largest(A) <= 0x1p200 && max_abs(ray.direction) <= 0x1p200 && edge_m >= 0x1p-800)) return std::nullopt;
     const double edge_bound = kGammaDouble[7] * edge_m;
     const double e[3] = {dot(d, cross(a, b)), dot(d, cross(b, c)), dot(d, cross(c, a))};
     int positive = 0, negative = 0;
