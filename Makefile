@@ -33,11 +33,13 @@ test-sanitize:
 # A short run of every benchmark (one binary, so ratios come from one run), then the goals.
 BENCH_MIN_TIME ?= 0.05
 bench: build
+	@bash scripts/install-deps.sh bench
 	@$(BUILD)/bench/rayproof_bench --benchmark_min_time=$(BENCH_MIN_TIME) \
 	  --benchmark_out=$(BUILD)/bench.json --benchmark_out_format=json
 	@python3 scripts/bench-goals.py $(BUILD)/bench.json
 	@python3 scripts/exactness-table.py $(BUILD)/bench.json
-	@echo "benchmark results: $(BUILD)/bench.json"
+	@python3 scripts/instruction-counts.py $(BUILD) --csv $(BUILD)/instructions.csv
+	@echo "benchmark results: $(BUILD)/bench.json, $(BUILD)/instructions.csv"
 
 # libFuzzer harnesses under ASan + UBSan, each run for FUZZ_SECONDS (not part of `make test`).
 FUZZ_SECONDS ?= 30

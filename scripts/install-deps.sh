@@ -12,6 +12,9 @@ if [ "${1:-}" = fuzz ] || [ "${1:-}" = sanitize ]; then packages+=(clang libclan
 # opens an audit's report.html in a real browser.
 # And clang-format, for the test that the tree follows .clang-format.
 if [ "${1:-}" = test ] || [ "${1:-}" = sanitize ]; then packages+=(chromium clang-format); fi
+# `install-deps.sh bench` (make bench): also valgrind, whose callgrind counts instructions per call
+# (scripts/instruction-counts.py).
+if [ "${1:-}" = bench ]; then packages+=(valgrind); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

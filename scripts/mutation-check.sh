@@ -95,7 +95,9 @@ mutate "triangle-filter-edges-unbounded" verify/oracle.cpp \
 mutate "triangle-filter-degenerate-den-unchecked" verify/oracle.cpp \
   "      if (!(std::abs(den) > 4 * edge_bound + kGammaDouble[2] * sum)) return std::nullopt;" ""
 mutate "box-filter-ratios-exact" verify/oracle.cpp \
-  "near_error[k] = kGammaDouble[6] * std::abs(near[k]) + 0x1p-1073;" "near_error[k] = 0;"
+  "s.near_error[k] = static_error(s.near[k])," "s.near_error[k] = 0,"
+mutate "box-class-filter-ends-exact" verify/oracle.cpp \
+  "const double e_min = static_error(t_min), e_max = static_error(t_max);" "const double e_min = 0, e_max = 0;"
 mutate "direct-rounding-ignores-its-enclosure" verify/oracle.cpp \
   "  if (a != b) return std::nullopt;" "  (void)b;"
 mutate "leaf-reach-zero" lib/rayproof/core/scene_rays.h \

@@ -109,7 +109,9 @@ ParameterOf<NT> ratio_parameter(const NT& num, const NT& den) {
 //   kExpansionTerms       whether the terms are polynomial (expansions can hold them);
 //   special_case(...)     a verdict the terms alone cannot give (nullopt nearly always);
 //   decide_static(ray, s) decide()'s answer from a filter written by hand for the shape (plain
-//                         doubles, bounds from the inputs' maxima), or nullopt.
+//                         doubles, bounds from the inputs' maxima), or nullopt;
+//   classify_static(...)  optional: the class alone, where that needs less than decide_static
+//                         certifies (the box: not which slab gives t), its source then nominal.
 // The driver below (decide_filtered, judge_with) layers the stages over any policy.
 struct NoSpecialCase {
   template <class Decision>
@@ -509,14 +511,82 @@ struct BoxPolicy : NoSpecialCase {
     return {source.far ? t.far[source.slab] : t.near[source.slab], NT(0), t.den[source.slab], 0};
   }
 
+  // decide_static's and classify_static's common start: the slab parameters t̂ per axis, or why
+  // none are needed (a d = 0 axis with the origin outside its slab: a miss) or usable (inputs out
+  // of range, NaN, a degenerate box, a d = 0 axis with the origin on a face, no d ≠ 0 axis).
+  // (Filled in place: a returned copy is read back with wide loads of narrow stores, which stall.)
+  enum class SlabsOutcome { slabs, miss, undecided };
+  struct StaticSlabs {
+    double near[3], far[3], near_error[3], far_error[3];  // t̂ and ê (static_error; 0 for ±∞)
+    int slab_of[3];  // axis → its slab's index among the d ≠ 0 axes (decide()'s Source::slab)
+  };
+  // ê for a finite slab parameter t̂ (decide_static's derivation).
+  [[gnu::always_inline]] static double static_error(double t) {
+    return filter_detail::kGammaDouble[8] * std::abs(t) + 0x1p-1073;
+  }
+  // The range where the bound below holds is checked on what matters, not input by input: the
+  // sum of |d_k|, |1/d_k|, |t̂_lo| and |t̂_hi| over the d ≠ 0 axes at most 2^700, so 1/d is a
+  // normal double rounded once and neither the difference (exact where it underflows) nor the
+  // product overflowed. A rounded sum of non-negative terms is at least each term, and NaN or ∞
+  // in any makes it fail. A d = 0 axis counts only with its origin strictly inside its slab (or
+  // outside: a miss, answered only where every other input is usable).
+  // One d ≠ 0 axis: its near and far t̂, and what the range check sums.
+  [[gnu::always_inline]] static void axis_slab(double o, double d, double lo, double hi, double& near, double& far,
+                                               double& magnitudes) {
+    const double inverse = 1 / d, t_lo = (lo - o) * inverse, t_hi = (hi - o) * inverse;
+    magnitudes += (std::abs(d) + std::abs(inverse)) + (std::abs(t_lo) + std::abs(t_hi));
+    near = std::min(t_lo, t_hi), far = std::max(t_lo, t_hi);
+  }
+  [[gnu::always_inline]] static SlabsOutcome static_slabs(const Ray& ray, const Box& b, StaticSlabs& s) {
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    bool ordered = true, outside = false;
+    double magnitudes = 0;
+    int slabs = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double o = ray.origin[k], d = ray.direction[k], lo = b.min[k], hi = b.max[k];
+      s.slab_of[k] = slabs;
+      ordered &= lo < hi;
+      if (d == 0) {  // (rare: the branch is predicted)
+        if (!(o > lo && o < hi)) {
+          if (!(o < lo || o > hi)) return SlabsOutcome::undecided;  // on a face, or NaN
+          outside = true;
+        }
+        s.near[k] = -inf, s.far[k] = inf, s.near_error[k] = s.far_error[k] = 0;
+        continue;
+      }
+      axis_slab(o, d, lo, hi, s.near[k], s.far[k], magnitudes);
+      s.near_error[k] = static_error(s.near[k]), s.far_error[k] = static_error(s.far[k]);
+      ++slabs;
+    }
+    if (!(ordered && magnitudes <= 0x1p700) || slabs == 0) return SlabsOutcome::undecided;
+    return outside ? SlabsOutcome::miss : SlabsOutcome::slabs;
+  }
+  // t_a < t_b for certain, with their errors ê_a, ê_b.
+  [[gnu::always_inline]] static bool certainly_below(double ta, double ea, double tb, double eb) {
+    return tb - ta > ea + eb;
+  }
+  // An entry, an exit or a miss from a table (see crossing_decision): `hit` (t_min < t_max and
+  // t_max > 0, certain), `outside` (t_min > 0: the origin outside the box); `row` 1 + the slab
+  // entered last (outside) or 4 + the slab left first.
+  [[gnu::always_inline]] static Decision<Source> slab_decision(bool hit, bool outside, int enter_slab, int leave_slab) {
+    static constexpr Decision<Source> kOutcomes[7] = {{},
+                                                      {HitClass::enter, true, Source{false, 0}},
+                                                      {HitClass::enter, true, Source{false, 1}},
+                                                      {HitClass::enter, true, Source{false, 2}},
+                                                      {HitClass::exit, false, Source{true, 0}},
+                                                      {HitClass::exit, false, Source{true, 1}},
+                                                      {HitClass::exit, false, Source{true, 2}}};
+    return kOutcomes[hit * (outside ? 1 + enter_slab : 4 + leave_slab)];
+  }
+
   // The static filter, specialised by hand: decide()'s comparisons of two slab ratios made on the
   // ratios themselves, t̂ = fl(fl(plane − o)·fl(1/d)), instead of on cross-multiplied products;
   // per axis t_near = min and t_far = max of the two planes' (the rounding is monotone, so the
   // computed order is the exact one, lo < hi), without a branch on the sign of d, a coin toss on
   // random rays.
   //  - Error: three roundings give t̂ = t·(1 + θ₃), and a product that underflows adds ≤ 2^-1075,
-  //    so |t̂ − t| ≤ γ(4)·|t̂| + 2^-1074 (Higham Lemma 3.1). With |inputs| ≤ 2^300 and every
-  //    non-zero |d_k| ≥ 2^-300, |t| ≤ 2^601: nothing overflows.
+  //    so |t̂ − t| ≤ γ(4)·|t̂| + 2^-1074 (Higham Lemma 3.1), in the range static_slabs checks
+  //    (|t̂| ≤ 2^700: no sum or difference below overflows either).
   //  - Two ratios compare with certainty where fl(t̂_b − t̂_a) > fl(ê_a + ê_b), ê = fl(γ(8)·|t̂|) +
   //    2^-1073: the spare γ(4)·|t̂| pays for the difference's rounding and the sum's.
   //  - A non-zero t̂ has the exact t's sign (plane − o is 0 only where plane = o, and 1/d is never
@@ -525,59 +595,54 @@ struct BoxPolicy : NoSpecialCase {
   //    t_near = −∞, t_far = +∞ (exact) when strictly inside, and nullopt on a face.
   // Ties are never certain, so a certain maximum is decide()'s first one: the same source.
   static std::optional<Decision<Source>> decide_static(const Ray& ray, const Box& b) {
-    using filter_detail::kGammaDouble;
-    constexpr double inf = std::numeric_limits<double>::infinity();
-    bool in_range = true;
-    for (int k = 0; k < 3; ++k)
-      in_range &= (std::abs(ray.origin[k]) <= 0x1p300) & (std::abs(ray.direction[k]) <= 0x1p300) &
-                  (std::abs(b.min[k]) <= 0x1p300) & (std::abs(b.max[k]) <= 0x1p300) & (b.min[k] < b.max[k]);
-    if (!in_range) return std::nullopt;  // (also NaN)
-    double near[3], far[3], near_error[3], far_error[3];
-    int slab_of[3], slabs = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double o = ray.origin[k], d = ray.direction[k], lo = b.min[k], hi = b.max[k];
-      slab_of[k] = slabs;
-      if (d == 0) {
-        if (o < lo || o > hi) return Decision<Source>{};
-        if (o == lo || o == hi) return std::nullopt;
-        near[k] = -inf, far[k] = inf, near_error[k] = far_error[k] = 0;
-        continue;
-      }
-      if (std::abs(d) < 0x1p-300) return std::nullopt;
-      const double inverse = 1 / d, t_lo = (lo - o) * inverse, t_hi = (hi - o) * inverse;
-      near[k] = std::min(t_lo, t_hi), far[k] = std::max(t_lo, t_hi);
-      near_error[k] = kGammaDouble[6] * std::abs(near[k]) + 0x1p-1073;
-      far_error[k] = kGammaDouble[6] * std::abs(far[k]) + 0x1p-1073;
-      ++slabs;
-    }
-    if (slabs == 0) return std::nullopt;
+    StaticSlabs s;
+    if (const SlabsOutcome outcome = static_slabs(ray, b, s); outcome != SlabsOutcome::slabs)
+      return outcome == SlabsOutcome::miss ? std::optional(Decision<Source>{}) : std::nullopt;
+    const double(&near)[3] = s.near, (&far)[3] = s.far, (&near_error)[3] = s.near_error, (&far_error)[3] = s.far_error;
     // The last slab entered and the first left (ties: the lower axis), chosen by arithmetic on the
     // comparisons: which axis it is is random on random rays, and a branch on it mispredicts.
     const bool near_1 = near[1] > near[0], near_2 = near[2] > std::max(near[0], near[1]);
     const bool far_1 = far[1] < far[0], far_2 = far[2] < std::min(far[0], far[1]);
     const int enter = near_2 ? 2 : near_1, leave = far_2 ? 2 : far_1;
-    // t_a < t_b for certain.
-    auto below = [](double ta, double ea, double tb, double eb) { return tb - ta > ea + eb; };
     bool certain = true;
     for (int k = 0; k < 3; ++k) {
-      certain &= (k == enter) | below(near[k], near_error[k], near[enter], near_error[enter]);
-      certain &= (k == leave) | below(far[leave], far_error[leave], far[k], far_error[k]);
+      certain &= (k == enter) | certainly_below(near[k], near_error[k], near[enter], near_error[enter]);
+      certain &= (k == leave) | certainly_below(far[leave], far_error[leave], far[k], far_error[k]);
     }
     // t_min < t_max, or t_min > t_max, for certain; a tie is never certain.
-    const bool crossed = below(near[enter], near_error[enter], far[leave], far_error[leave]);
-    const bool missed = below(far[leave], far_error[leave], near[enter], near_error[enter]);
+    const bool crossed = certainly_below(near[enter], near_error[enter], far[leave], far_error[leave]);
+    const bool missed = certainly_below(far[leave], far_error[leave], near[enter], near_error[enter]);
     if (!certain || !(crossed || missed) || near[enter] == 0 || far[leave] == 0) return std::nullopt;
-    // From a table (see crossing_decision): a miss (t_max < 0: behind the ray), an entry at the
-    // last slab entered, or an exit at the first left (the origin inside).
-    static constexpr Decision<Source> kOutcomes[7] = {{},
-                                                      {HitClass::enter, true, Source{false, 0}},
-                                                      {HitClass::enter, true, Source{false, 1}},
-                                                      {HitClass::enter, true, Source{false, 2}},
-                                                      {HitClass::exit, false, Source{true, 0}},
-                                                      {HitClass::exit, false, Source{true, 1}},
-                                                      {HitClass::exit, false, Source{true, 2}}};
-    const bool hit = !missed && far[leave] > 0, outside = near[enter] > 0;
-    return kOutcomes[hit * (outside ? 1 + slab_of[enter] : 4 + slab_of[leave])];
+    // A miss (t_max < 0: behind the ray), an entry at the last slab entered, or an exit at the
+    // first left (the origin inside).
+    return slab_decision(!missed && far[leave] > 0, near[enter] > 0, s.slab_of[enter], s.slab_of[leave]);
+  }
+
+  // The class alone (Oracle::classify): decide_static without certifying which slab is entered
+  // last and left first — the class needs only t_min = max t_near and t_max = min t_far, so one
+  // bound an end and no pairwise comparisons (the source it reports is then nominal: slab 0).
+  //  - The computed maximum m̂ = max t̂_k obeys the per-parameter bound: with e(x) = γ(4)|x| +
+  //    2^-1074, increasing in x, and j the axis of the exact maximum, max t = t_j ≤ t̂_j + e(t̂_j)
+  //    ≤ m̂ + e(m̂), and max t ≥ t_k ≥ m̂ − e(m̂) for the k with t̂_k = m̂. The same for the minimum.
+  //  - Its sign is exact where m̂ ≠ 0: m̂ > 0 is a t̂_k > 0, so t_k > 0; m̂ < 0 makes every t̂_k,
+  //    hence every t_k, negative.
+  // A ray with a zero direction component (rare but for axis-parallel rays) takes decide_static,
+  // which handles d = 0; the others compute their three slabs in registers.
+  static std::optional<Decision<Source>> classify_static(const Ray& ray, const Box& b) {
+    const Vec3& o = ray.origin;
+    const Vec3& d = ray.direction;
+    if (d.x() == 0 || d.y() == 0 || d.z() == 0) return decide_static(ray, b);
+    double near[3], far[3], magnitudes = 0;
+    for (int k = 0; k < 3; ++k) axis_slab(o[k], d[k], b.min[k], b.max[k], near[k], far[k], magnitudes);
+    const bool ordered = (b.min.x() < b.max.x()) & (b.min.y() < b.max.y()) & (b.min.z() < b.max.z());
+    if (!(ordered && magnitudes <= 0x1p700)) return std::nullopt;  // static_slabs's range
+    const double t_min = std::max(std::max(near[0], near[1]), near[2]);
+    const double t_max = std::min(std::min(far[0], far[1]), far[2]);
+    const double e_min = static_error(t_min), e_max = static_error(t_max);
+    const bool crossed = certainly_below(t_min, e_min, t_max, e_max);
+    const bool missed = certainly_below(t_max, e_max, t_min, e_min);
+    if (!(crossed || missed) || t_min == 0 || t_max == 0) return std::nullopt;
+    return slab_decision(!missed && t_max > 0, t_min > 0, 0, 0);
   }
 };
 
@@ -1020,7 +1085,12 @@ HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
     const std::optional<HitClass> decided = std::visit(
         [&](const auto& s) -> std::optional<HitClass> {
           using P = typename PolicyOf<std::decay_t<decltype(s)>>::type;
-          const auto d = P::decide_static(ray, s);
+          const auto d = [&] {
+            if constexpr (requires { P::classify_static(ray, s); })
+              return P::classify_static(ray, s);
+            else
+              return P::decide_static(ray, s);
+          }();
           if (d && !P::special_case_needed(*d)) return kept_by_rule(d->cls, d->front, rule) ? d->cls : HitClass::miss;
           return std::nullopt;
         },

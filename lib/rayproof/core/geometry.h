@@ -22,7 +22,9 @@ inline Vec3 cross(const Vec3& a, const Vec3& b) {
 inline double length(const Vec3& a) { return std::sqrt(dot(a, a)); }
 inline Vec3 normalized(const Vec3& a) { return a / length(a); }
 inline bool all_finite(const Vec3& a) { return std::isfinite(a.x()) && std::isfinite(a.y()) && std::isfinite(a.z()); }
-inline double max_abs(const Vec3& a) { return std::max({std::abs(a.x()), std::abs(a.y()), std::abs(a.z())}); }
+// (Two-argument max, not the initializer-list form, which GCC keeps as an out-of-line loop: the
+// oracle's static filters call this on every query. The same comparisons in the same order.)
+inline double max_abs(const Vec3& a) { return std::max(std::max(std::abs(a.x()), std::abs(a.y())), std::abs(a.z())); }
 
 // The ray o + t·d for t > 0. The direction is kept exactly as given: t is measured in units of
 // the user's direction, never of a renormalised one.
