@@ -96,6 +96,8 @@ mutate "triangle-filter-degenerate-den-unchecked" verify/oracle.cpp \
   "      if (!(std::abs(den) > 4 * edge_bound + kGammaDouble[2] * sum)) return std::nullopt;" ""
 mutate "box-filter-ratios-exact" verify/oracle.cpp \
   "s.near_error[k] = static_error(s.near[k])," "s.near_error[k] = 0,"
+mutate "box-parameter-alone-other-plane" verify/oracle.cpp \
+  "const bool min_plane = (d > 0) != source.far;" "const bool min_plane = (d > 0) == source.far;"
 mutate "box-class-filter-ends-exact" verify/oracle.cpp \
   "const double e_min = static_error(t_min), e_max = static_error(t_max);" "const double e_min = 0, e_max = 0;"
 mutate "direct-rounding-ignores-its-enclosure" verify/oracle.cpp \

@@ -510,6 +510,19 @@ struct BoxPolicy : NoSpecialCase {
   static ParameterOf<NT> parameter(const Terms<NT>& t, Source source) {
     return {source.far ? t.far[source.slab] : t.near[source.slab], NT(0), t.den[source.slab], 0};
   }
+  // The same parameter from its one slab alone (the class needs all three): terms()'s
+  // arithmetic for that axis, so the value is the same bit for bit. Slab k is the k-th axis
+  // with d ≠ 0; its near plane is min where d > 0, max where d < 0 (the far plane the other).
+  template <class NT>
+  static ParameterOf<NT> parameter_alone(const Ray& ray, const Box& b, Source source) {
+    int axis = 0;
+    for (int slab = -1; axis < 3; ++axis)
+      if (ray.direction[axis] != 0 && ++slab == source.slab) break;
+    const double o = ray.origin[axis], d = ray.direction[axis];
+    const bool min_plane = (d > 0) != source.far;
+    const NT num = NT(min_plane ? b.min[axis] : b.max[axis]) - NT(o);
+    return {d > 0 ? num : NT(-num), NT(0), NT(std::abs(d)), 0};
+  }
 
   // decide_static's and classify_static's common start: the slab parameters t̂ per axis, or why
   // none are needed (a d = 0 axis with the origin outside its slab: a miss) or usable (inputs out
@@ -539,14 +552,22 @@ struct BoxPolicy : NoSpecialCase {
   }
   [[gnu::always_inline]] static SlabsOutcome static_slabs(const Ray& ray, const Box& b, StaticSlabs& s) {
     constexpr double inf = std::numeric_limits<double>::infinity();
-    bool ordered = true, outside = false;
+    const bool ordered = (b.min.x() < b.max.x()) & (b.min.y() < b.max.y()) & (b.min.z() < b.max.z());
     double magnitudes = 0;
+    const Vec3& direction = ray.direction;
+    if (direction.x() != 0 && direction.y() != 0 && direction.z() != 0) {  // nearly always: no branch a slab
+      for (int k = 0; k < 3; ++k) {
+        axis_slab(ray.origin[k], direction[k], b.min[k], b.max[k], s.near[k], s.far[k], magnitudes);
+        s.near_error[k] = static_error(s.near[k]), s.far_error[k] = static_error(s.far[k]), s.slab_of[k] = k;
+      }
+      return ordered && magnitudes <= 0x1p700 ? SlabsOutcome::slabs : SlabsOutcome::undecided;
+    }
+    bool outside = false;
     int slabs = 0;
     for (int k = 0; k < 3; ++k) {
       const double o = ray.origin[k], d = ray.direction[k], lo = b.min[k], hi = b.max[k];
       s.slab_of[k] = slabs;
-      ordered &= lo < hi;
-      if (d == 0) {  // (rare: the branch is predicted)
+      if (d == 0) {
         if (!(o > lo && o < hi)) {
           if (!(o < lo || o > hi)) return SlabsOutcome::undecided;  // on a face, or NaN
           outside = true;
@@ -626,16 +647,11 @@ struct BoxPolicy : NoSpecialCase {
   //    ≤ m̂ + e(m̂), and max t ≥ t_k ≥ m̂ − e(m̂) for the k with t̂_k = m̂. The same for the minimum.
   //  - Its sign is exact where m̂ ≠ 0: m̂ > 0 is a t̂_k > 0, so t_k > 0; m̂ < 0 makes every t̂_k,
   //    hence every t_k, negative.
-  // A ray with a zero direction component (rare but for axis-parallel rays) takes decide_static,
-  // which handles d = 0; the others compute their three slabs in registers.
   static std::optional<Decision<Source>> classify_static(const Ray& ray, const Box& b) {
-    const Vec3& o = ray.origin;
-    const Vec3& d = ray.direction;
-    if (d.x() == 0 || d.y() == 0 || d.z() == 0) return decide_static(ray, b);
-    double near[3], far[3], magnitudes = 0;
-    for (int k = 0; k < 3; ++k) axis_slab(o[k], d[k], b.min[k], b.max[k], near[k], far[k], magnitudes);
-    const bool ordered = (b.min.x() < b.max.x()) & (b.min.y() < b.max.y()) & (b.min.z() < b.max.z());
-    if (!(ordered && magnitudes <= 0x1p700)) return std::nullopt;  // static_slabs's range
+    StaticSlabs s;
+    if (const SlabsOutcome outcome = static_slabs(ray, b, s); outcome != SlabsOutcome::slabs)
+      return outcome == SlabsOutcome::miss ? std::optional(Decision<Source>{}) : std::nullopt;
+    const double(&near)[3] = s.near, (&far)[3] = s.far;
     const double t_min = std::max(std::max(near[0], near[1]), near[2]);
     const double t_max = std::min(std::min(far[0], far[1]), far[2]);
     const double e_min = static_error(t_min), e_max = static_error(t_max);
@@ -945,7 +961,7 @@ Verdict judge_with(const Ray& ray, const typename P::ShapeType& shape, const Ora
     v.exact_t = exact_parameter();
     t = round_to_nearest(*v.exact_t, stats.rounding);
   }
-  v.t = t;
+  v.t = *t;  // (the value, not the optional: copying one read back whole stalls on store forwarding)
   if (options.keep_exact_parameter && !v.exact_t) v.exact_t = exact_parameter();
   return v;
 }
@@ -1009,12 +1025,13 @@ std::optional<Normalized> normalized(const Ray& ray, const Shape& shape) {
   std::visit(
       [&](const auto& s) {
         using S = std::decay_t<decltype(s)>;
-        if constexpr (std::is_same_v<S, Sphere>) pos = std::max({pos, max_abs(s.center), std::abs(s.radius)});
+        // (Nested two-argument max: GCC keeps the initializer-list form as an out-of-line loop.)
+        if constexpr (std::is_same_v<S, Sphere>) pos = std::max(std::max(pos, max_abs(s.center)), std::abs(s.radius));
         if constexpr (std::is_same_v<S, Plane>)
           pos = std::max(pos, std::abs(s.offset) / max_abs(s.normal)), normal = max_abs(s.normal);
         if constexpr (std::is_same_v<S, Triangle>)
-          pos = std::max({pos, max_abs(s.v[0]), max_abs(s.v[1]), max_abs(s.v[2])});
-        if constexpr (std::is_same_v<S, Box>) pos = std::max({pos, max_abs(s.min), max_abs(s.max)});
+          pos = std::max(std::max(pos, max_abs(s.v[0])), std::max(max_abs(s.v[1]), max_abs(s.v[2])));
+        if constexpr (std::is_same_v<S, Box>) pos = std::max(std::max(pos, max_abs(s.min)), max_abs(s.max));
       },
       shape);
   const double dir = max_abs(ray.direction);
@@ -1076,34 +1093,54 @@ Verdict Oracle::judge_as_given(const Ray& ray, const Shape& shape) {
       shape);
 }
 
-HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
-  OracleStats& stats = stats_[shape.index()];
-  ++stats.queries;
-  // A shape's static filter first, on the query as given: it checks its own input range, so no
-  // scaling is needed where it decides (nearly always, on random rays).
-  if (options_.filter && options_.static_filter) {
-    const std::optional<HitClass> decided = std::visit(
-        [&](const auto& s) -> std::optional<HitClass> {
-          using P = typename PolicyOf<std::decay_t<decltype(s)>>::type;
-          const auto d = [&] {
-            if constexpr (requires { P::classify_static(ray, s); })
-              return P::classify_static(ray, s);
-            else
-              return P::decide_static(ray, s);
-          }();
-          if (d && !P::special_case_needed(*d)) return kept_by_rule(d->cls, d->front, rule) ? d->cls : HitClass::miss;
-          return std::nullopt;
-        },
-        shape);
-    if (decided) return *decided;
-  }
-  const auto n = options_.filter ? normalized(ray, shape) : std::nullopt;
+namespace {
+// Oracle::classify beyond the static filters: scaled where magnitudes are extreme, then the stages.
+[[gnu::noinline]] HitClass classify_in_stages(const Ray& ray, const Shape& shape, HitRule rule,
+                                              const Oracle::Options& options, OracleStats& stats) {
+  const auto n = options.filter ? normalized(ray, shape) : std::nullopt;
   const Ray& r = n ? n->ray : ray;
   return std::visit(
       [&](const auto& s) {
-        return classify_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(r, s, rule, options_, stats);
+        return classify_with<typename PolicyOf<std::decay_t<decltype(s)>>::type>(r, s, rule, options, stats);
       },
       n ? n->shape : shape);
+}
+
+// One shape's static filter first, on the query as given: it checks its own input range, so no
+// scaling is needed where it decides (nearly always, on random rays). A function a shape, so
+// each sets up only the registers its own filter needs.
+template <class P>
+[[gnu::noinline]] HitClass classify_shape(const Ray& ray, const Shape& shape, HitRule rule,
+                                          const Oracle::Options& options, OracleStats& stats) {
+  if (options.filter && options.static_filter) {
+    const auto& s = *std::get_if<typename P::ShapeType>(&shape);
+    const auto d = [&] {
+      if constexpr (requires { P::classify_static(ray, s); })
+        return P::classify_static(ray, s);
+      else
+        return P::decide_static(ray, s);
+    }();
+    if (d && !P::special_case_needed(*d)) {
+      // (The side is read only where the rule needs it: a byte read back from the middle of the
+      // decision just stored stalls on store forwarding on some CPUs, a third of the plane's time.)
+      if (rule != HitRule::enter_only) return d->cls;
+      return kept_by_rule(d->cls, d->front, rule) ? d->cls : HitClass::miss;
+    }
+  }
+  return classify_in_stages(ray, shape, rule, options, stats);
+}
+}  // namespace
+
+HitClass Oracle::classify(const Ray& ray, const Shape& shape, HitRule rule) {
+  OracleStats& stats = stats_[shape.index()];
+  ++stats.queries;
+  switch (static_cast<ShapeKind>(shape.index())) {
+    case ShapeKind::sphere: return classify_shape<SpherePolicy>(ray, shape, rule, options_, stats);
+    case ShapeKind::plane: return classify_shape<PlanePolicy>(ray, shape, rule, options_, stats);
+    case ShapeKind::triangle: return classify_shape<TrianglePolicy>(ray, shape, rule, options_, stats);
+    case ShapeKind::box: break;
+  }
+  return classify_shape<BoxPolicy>(ray, shape, rule, options_, stats);
 }
 
 int compare_crossing_parameters(const Ray& ray, const Triangle& a, const Triangle& b) {
