@@ -379,7 +379,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           if (pairs_of_triangles) {
             EdgeEvidence& edge = judged.edges[chunk + k - b.start];
             if (r.own_exact)
-              edge.own[vi] = Verdict{r.own_exact->cls, r.own_exact->t, std::nullopt, r.own_exact->front};
+              edge.own[vi] = Verdict{r.own_exact->cls, r.own_exact->t, nullptr, r.own_exact->front};
             else if (r.answer.failure == AnswerFailure::not_representable)
               edge.own[vi] = Verdict{};  // not asked: no hole
           }

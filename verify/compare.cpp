@@ -66,7 +66,8 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
       o.variant = &v;
       continue;
     }
-    const Verdict truth = f32 ? view.exact_[k] : oracle.judge(asked[k].ray, asked[k].shape, own_rule);
+    std::optional<Verdict> judged;  // (the float view's verdict is read in place, not copied)
+    const Verdict& truth = f32 ? view.exact_[k] : judged.emplace(oracle.judge(asked[k].ray, asked[k].shape, own_rule));
     o = judge_answer(truth, answers[k]);
     o.variant = &v;
     if (f32 && truth.t && answers[k].has_t()) {

@@ -427,7 +427,7 @@ Verdict coplanar_triangle(const Ray& ray, const Triangle& tri, RoundingStats& ro
   }
   if (!first) return verdict;
   verdict.cls = HitClass::tangent;
-  verdict.exact_t = ExactParameter{*first, 0, 1, 0};
+  verdict.exact_t = std::make_shared<const ExactParameter>(ExactParameter{*first, 0, 1, 0});
   verdict.t = round_to_nearest(*verdict.exact_t, rounding);
   return verdict;
 }
@@ -958,11 +958,11 @@ Verdict judge_with(const Ray& ray, const typename P::ShapeType& shape, const Ora
   if (t) {
     ++stats.rounding.rounded;
   } else {
-    v.exact_t = exact_parameter();
+    v.exact_t = std::make_shared<const ExactParameter>(exact_parameter());
     t = round_to_nearest(*v.exact_t, stats.rounding);
   }
   v.t = *t;  // (the value, not the optional: copying one read back whole stalls on store forwarding)
-  if (options.keep_exact_parameter && !v.exact_t) v.exact_t = exact_parameter();
+  if (options.keep_exact_parameter && !v.exact_t) v.exact_t = std::make_shared<const ExactParameter>(exact_parameter());
   return v;
 }
 

@@ -59,7 +59,7 @@ inline void exercise(const Ray& ray, const Shape& shape) {
     default: check(v.t.has_value());
   }
   if (v.t) {
-    check(*v.t >= 0 && v.exact_t.has_value());
+    check(*v.t >= 0 && v.exact_t != nullptr);
     const double t = *v.t;
     // The exact t lies within the rounding interval of t: between the midpoints to its neighbours.
     if (!std::isinf(t)) {
