@@ -6,6 +6,7 @@
 #include <CGAL/intersections.h>
 
 #include "inputs.h"
+#include "interleaved.h"
 #include "rayproof/verify/oracle.h"
 #include "rayproof/core/variants.h"
 
@@ -68,7 +69,44 @@ void BM_CgalEpickTriangle(benchmark::State& state, std::string family) {
       benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
+// The goals (issue 22): the oracle's class, and class + t, against the fastest double variant on
+// the same random hits, timed interleaved (interleaved.h) in chunks of 16 passes over the ring (65,536 queries).
+constexpr std::size_t kGoalChunk = 65536;
+void BM_GoalOracle(benchmark::State& state, ShapeKind kind, const char* variant, bool with_t) {
+  const auto& qs = inputs(kind, "random-hit");
+  const Variant* v = find_variant(variant);
+  if (!v) return state.SkipWithError("variant not found");
+  Oracle oracle;
+  std::size_t oracle_at = 0, variant_at = 0;
+  interleaved_ratio(
+      state, kGoalChunk,
+      [&] {
+        for (std::size_t k = 0; k < kGoalChunk; ++k) {
+          const Query& q = qs[oracle_at++ % qs.size()];
+          if (with_t)
+            benchmark::DoNotOptimize(oracle.judge(q.ray, q.shape));
+          else
+            benchmark::DoNotOptimize(oracle.classify(q.ray, q.shape));
+        }
+      },
+      [&] {
+        for (std::size_t k = 0; k < kGoalChunk; ++k) {
+          const Query& q = qs[variant_at++ % qs.size()];
+          benchmark::DoNotOptimize(v->intersect(q.ray, q.shape, HitRule::nearest_contact));
+        }
+      });
+}
+
 const bool registered = [] {
+  for (const auto& [kind, variant] :
+       {std::pair{ShapeKind::sphere, "stable"}, std::pair{ShapeKind::plane, "direct"},
+        std::pair{ShapeKind::triangle, "moller-trumbore"}, std::pair{ShapeKind::box, "robust-slab"}}) {
+    const std::string shape(to_string(kind)), base(variant);
+    benchmark::RegisterBenchmark(("goal/oracle-class/" + shape + "/" + base).c_str(), BM_GoalOracle, kind, variant,
+                                 false);
+    benchmark::RegisterBenchmark(("goal/oracle-class-and-t/" + shape + "/" + base).c_str(), BM_GoalOracle, kind,
+                                 variant, true);
+  }
   for (const std::string& family : bench_families()) {
     for (ShapeKind k : kAllShapeKinds) {
       const std::string base = "oracle/" + std::string(to_string(k)) + "/" + family;
