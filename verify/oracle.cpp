@@ -537,12 +537,6 @@ struct BoxPolicy : NoSpecialCase {
   [[gnu::always_inline]] static double static_error(double t) {
     return filter_detail::kGammaDouble[8] * std::abs(t) + 0x1p-1073;
   }
-  // The range where the bound below holds is checked on what matters, not input by input: the
-  // sum of |d_k|, |1/d_k|, |t̂_lo| and |t̂_hi| over the d ≠ 0 axes at most 2^700, so 1/d is a
-  // normal double rounded once and neither the difference (exact where it underflows) nor the
-  // product overflowed. A rounded sum of non-negative terms is at least each term, and NaN or ∞
-  // in any makes it fail. A d = 0 axis counts only with its origin strictly inside its slab (or
-  // outside: a miss, answered only where every other input is usable).
   // One d ≠ 0 axis: its near and far t̂, and what the range check sums.
   [[gnu::always_inline]] static void axis_slab(double o, double d, double lo, double hi, double& near, double& far,
                                                double& magnitudes) {
@@ -550,6 +544,12 @@ struct BoxPolicy : NoSpecialCase {
     magnitudes += (std::abs(d) + std::abs(inverse)) + (std::abs(t_lo) + std::abs(t_hi));
     near = std::min(t_lo, t_hi), far = std::max(t_lo, t_hi);
   }
+  // The range where decide_static's bound holds is checked on what matters, not input by input:
+  // the sum of |d_k|, |1/d_k|, |t̂_lo| and |t̂_hi| over the d ≠ 0 axes at most 2^700, so 1/d is a
+  // normal double rounded once and neither the difference (exact where it underflows) nor the
+  // product overflowed. A rounded sum of non-negative terms is at least each term, and NaN or ∞
+  // in any makes it fail. A d = 0 axis counts only with its origin strictly inside its slab (or
+  // outside: a miss, answered only where every other input is usable).
   [[gnu::always_inline]] static SlabsOutcome static_slabs(const Ray& ray, const Box& b, StaticSlabs& s) {
     constexpr double inf = std::numeric_limits<double>::infinity();
     const bool ordered = (b.min.x() < b.max.x()) & (b.min.y() < b.max.y()) & (b.min.z() < b.max.z());
@@ -643,8 +643,9 @@ struct BoxPolicy : NoSpecialCase {
   // last and left first — the class needs only t_min = max t_near and t_max = min t_far, so one
   // bound an end and no pairwise comparisons (the source it reports is then nominal: slab 0).
   //  - The computed maximum m̂ = max t̂_k obeys the per-parameter bound: with e(x) = γ(4)|x| +
-  //    2^-1074, increasing in x, and j the axis of the exact maximum, max t = t_j ≤ t̂_j + e(t̂_j)
-  //    ≤ m̂ + e(m̂), and max t ≥ t_k ≥ m̂ − e(m̂) for the k with t̂_k = m̂. The same for the minimum.
+  //    2^-1074, x ↦ x + e(x) and x ↦ x − e(x) increasing (γ(4) < 1), and j the axis of the exact
+  //    maximum, max t = t_j ≤ t̂_j + e(t̂_j) ≤ m̂ + e(m̂), and max t ≥ t_k ≥ m̂ − e(m̂) for the k
+  //    with t̂_k = m̂. The same for the minimum.
   //  - Its sign is exact where m̂ ≠ 0: m̂ > 0 is a t̂_k > 0, so t_k > 0; m̂ < 0 makes every t̂_k,
   //    hence every t_k, negative.
   static std::optional<Decision<Source>> classify_static(const Ray& ray, const Box& b) {
