@@ -38,7 +38,7 @@ def count(binary, routine, shape):
 
 
 def main(argv):
-    if len(argv) < 2:
+    if len(argv) < 2 or ("--csv" in argv and argv.index("--csv") + 1 >= len(argv)):
         sys.exit(__doc__)
     binary = os.path.join(argv[1], "bench", "rayproof_instructions")
     if not shutil.which("valgrind"):
@@ -57,7 +57,7 @@ def main(argv):
         print(f"  {shape:9} {variant:16} {per[variant]:8.1f} {per['class']:8.1f} {per['class'] / per[variant]:5.2f}x"
               f" {per['judge']:8.1f} {per['judge'] / per[variant]:5.2f}x")
     if "--csv" in argv:
-        path = argv[argv.index("--csv") + 1]
+        path = argv[argv.index("--csv") + 1]  # (checked before counting: see main's start)
         tmp = path + ".tmp"
         with open(tmp, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
