@@ -98,6 +98,9 @@ mutate "box-filter-ratios-exact" verify/oracle.cpp \
   "s.near_error[k] = static_error(s.near[k])," "s.near_error[k] = 0,"
 mutate "box-parameter-alone-other-plane" verify/oracle.cpp \
   "const bool min_plane = (d > 0) != source.far;" "const bool min_plane = (d > 0) == source.far;"
+mutate "box-filter-face-counts-as-inside" verify/oracle.cpp \
+  "          if (!(o < lo || o > hi)) return SlabsOutcome::undecided;  // on a face, or NaN
+          outside = true;" "          outside = o < lo || o > hi;"
 mutate "box-class-filter-ends-exact" verify/oracle.cpp \
   "const double e_min = static_error(t_min), e_max = static_error(t_max);" "const double e_min = 0, e_max = 0;"
 mutate "direct-rounding-ignores-its-enclosure" verify/oracle.cpp \

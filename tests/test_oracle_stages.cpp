@@ -123,6 +123,48 @@ TEST(OracleStages, TheBoxFilterIsNotFooledAtEdgesAndCorners) {
   EXPECT_GT(decided_static, compared / 100);  // 846 of 20,000 when written: most are within rounding
 }
 
+// Axis-parallel rays at boxes (one or two direction components zero, as a camera looking down an
+// axis makes them), origins on, inside and outside the faces those axes do not cross: the box
+// filters' d = 0 path (a slab the ray never leaves, a miss, or undecided on a face) must answer
+// as the rational stage, and decide some of the rays itself.
+TEST(OracleStages, AxisParallelRaysAtBoxesAnswerAsTheRationalStage) {
+  std::mt19937_64 rng(47);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Oracle exact(Oracle::Options{.filter = false}), filtered;
+  long compared = 0, decided_static = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3 c(u(rng), u(rng), u(rng)), half(0.1 + std::abs(u(rng)), 0.1 + std::abs(u(rng)), 0.1 + std::abs(u(rng)));
+    const Box box{c - half, c + half};
+    Vec3 origin(4 * u(rng), 4 * u(rng), 4 * u(rng)), direction(u(rng), u(rng), u(rng));
+    const int zeros = 1 + static_cast<int>(rng() % 2);
+    for (int z = 0; z < zeros; ++z) {
+      const int k = static_cast<int>(rng() % 3);
+      direction[k] = rng() % 2 ? 0.0 : -0.0;
+      switch (rng() % 4) {  // where the origin sits along that axis
+        case 0: origin[k] = box.min[k]; break;
+        case 1: origin[k] = box.max[k]; break;
+        case 2: origin[k] = c[k] + 0.5 * half[k] * u(rng); break;  // strictly inside the slab
+        default: break;                                            // anywhere, mostly outside
+      }
+    }
+    const Ray ray{origin, direction};
+    if (!is_valid_query(ray, box)) continue;
+    const OracleStats before = filtered.stats(ShapeKind::box);
+    const Verdict truth = exact.judge(ray, box), v = filtered.judge(ray, box);
+    const HitClass cls = filtered.classify(ray, box);
+    const OracleStats after = filtered.stats(ShapeKind::box);
+    decided_static += after.class_interval + after.class_expansion + after.class_exact ==
+                      before.class_interval + before.class_expansion + before.class_exact;
+    ++compared;
+    ASSERT_EQ(v.cls, truth.cls) << "ray " << i;
+    ASSERT_EQ(v.t, truth.t) << "ray " << i;
+    ASSERT_EQ(v.front, truth.front) << "ray " << i;
+    ASSERT_EQ(cls, truth.cls) << "ray " << i;
+  }
+  EXPECT_GT(compared, 19000);
+  EXPECT_GT(decided_static, compared / 2);  // faces are undecided; the rest is the filters'
+}
+
 // Degenerate triangles (collinear vertices), which case files refuse but meshes may hold: the
 // terms read every ray as coplanar with them, and the static filter, whose edges then take both
 // signs on most rays, must not call those a plain miss on its own.
