@@ -6,6 +6,10 @@ Usage: scripts/bench-goals.py build/bench.json
 import json
 import sys
 
+# Per shape, the fastest double variant the oracle's goals compare with (also the baseline of
+# scripts/instruction-counts.py and of bench/bench_oracle.cpp's goal/ benchmarks).
+BASELINES = [("sphere", "stable"), ("triangle", "moller-trumbore"), ("box", "robust-slab"), ("plane", "direct")]
+
 
 def main(path):
     runs = json.load(open(path))["benchmarks"]
@@ -72,7 +76,7 @@ def main(path):
         print(f"tracer plugin nearest through the worker / direct: {direct / worker:.2f}x  goal {'met' if direct / worker <= 1.5 else 'NOT met'} (<= 1.5)")
     if direct and judged:
         print(f"tracer plugin judged (worker + truth + kinds) / direct nearest: {direct / judged:.2f}x")
-    for shape, base in [("sphere", "stable"), ("triangle", "moller-trumbore"), ("box", "robust-slab"), ("plane", "direct")]:
+    for shape, base in BASELINES:
         both(f"oracle class / {base} ({shape}, random-hit, goal <= 2)", f"goal/oracle-class/{shape}/{base}",
              f"oracle/{shape}/random-hit/class", f"variant/{base}/random-hit", lambda x: x <= 2)
         both(f"oracle class + t / {base} ({shape}, random-hit, goal <= 8)", f"goal/oracle-class-and-t/{shape}/{base}",
