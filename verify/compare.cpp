@@ -31,7 +31,7 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
                        HitRule rule, std::vector<VariantOutcome>& out, FloatView* shared) {
   const HitRule own_rule = v.rule_for(rule);
   const bool f32 = v.precision == Precision::f32, own = f32 || own_rule != rule;
-  out.assign(qs.size(), VariantOutcome{&v});
+  out.resize(qs.size());  // every entry is written whole below
   thread_local FloatView scratch;  // a view for this variant alone where none is shared
   FloatView& view = shared && f32 ? *shared : scratch;
   if (!shared || !f32 || !view.ready_ || view.rule_ != own_rule) {
@@ -49,7 +49,7 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
       if (next < view.from_.size() && view.from_[next] == i)
         ++next;
       else
-        out[i].answer = Answer::failure_of(AnswerFailure::not_representable);
+        out[i] = VariantOutcome{&v, Answer::failure_of(AnswerFailure::not_representable)};
   }
   thread_local std::vector<Answer> answers;
   const std::span<const Query> asked = f32 ? std::span<const Query>(view.queries_) : qs;
@@ -57,19 +57,19 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
   v.intersect_all(asked, rule, answers);
   for (size_t k = 0; k < asked.size(); ++k) {
     VariantOutcome& o = out[f32 ? view.from_[k] : k];
+    o.variant = &v;
     if (answers[k].failed()) {
       o.answer = answers[k];
+      o.agreement = Agreement::agrees, o.ulp.reset(), o.own_exact.reset(), o.ulp_own.reset();
       continue;
     }
     if (!own) {
-      o = judge_answer(exact[k], answers[k]);
-      o.variant = &v;
+      judge_answer_into(o, exact[k], answers[k]);
       continue;
     }
     std::optional<Verdict> judged;  // (the float view's verdict is read in place, not copied)
     const Verdict& truth = f32 ? view.exact_[k] : judged.emplace(oracle.judge(asked[k].ray, asked[k].shape, own_rule));
-    o = judge_answer(truth, answers[k]);
-    o.variant = &v;
+    judge_answer_into(o, truth, answers[k]);
     if (f32 && truth.t && answers[k].has_t()) {
       if (std::isnan(view.exact_t_[k])) view.exact_t_[k] = exact_t_as_float(asked[k], own_rule, *truth.t);
       o.ulp_own = ulp_distance_f32(to_nearest_float(answers[k].t), view.exact_t_[k]);

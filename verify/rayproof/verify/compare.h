@@ -51,12 +51,22 @@ struct VariantOutcome {
   std::optional<std::uint64_t> ulp_own;  // f32 code: t's error in floats (fp.h, ulp_distance_f32)
 };
 
-// An answer judged against the exact verdict (inline: campaigns call it for every case and variant).
-inline VariantOutcome judge_answer(const Verdict& exact, const Answer& reported) {
-  VariantOutcome out;
+// An answer judged against the exact verdict, written field by field into `out` (inline:
+// campaigns call it for every case and variant; an outcome built whole in a temporary and copied
+// costs a failed store-to-load forward per copy, the campaign's largest cost before).
+inline void judge_answer_into(VariantOutcome& out, const Verdict& exact, const Answer& reported) {
   out.answer = reported;
   out.agreement = agreement_of(exact.cls, reported.cls);
-  if (exact.t && reported.has_t()) out.ulp = ulp_distance(reported.t, *exact.t);
+  if (exact.t && reported.has_t())
+    out.ulp = ulp_distance(reported.t, *exact.t);
+  else
+    out.ulp.reset();
+  out.own_exact.reset();
+  out.ulp_own.reset();
+}
+inline VariantOutcome judge_answer(const Verdict& exact, const Answer& reported) {
+  VariantOutcome out;
+  judge_answer_into(out, exact, reported);
   return out;
 }
 // A variant asked once for a batch (Variant::intersect_all, so external code answers in one
