@@ -82,6 +82,7 @@ struct FuzzOptions {
   int threads = 0;
   bool resume = false, no_shrink = false, keep_checkpoint = false;
   long crash_after = -1;
+  double checkpoint_every = fuzz::CampaignOptions{}.checkpoint_seconds;
 };
 
 // Counts given on the command line: digits only ("-1" would otherwise wrap to 2^64 − 1).
@@ -107,6 +108,7 @@ fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
   o.rule = parse_rule(opts.rule);
   o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
   o.crash_after_batches = opts.crash_after;
+  o.checkpoint_seconds = opts.checkpoint_every;
   o.max_shrunk = opts.max_shrunk;
   return o;
 }
@@ -240,7 +242,12 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
                   "findings written per family and shape (default 1000), or per family, tracer and mode (default 20); "
                   "all are counted")
       ->check(kWholeNumber);
-  cmd->add_option("--batch", opts->batch, "cases per batch (the unit of checkpointing)")->check(CLI::Range(2, 1 << 24));
+  cmd->add_option("--batch", opts->batch, "cases per batch (the unit of work between checkpoints)")
+      ->check(CLI::Range(2, 1 << 24));
+  cmd->add_option("--checkpoint-every", opts->checkpoint_every,
+                  "seconds of work between checkpoints (default 1; 0: after every batch); a family and shape's "
+                  "last batch is always checkpointed")
+      ->check(seconds_from(0, 86400));
   cmd->add_option("--summary", opts->summary, "also write the report as JSON");
   cmd->add_option("--crash-after-batches", opts->crash_after, "testing: exit abruptly after writing that many batches")
       ->group("");

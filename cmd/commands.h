@@ -45,6 +45,8 @@ void add_seed_flag(CLI::App* cmd, std::uint64_t& seed);
 // --format table|markdown|json: how summaries print (table: aligned text for a terminal).
 void add_format_flag(CLI::App* cmd, std::string& format);
 void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what, std::uint64_t most);
+// A number of seconds: finite, from lo to hi.
+CLI::Validator seconds_from(double lo, double hi);
 
 // --plugin PATH (repeatable), --exec NAME=COMMAND (repeatable), --case-timeout SECONDS,
 // --exec-precision double|float (docs/spec/plugin.md): the user's own code as variants.

@@ -63,6 +63,20 @@ CLI::Validator whole_number(std::uint64_t most) {
       "COUNT");
 }
 }  // namespace
+// CLI::Range lets "nan" through (no comparison with NaN fails): a number of seconds is checked
+// here instead, finite and within [lo, hi].
+CLI::Validator seconds_from(double lo, double hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& text) {
+        char* end = nullptr;
+        const double value = std::strtod(text.c_str(), &end);
+        if (text.empty() || *end != '\0' || !(value >= lo && value <= hi))
+          return "expected seconds from " + CLI::detail::to_string(lo) + " to " + CLI::detail::to_string(hi) +
+                 ", got '" + text + "'";
+        return std::string();
+      },
+      "SECONDS");
+}
 void add_format_flag(CLI::App* cmd, std::string& format) {
   cmd->add_option("--format", format, "summary format: table (aligned text), markdown (paste-ready) or json")
       ->check(CLI::IsMember({"table", "markdown", "json"}));
@@ -78,7 +92,7 @@ void add_external_flags(CLI::App* cmd, ExternalFlags& flags) {
                   "NAME=COMMAND: a command that answers cases over pipes (docs/spec/plugin.md); repeatable");
   cmd->add_option("--case-timeout", flags.case_timeout,
                   "seconds a plugin or exec command may take on one case (default 10)")
-      ->check(CLI::Range(0.001, 86400.0));
+      ->check(seconds_from(0.001, 86400));
   cmd->add_option("--max-crashes", flags.max_crashes,
                   "crashes or hangs of one plugin or exec variant before it is stopped; after each a fresh worker "
                   "goes on with the next case (default 10)")

@@ -337,12 +337,14 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         edge.shared_edge = cases[k].shared_edge, edge.exact = exact[k], edge.variant_hit.resize(variants.size());
         edge.own.assign(variants.size(), std::nullopt);
       }
-      // Variant vi's answer h to case k, counted in its tally already: the case's first finding
-      // (a disagreement, or a failure that is one) and the shared-edge evidence.
-      auto note = [&](size_t k, size_t vi, const Answer& h, bool finding) {
-        if (finding && !first[k]) first[k] = variants[vi], failure[k] = h.failure, reported[k] = h.cls;
+      // Variant vi's answer (its class, or its failure) to case k, counted in its tally already:
+      // the case's first finding (a disagreement, or a failure that is one) and the shared-edge
+      // evidence. (Class and failure by value: a built-in's Hit made into an Answer temporary
+      // here was read back whole from narrow stores, a failed store forward per case and variant.)
+      auto note = [&](size_t k, size_t vi, HitClass cls, AnswerFailure failed, bool finding) {
+        if (finding && !first[k]) first[k] = variants[vi], failure[k] = failed, reported[k] = cls;
         if (pairs_of_triangles)
-          judged.edges[chunk + k - b.start].variant_hit[vi] = !h.failed() && h.cls != HitClass::miss;
+          judged.edges[chunk + k - b.start].variant_hit[vi] = failed == AnswerFailure::none && cls != HitClass::miss;
       };
       auto failure_is_finding = [](AnswerFailure f) { return stops_variant(f) || is_plugin_error(f); };
       for (size_t vi = 0; vi < variants.size(); ++vi) {
@@ -354,7 +356,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         if (direct) {
           for (size_t k = 0; k < n; ++k) {
             const Hit h = v.kernel(cases[k].ray, cases[k].shape, o.rule);
-            note(k, vi, h, tally.add_answer(exact[k], h) != Agreement::agrees);
+            note(k, vi, h.cls, AnswerFailure::none, tally.add_answer(exact[k], h) != Agreement::agrees);
           }
           continue;
         }
@@ -365,7 +367,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           for (size_t k = 0; k < n; ++k) {
             const Answer& h = me.answers[k];
             if (h.failed()) tally.add(exact[k].cls, VariantOutcome{&v, h});
-            note(k, vi, h,
+            note(k, vi, h.cls, h.failure,
                  h.failed() ? failure_is_finding(h.failure) : tally.add_answer(exact[k], h) != Agreement::agrees);
           }
           continue;
@@ -374,7 +376,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         for (size_t k = 0; k < n; ++k) {
           const VariantOutcome& r = outcomes[k];
           tally.add(exact[k].cls, r);
-          note(k, vi, r.answer,
+          note(k, vi, r.answer.cls, r.answer.failure,
                r.answer.failed() ? failure_is_finding(r.answer.failure) : r.agreement != Agreement::agrees);
           if (pairs_of_triangles) {
             EdgeEvidence& edge = judged.edges[chunk + k - b.start];
@@ -554,6 +556,7 @@ CampaignReport run_campaign(const CampaignOptions& o) {
   Checkpoint cp = open_findings(o, checkpoint_path, out);
   std::vector<Worker> workers(std::max(1, o.threads));
   long batches_done = 0;
+  Stopwatch since_checkpoint;  // (checkpoint_seconds; open_findings_file cuts findings back to it on resume)
   for (; cp.pair < pairs.size();
        ++cp.pair, cp.pair_started = false, cp.findings_in_pair = 0, cp.shrunk_in_pair.clear()) {
     const auto [family, construction, shape] = pairs[cp.pair];
@@ -606,7 +609,10 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       cp.report.shrink_seconds[pair_key] += shrinking.seconds();
       cp.next = b.end;
       cp.findings_bytes = std::filesystem::file_size(o.output);
-      save(checkpoint_path, o, cp);
+      if (b.end == hi || since_checkpoint.seconds() >= o.checkpoint_seconds) {
+        save(checkpoint_path, o, cp);
+        since_checkpoint = Stopwatch();
+      }
       if (o.progress) o.progress(family, shape, b.end - lo, hi - lo);
     }
   }

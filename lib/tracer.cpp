@@ -14,7 +14,7 @@
 
 namespace rayproof {
 
-bool TriangleMesh::degenerate(std::size_t i) const { return degenerate_reason(triangle(i)).has_value(); }
+bool TriangleMesh::degenerate(std::size_t i) const { return degenerate_reason(triangle(i)) != nullptr; }
 
 TriangleMesh triangle_mesh_of(const Mesh& m) {
   TriangleMesh out;

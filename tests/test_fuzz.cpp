@@ -362,7 +362,7 @@ TEST(Campaign, ResumeMatrixLosesNoFindingAndDuplicatesNone) {
   const std::string dir = rayproof::testing_support::test_dir();
   const std::string args =
       " --families tangent,grazing --shapes sphere,triangle --count 3000 --seed 5 --batch 500 --threads 2 "
-      "--max-findings 40";
+      "--max-findings 40 --checkpoint-every 0";
   ASSERT_EQ(run("fuzz" + args + " -o " + dir + "/whole.jsonl --summary " + dir + "/whole.json"), 0);
   for (int kill_after : {0, 3, 8, 20}) {  // 6 batches per pair, 4 pairs
     const std::string out = dir + "/killed-" + std::to_string(kill_after);

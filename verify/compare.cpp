@@ -31,7 +31,7 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
                        HitRule rule, std::vector<VariantOutcome>& out, FloatView* shared) {
   const HitRule own_rule = v.rule_for(rule);
   const bool f32 = v.precision == Precision::f32, own = f32 || own_rule != rule;
-  out.resize(qs.size());  // every entry is written whole below
+  out.resize(qs.size());           // every entry is written whole below
   thread_local FloatView scratch;  // a view for this variant alone where none is shared
   FloatView& view = shared && f32 ? *shared : scratch;
   if (!shared || !f32 || !view.ready_ || view.rule_ != own_rule) {
@@ -74,7 +74,8 @@ void judge_variant_all(Oracle& oracle, const Variant& v, std::span<const Query> 
       if (std::isnan(view.exact_t_[k])) view.exact_t_[k] = exact_t_as_float(asked[k], own_rule, *truth.t);
       o.ulp_own = ulp_distance_f32(to_nearest_float(answers[k].t), view.exact_t_[k]);
     }
-    o.own_exact = VariantOutcome::OwnVerdict{truth.cls, truth.t, truth.front};
+    VariantOutcome::OwnVerdict& own_verdict = o.own_exact.emplace();  // field by field, as judge_answer_into
+    own_verdict.cls = truth.cls, own_verdict.t = truth.t, own_verdict.front = truth.front;
   }
 }
 

@@ -21,12 +21,13 @@ std::uint64_t UlpHistogram::lower_bound(int b) {
   return (std::uint64_t(8 + sub)) << (log2 - 3);
 }
 void UlpHistogram::add(std::uint64_t ulp) {
-  ++buckets_[bucket(ulp)];
+  add_to(bucket(ulp), 1);
   ++count_;
   max_ = std::max(max_, ulp);
 }
 void UlpHistogram::merge(const UlpHistogram& o) {
-  for (const auto& [b, n] : o.buckets_) buckets_[b] += n;
+  for (size_t b = 0; b < o.buckets_.size(); ++b)
+    if (o.buckets_[b] > 0) add_to(static_cast<int>(b), o.buckets_[b]);
   count_ += o.count_;
   max_ = std::max(max_, o.max_);
 }
@@ -34,15 +35,16 @@ std::uint64_t UlpHistogram::quantile(double q) const {
   if (count_ == 0) return 0;
   const std::uint64_t rank = std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(q * count_)));
   std::uint64_t seen = 0;
-  for (const auto& [b, n] : buckets_) {
-    seen += n;
-    if (seen >= rank) return std::min(lower_bound(b), max_);
+  for (size_t b = 0; b < buckets_.size(); ++b) {
+    seen += buckets_[b];
+    if (buckets_[b] > 0 && seen >= rank) return std::min(lower_bound(static_cast<int>(b)), max_);
   }
   return max_;
 }
 json UlpHistogram::to_json() const {
   json b = json::object();
-  for (const auto& [k, n] : buckets_) b[std::to_string(k)] = n;
+  for (size_t k = 0; k < buckets_.size(); ++k)
+    if (buckets_[k] > 0) b[std::to_string(k)] = buckets_[k];
   return {{"count", count_}, {"max", max_}, {"buckets", b}};
 }
 // Summaries are read back by `merge` from files users hand it: every count is a whole number
@@ -61,11 +63,13 @@ UlpHistogram UlpHistogram::from_json(const json& j) {
       throw FieldError("buckets." + printable_prefix(key, 40), "not a bucket (0.." + std::to_string(last) + ")");
     const std::uint64_t n = read_count(it.value(), "buckets." + key);
     if (n > h.count_ - std::min(h.count_, total)) throw FieldError("buckets", "hold more than count");
-    h.buckets_[b] = n, total += n;
+    if (b < static_cast<int>(h.buckets_.size()) && h.buckets_[b] > 0) throw FieldError("buckets." + key, "given twice");
+    h.add_to(b, n), total += n;
   }
   if (total != h.count_)
     throw FieldError("count", std::to_string(h.count_) + " but the buckets hold " + std::to_string(total));
-  if (h.count_ > 0 && bucket(h.max_) != h.buckets_.rbegin()->first)
+  const auto highest = std::find_if(h.buckets_.rbegin(), h.buckets_.rend(), [](std::uint64_t n) { return n > 0; });
+  if (h.count_ > 0 && bucket(h.max_) != static_cast<int>(h.buckets_.rend() - highest) - 1)
     throw FieldError("max", std::to_string(h.max_) + " is not in the highest bucket");
   return h;
 }

@@ -43,6 +43,10 @@ struct CampaignOptions {
   std::uint64_t max_shrunk = 10;
   std::uint64_t batch = 8192;
   long crash_after_batches = -1;  // testing hook: exit hard after writing that many batches' findings
+  // A checkpoint holds the whole report: written after every batch it took 13% of a random
+  // campaign's time. So it follows the batch that ends this many seconds of work (0: every batch)
+  // or a family and shape; a kill loses at most that much, which --resume does again.
+  double checkpoint_seconds = 1;
   std::function<void(Family, ShapeKind, std::uint64_t done, std::uint64_t total)> progress;
   // Called from the calling thread's worker while a batch's findings are shrunk.
   std::function<void(std::uint64_t done, std::uint64_t total)> shrink_progress;

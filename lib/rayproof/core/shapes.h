@@ -62,10 +62,11 @@ struct ShapeField {
 };
 std::span<const ShapeField> shape_fields(ShapeKind k);
 
-// Why a shape is degenerate in the sense of the case format, or nullopt when it is valid.
+// Why a shape is degenerate in the sense of the case format, or null when it is valid (a static
+// string: generators and every rounded float query ask, millions of times a second).
 // Checks are exact: a triangle is collinear only when its cross product is exactly zero
 // in exact arithmetic (decided by an exact orientation test on the doubles).
-std::optional<std::string> degenerate_reason(const Shape& s);
+const char* degenerate_reason(const Shape& s);
 
 // The shape with every length multiplied by `factor` (centre, radius, plane offset, vertices,
 // corners; a plane's normal keeps its direction). With a power of two as factor this is exact

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <map>
+#include <vector>
 #include <optional>
 #include <string_view>
 #include <string>
@@ -31,7 +32,13 @@ class UlpHistogram {
  private:
   static int bucket(std::uint64_t ulp);
   static std::uint64_t lower_bound(int bucket);
-  std::map<int, std::uint64_t> buckets_;
+  // Counts by bucket index, grown to the highest bucket used (a campaign adds one ulp per judged
+  // t, and a map's lookup cost more than the rest of the tally).
+  std::vector<std::uint64_t> buckets_;
+  void add_to(int bucket, std::uint64_t n) {
+    if (static_cast<std::size_t>(bucket) >= buckets_.size()) buckets_.resize(bucket + 1);
+    buckets_[bucket] += n;
+  }
   std::uint64_t count_ = 0, max_ = 0;
 };
 
