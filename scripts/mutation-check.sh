@@ -103,6 +103,8 @@ mutate "box-filter-face-counts-as-inside" verify/oracle.cpp \
           outside = true;" "          outside = o < lo || o > hi;"
 mutate "box-class-filter-ends-exact" verify/oracle.cpp \
   "const double e_min = static_error(t_min), e_max = static_error(t_max);" "const double e_min = 0, e_max = 0;"
+mutate "fma-product-by-plain-arithmetic" lib/rayproof/core/eft.h \
+  "  e = __builtin_fma(a, b, -p);" "  e = a * b - p;"
 mutate "direct-rounding-ignores-its-enclosure" verify/oracle.cpp \
   "  if (a != b) return std::nullopt;" "  (void)b;"
 mutate "leaf-reach-zero" lib/rayproof/core/scene_rays.h \

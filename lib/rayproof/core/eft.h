@@ -39,6 +39,15 @@ namespace rayproof {
   e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
 }
 
+// The same p and e by one FMA: e = fma(a, b, −p) is a·b − p rounded once, and a·b − p is a double
+// (where e does not underflow: |a·b| ≥ 2^-969), so exact. Both products give the one pair (p, e)
+// with p = fl(a·b) and p + e = a·b, so they are interchangeable bit for bit. Only for callers
+// compiled for FMA (target("fma")): elsewhere std::fma is a library call, slower than Dekker's.
+[[gnu::always_inline]] inline void two_product_fma(double a, double b, double& p, double& e) {
+  p = a * b;
+  e = __builtin_fma(a, b, -p);
+}
+
 // a·b − c·d by Kahan's algorithm: w = fl(c·d) and its exact error by one FMA, then one FMA for
 // a·b − w. Its relative error is at most 2u (Jeannerod, Louvet & Muller, "Further analysis of
 // Kahan's algorithm for the accurate computation of 2×2 determinants", Math. Comp. 82, 2013), so

@@ -97,40 +97,55 @@ class FilteredDouble {
   int k_;
 };
 
+// The exact product inside a double-double product (core/eft.h): Dekker's by Veltkamp splitting
+// (any x86-64), or one FMA (code compiled for FMA: the oracle's dispatch). Both give the same
+// (p, e), so every FilteredDD value and bound below is the same with either.
+struct DekkerProduct {
+  [[gnu::always_inline]] static void two_product(double a, double b, double& p, double& e) {
+    two_product_dekker(a, b, p, e);
+  }
+};
+struct FmaProduct {
+  [[gnu::always_inline]] static void two_product(double a, double b, double& p, double& e) {
+    two_product_fma(a, b, p, e);
+  }
+};
+
 // Double-double arithmetic with the accurate algorithms of Joldes, Muller & Popescu, "Tight and
 // Rigorous Error Bounds for Basic Building Blocks of Double-Word Arithmetic", ACM TOMS 44(2),
 // 2017: AccurateDWPlusDW (Algorithm 6, relative error ≤ 3u² + 13u³) and DWTimesDW1 (Algorithm 10,
-// ≤ 7u²), with Dekker's TwoProduct (Veltkamp splitting, no FMA: the library call would cost more
-// than the arithmetic); ε = 2^-100 = 64u² covers both with room. Splitting cannot overflow below
-// the 2^800 magnitude cap; an underflowing partial product adds a few 2^-1075, which the
-// argument above absorbs.
-class FilteredDD {
+// ≤ 7u²), with an exact TwoProduct (Product: Dekker's, or the FMA's where the CPU has one);
+// ε = 2^-100 = 64u² covers both with room. Splitting cannot overflow below the 2^800 magnitude
+// cap; an underflowing partial product (or FMA error term) adds a few 2^-1075, which the argument
+// above absorbs.
+template <class Product>
+class FilteredDDWith {
  public:
   // The magnitudes a double-double may reach: Veltkamp splitting (a multiply by 2^27 + 1) cannot
   // overflow below 2^+800, and the low parts (~2^-106 of the high) stay clear of underflow above
   // 2^-800 but for the absorbed few 2^-1075 of the argument above.
   static constexpr double kMagnitudeMin = 0x1p-800, kMagnitudeMax = 0x1p+800;
 
-  FilteredDD() = default;
+  FilteredDDWith() = default;
   // Implicit, so that terms lift doubles.
-  FilteredDD(double x)  // NOLINT(google-explicit-constructor)
+  FilteredDDWith(double x)  // NOLINT(google-explicit-constructor)
       : hi_(x), lo_(0), m_(std::abs(x)), k_(0), valid_(std::isfinite(x)) {}
 
-  [[gnu::always_inline]] friend FilteredDD operator+(const FilteredDD& a, const FilteredDD& b) {
+  [[gnu::always_inline]] friend FilteredDDWith operator+(const FilteredDDWith& a, const FilteredDDWith& b) {
     return sum(a, b.hi_, b.lo_, b);
   }
-  [[gnu::always_inline]] friend FilteredDD operator-(const FilteredDD& a, const FilteredDD& b) {
+  [[gnu::always_inline]] friend FilteredDDWith operator-(const FilteredDDWith& a, const FilteredDDWith& b) {
     return sum(a, -b.hi_, -b.lo_, b);
   }
-  [[gnu::always_inline]] FilteredDD operator-() const {
-    FilteredDD r = *this;
+  [[gnu::always_inline]] FilteredDDWith operator-() const {
+    FilteredDDWith r = *this;
     r.hi_ = -hi_, r.lo_ = -lo_;
     return r;
   }
-  [[gnu::always_inline]] friend FilteredDD operator*(const FilteredDD& a, const FilteredDD& b) {
-    FilteredDD r;
+  [[gnu::always_inline]] friend FilteredDDWith operator*(const FilteredDDWith& a, const FilteredDDWith& b) {
+    FilteredDDWith r;
     double ch, cl1;
-    two_product_dekker(a.hi_, b.hi_, ch, cl1);
+    Product::two_product(a.hi_, b.hi_, ch, cl1);
     const double cl2 = a.hi_ * b.lo_ + a.lo_ * b.hi_;  // RN(RN(xh·yl) + RN(xl·yh))
     fast_two_sum(ch, cl1 + cl2, r.hi_, r.lo_);
     r.m_ = a.m_ * b.m_;
@@ -156,8 +171,9 @@ class FilteredDD {
 
  private:
   // a + (bh + bl), with b's magnitude and round count.
-  [[gnu::always_inline]] static FilteredDD sum(const FilteredDD& a, double bh, double bl, const FilteredDD& b) {
-    FilteredDD r;
+  [[gnu::always_inline]] static FilteredDDWith sum(const FilteredDDWith& a, double bh, double bl,
+                                                   const FilteredDDWith& b) {
+    FilteredDDWith r;
     double sh, sl, th, tl, vh, vl;
     two_sum(a.hi_, bh, sh, sl);
     two_sum(a.lo_, bl, th, tl);
@@ -172,6 +188,8 @@ class FilteredDD {
   int k_;
   bool valid_;
 };
+using FilteredDD = FilteredDDWith<DekkerProduct>;
+using FilteredDDFma = FilteredDDWith<FmaProduct>;
 
 // The shapes' static filters (oracle.cpp's decide_static, CGAL's Static_filters/Orientation_3 in
 // spirit) are written by hand per shape: each term evaluated in plain doubles, its bound
@@ -185,6 +203,9 @@ class FilteredDD {
 }
 
 [[gnu::always_inline]] inline std::optional<int> sign_of(const FilteredDouble& x) { return x.sign(); }
-[[gnu::always_inline]] inline std::optional<int> sign_of(const FilteredDD& x) { return x.sign(); }
+template <class Product>
+[[gnu::always_inline]] inline std::optional<int> sign_of(const FilteredDDWith<Product>& x) {
+  return x.sign();
+}
 
 }  // namespace rayproof

@@ -98,6 +98,7 @@ class Oracle {
     bool static_filter = true;          // the semi-static double filter in front of the intervals
     bool double_double = true;          // t's midpoint tests in double-double before expansions
     bool keep_exact_parameter = false;  // fill Verdict::exact_t (in rationals) for audits and tests
+    bool fma = true;  // double-double products by the CPU's FMA where it has one (Dekker's values, faster)
   };
   Oracle() = default;
   explicit Oracle(Options options) : options_(options) {}
