@@ -327,7 +327,8 @@ TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& tr
   return done(TraceKind::right);
 }
 
-TraceJudgement MeshOracle::judge_all_hits(const TracerRay& r, const MeshTruth& truth, const AllHitsAnswer& a) {
+TraceJudgement MeshOracle::judge_all_hits([[maybe_unused]] const TracerRay& r, const MeshTruth& truth,
+                                          const AllHitsAnswer& a) {
   TraceJudgement j;
   std::set<std::uint32_t> reported;
   for (std::uint32_t t : a.triangles) {

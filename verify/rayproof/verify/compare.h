@@ -45,7 +45,10 @@ struct VariantOutcome {
   struct OwnVerdict {
     HitClass cls;
     std::optional<double> t;
-    bool front = false;  // the contact's side (planes, triangles): shared-edge hole counts need it
+    // The contact's side (planes, triangles): shared-edge hole counts need it. (No default member
+    // initializer: with one, clang finds OwnVerdict not default-constructible inside
+    // VariantOutcome, and optional::emplace() fails; emplace() value-initialises it to false.)
+    bool front;
   };
   std::optional<OwnVerdict> own_exact;   // (class and t only: outcomes are many, and small)
   std::optional<std::uint64_t> ulp_own;  // f32 code: t's error in floats (fp.h, ulp_distance_f32)
