@@ -28,6 +28,7 @@ const Configuration kConfigurations[] = {
     {"no expansions", {.expansions = false}},
     {"static filter, then rationals", {.expansions = false, .double_double = false}},
     {"double-double by Dekker's product (no FMA)", {.fma = false}},
+    {"no direct rounding of t", {.direct = false}},
 };
 
 Query scaled_query(const Query& q, int k) {
@@ -112,6 +113,10 @@ TEST(OracleStages, TheStaticFilterDecidesRandomRays) {
     const std::uint64_t beyond_static = s.class_interval + s.class_expansion + s.class_exact;
     EXPECT_LT(beyond_static, s.queries / 100) << to_string(shape);
     EXPECT_LT(s.rounding.expansion + s.rounding.rational, s.rounding.rounded / 100 + 1) << to_string(shape);
+    // ... and the shape's direct path rounds it without the generic double-double stage.
+    if (shape != ShapeKind::sphere) EXPECT_GT(s.rounding.direct, s.rounding.rounded * 99 / 100) << to_string(shape);
+    std::printf("%s: %llu of %llu t rounded directly\n", std::string(to_string(shape)).c_str(),
+                (unsigned long long)s.rounding.direct, (unsigned long long)s.rounding.rounded);
   }
 }
 

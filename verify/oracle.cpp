@@ -2,6 +2,7 @@
 // includes CGAL's number types.
 #include "rayproof/verify/oracle.h"
 
+#include "rayproof/verify/direct_rounding.h"
 #include "rayproof/verify/expansion.h"
 #include "rayproof/verify/filtered.h"
 
@@ -262,6 +263,20 @@ struct PlanePolicy : NoSpecialCase {
     if (den == 0 || num == 0) return std::nullopt;
     return crossing_decision<Source, Source::crossing>(den < 0, num < 0);
   }
+
+  // t directly (direct_rounding.h), where decide_static found a crossing: num = k − n·o and
+  // den = n·d by compensated dot products (their bounds are derived there), signs made positive.
+  // Range: decide_static's (every input ≤ 2^300: no product overflows); round_quotient checks
+  // the rest.
+  template <class Product>
+  [[gnu::always_inline]] static std::optional<double> round_static(const Ray& ray, const Plane& p, Source) {
+    const double n[3] = {p.normal.x(), p.normal.y(), p.normal.z()};
+    const double d[3] = {ray.direction.x(), ray.direction.y(), ray.direction.z()};
+    const double minus_o[3] = {-ray.origin.x(), -ray.origin.y(), -ray.origin.z()};
+    BoundedDD num = compensated_dot<Product>(p.offset, n, minus_o), den = compensated_dot<Product>(0, n, d);
+    if (den.hi < 0) num.hi = -num.hi, num.lo = -num.lo, den.hi = -den.hi, den.lo = -den.lo;
+    return round_quotient<Product>(num, den);
+  }
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -378,6 +393,49 @@ struct TrianglePolicy {
     const int num = certain_sign(dot(a, cross(b, c)), kGammaDouble[8] * num_m);
     if (num == 0) return std::nullopt;
     return crossing_decision<Source, Source::plane_crossing>(negative == 3, num < 0);
+  }
+
+  // t directly (direct_rounding.h), where decide_static found a crossing: plane_crossing's
+  // num = n·(v₀ − o) and den = n·d with n = (v₁ − v₀) × (v₂ − v₀), in double-double.
+  //  - The differences e₁ = v₁ − v₀, e₂ = v₂ − v₀, w = v₀ − o are exact (TwoSum): leaves.
+  //  - Every other operation is one rounding at ε = 2^-100 (dd_sum, dd_product), so filtered.h's
+  //    bound holds with k the roundings on the deepest path: n_i = e₁·e₂ − e₁·e₂ 2, n_i·d_i 3,
+  //    two sums 5 (the same for num), and M the expression over the leaves' magnitudes, at most
+  //    m = 2·Σ_cyclic E_y·E_z·F_x with E_k = max(|ê₁_k|, |ê₂_k|) and F = |d| (den) or |ŵ| (num):
+  //    the hi parts, within (1 + u) of the leaves, and m's four roundings, are paid for by the
+  //    bound's two spare roundings, kGammaDD[5]·m = fl(γ_ε(7)·m) (γ_ε(7) ≥ 1.4·γ_ε(5)).
+  //  - Range: every E_k, |ŵ_k|, |d_k| ≤ 2^100 (no term overflows, ≤ 2^310) and both m ≥ 2^-600: an
+  //    underflowing product (≤ 2^-1070 off, times at most 2^202 later) stays below 2^-860 in all,
+  //    under the spare roundings' 2^-100·m. round_quotient checks the rest.
+  template <class Product>
+  [[gnu::always_inline]] static std::optional<double> round_static(const Ray& ray, const Triangle& tri, Source) {
+    using filter_detail::kGammaDD;
+    PlainDD e1[3], e2[3], w[3], d[3];
+    double E[3], W[3], F[3];
+    for (int k = 0; k < 3; ++k) {
+      e1[k] = exact_difference(tri.v[1][k], tri.v[0][k]), e2[k] = exact_difference(tri.v[2][k], tri.v[0][k]);
+      w[k] = exact_difference(tri.v[0][k], ray.origin[k]), d[k] = {ray.direction[k], 0};
+      E[k] = std::max(std::abs(e1[k].hi), std::abs(e2[k].hi)), W[k] = std::abs(w[k].hi);
+      F[k] = std::abs(ray.direction[k]);
+    }
+    auto magnitude = [&](const double(&f)[3]) { return 2 * ((E[1] * E[2] * f[0] + E[2] * E[0] * f[1]) + E[0] * E[1] * f[2]); };
+    const double den_m = magnitude(F), num_m = magnitude(W);
+    const double largest_leaf = std::max(std::max(largest(V<double>{E[0], E[1], E[2]}), largest(V<double>{W[0], W[1], W[2]})),
+                                         largest(V<double>{F[0], F[1], F[2]}));
+    if (!(largest_leaf <= 0x1p100 && den_m >= 0x1p-600 && num_m >= 0x1p-600)) return std::nullopt;
+    PlainDD n[3];
+    for (int i = 0; i < 3; ++i) {
+      const int j = (i + 1) % 3, k = (i + 2) % 3;
+      n[i] = product<Product>(e1[j], e2[k]) - product<Product>(e1[k], e2[j]);
+    }
+    auto dot3 = [&](const PlainDD(&f)[3]) {
+      return (product<Product>(n[0], f[0]) + product<Product>(n[1], f[1])) + product<Product>(n[2], f[2]);
+    };
+    const PlainDD num_value = dot3(w), den_value = dot3(d);
+    const double sign = den_value.hi < 0 ? -1 : 1;  // (exact)
+    const BoundedDD num{sign * num_value.hi, sign * num_value.lo, kGammaDD[5] * num_m};
+    const BoundedDD den{sign * den_value.hi, sign * den_value.lo, kGammaDD[5] * den_m};
+    return round_quotient<Product>(num, den);
   }
 
   // A coplanar ray is a 2D problem the 3D terms cannot settle.
@@ -522,6 +580,19 @@ struct BoxPolicy : NoSpecialCase {
     const bool min_plane = (d > 0) != source.far;
     const NT num = NT(min_plane ? b.min[axis] : b.max[axis]) - NT(o);
     return {d > 0 ? num : NT(-num), NT(0), NT(std::abs(d)), 0};
+  }
+  // t directly (direct_rounding.h): parameter_alone's ratio with its numerator exact by TwoSum
+  // and its denominator an input, so both enclosures have error 0. round_quotient checks the range.
+  template <class Product>
+  [[gnu::always_inline]] static std::optional<double> round_static(const Ray& ray, const Box& b, Source source) {
+    int axis = source.slab;  // the slab's axis: the same where every d ≠ 0, as nearly always
+    if (ray.direction.x() == 0 || ray.direction.y() == 0 || ray.direction.z() == 0)
+      for (int slab = -1, a = 0; a < 3; ++a)
+        if (ray.direction[a] != 0 && ++slab == source.slab) axis = a;
+    const double o = ray.origin[axis], d = ray.direction[axis];
+    const double plane = (d > 0) != source.far ? b.min[axis] : b.max[axis];
+    const PlainDD num = d > 0 ? exact_difference(plane, o) : exact_difference(o, plane);
+    return round_quotient<Product>({num.hi, num.lo, 0}, {std::abs(d), 0, 0});
   }
 
   // decide_static's and classify_static's common start: the slab parameters t̂ per axis, or why
@@ -1098,9 +1169,77 @@ std::optional<double> scaled_back(double t_prime, int e) {
 
 }  // namespace
 
+namespace {
+// Oracle::judge's direct path, one function a shape and product (as classify_shape below): the
+// static filter decides the class and the shape's round_static rounds t, both on the query as
+// given (each checks its own input range, so no scaling is needed where they answer). false where
+// either cannot prove its answer: the stages decide then (Oracle::judge_in_stages).
+template <class P, class Product>
+[[gnu::always_inline]] inline bool judge_directly(const Ray& ray, const Shape& shape, OracleStats& stats,
+                                                  Verdict& verdict) {
+  if constexpr (requires(const typename P::ShapeType& s, typename P::Source source) {
+                  P::template round_static<Product>(ray, s, source);
+                }) {
+    const auto& s = *std::get_if<typename P::ShapeType>(&shape);
+    const auto d = P::decide_static(ray, s);
+    if (!d || P::special_case_needed(*d)) return false;
+    if (d->source) {
+      const std::optional<double> t = P::template round_static<Product>(ray, s, *d->source);
+      if (!t) return false;
+      verdict.t = *t;
+      ++stats.rounding.rounded, ++stats.rounding.direct;
+    }
+    verdict.cls = d->cls, verdict.front = d->front;
+    return true;
+  } else {
+    return false;
+  }
+}
+template <class P>
+[[gnu::noinline]] bool judge_directly_dekker(const Ray& ray, const Shape& shape, OracleStats& stats, Verdict& v) {
+  return judge_directly<P, DekkerProduct>(ray, shape, stats, v);
+}
+#if defined(__x86_64__)
+template <class P>
+[[gnu::target("fma"), gnu::flatten, gnu::noinline]] bool judge_directly_fma(const Ray& ray, const Shape& shape,
+                                                                             OracleStats& stats, Verdict& v) {
+  return judge_directly<P, FmaProduct>(ray, shape, stats, v);
+}
+#else
+template <class P>
+bool judge_directly_fma(const Ray& ray, const Shape& shape, OracleStats& stats, Verdict& v) {
+  return judge_directly<P, DekkerProduct>(ray, shape, stats, v);
+}
+#endif
+template <class P>
+[[gnu::always_inline]] inline bool judge_shape_directly(const Ray& ray, const Shape& shape,
+                                                        const Oracle::Options& options, OracleStats& stats,
+                                                        Verdict& v) {
+  return options.fma && cpu_has_fma() ? judge_directly_fma<P>(ray, shape, stats, v)
+                                      : judge_directly_dekker<P>(ray, shape, stats, v);
+}
+}  // namespace
+
 Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
   OracleStats& stats = stats_[shape.index()];
   ++stats.queries;
+  // (Audits that keep the exact parameter want it for the query as given, from the stages.)
+  if (options_.direct && options_.filter && options_.static_filter && options_.double_double &&
+      !options_.keep_exact_parameter) {
+    Verdict v;
+    bool done = false;
+    switch (static_cast<ShapeKind>(shape.index())) {
+      case ShapeKind::sphere: done = judge_shape_directly<SpherePolicy>(ray, shape, options_, stats, v); break;
+      case ShapeKind::plane: done = judge_shape_directly<PlanePolicy>(ray, shape, options_, stats, v); break;
+      case ShapeKind::triangle: done = judge_shape_directly<TrianglePolicy>(ray, shape, options_, stats, v); break;
+      case ShapeKind::box: done = judge_shape_directly<BoxPolicy>(ray, shape, options_, stats, v); break;
+    }
+    if (done) return rule == HitRule::nearest_contact ? v : apply_rule(std::move(v), rule);
+  }
+  return judge_in_stages(ray, shape, rule);
+}
+
+Verdict Oracle::judge_in_stages(const Ray& ray, const Shape& shape, HitRule rule) {
   // (Audits that keep the exact parameter want it for the query as given: no scaling then.)
   if (options_.filter && !options_.keep_exact_parameter) {
     if (const auto n = normalized(ray, shape)) {
@@ -1216,6 +1355,7 @@ constexpr StatsCounter kStatsCounters[] = {
     {"class_expansion", &OracleStats::class_expansion, nullptr},
     {"class_exact", &OracleStats::class_exact, nullptr},
     {"t_rounded", nullptr, &RoundingStats::rounded},
+    {"t_direct", nullptr, &RoundingStats::direct},
     {"t_expansion", nullptr, &RoundingStats::expansion},
     {"t_rational", nullptr, &RoundingStats::rational},
     {"t_exact_fallbacks", nullptr, &RoundingStats::exact_fallbacks},

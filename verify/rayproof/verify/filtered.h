@@ -113,11 +113,28 @@ struct FmaProduct {
 
 // Double-double arithmetic with the accurate algorithms of Joldes, Muller & Popescu, "Tight and
 // Rigorous Error Bounds for Basic Building Blocks of Double-Word Arithmetic", ACM TOMS 44(2),
-// 2017: AccurateDWPlusDW (Algorithm 6, relative error ≤ 3u² + 13u³) and DWTimesDW1 (Algorithm 10,
-// ≤ 7u²), with an exact TwoProduct (Product: Dekker's, or the FMA's where the CPU has one);
-// ε = 2^-100 = 64u² covers both with room. Splitting cannot overflow below the 2^800 magnitude
-// cap; an underflowing partial product (or FMA error term) adds a few 2^-1075, which the argument
-// above absorbs.
+// 2017, on normalised pairs (|lo| ≤ ulp(hi)/2; both return such pairs): AccurateDWPlusDW
+// (Algorithm 6, relative error ≤ 3u² + 13u³) and DWTimesDW1 (Algorithm 10, ≤ 7u²), with an
+// exact TwoProduct (Product: Dekker's, or the FMA's where the CPU has one). ε = 2^-100 = 64u²
+// covers both with room: each is one rounding of the model above at that ε.
+[[gnu::always_inline]] inline void dd_sum(double ah, double al, double bh, double bl, double& rh, double& rl) {
+  double sh, sl, th, tl, vh, vl;
+  two_sum(ah, bh, sh, sl);
+  two_sum(al, bl, th, tl);
+  fast_two_sum(sh, sl + th, vh, vl);
+  fast_two_sum(vh, tl + vl, rh, rl);
+}
+template <class Product>
+[[gnu::always_inline]] inline void dd_product(double ah, double al, double bh, double bl, double& rh, double& rl) {
+  double ch, cl1;
+  Product::two_product(ah, bh, ch, cl1);
+  const double cl2 = ah * bl + al * bh;  // RN(RN(xh·yl) + RN(xl·yh))
+  fast_two_sum(ch, cl1 + cl2, rh, rl);
+}
+
+// Double-double values that carry their error bounds (the oracle's generic stage). Splitting
+// cannot overflow below the 2^800 magnitude cap; an underflowing partial product (or FMA error
+// term) adds a few 2^-1075, which the argument above absorbs.
 template <class Product>
 class FilteredDDWith {
  public:
@@ -144,10 +161,7 @@ class FilteredDDWith {
   }
   [[gnu::always_inline]] friend FilteredDDWith operator*(const FilteredDDWith& a, const FilteredDDWith& b) {
     FilteredDDWith r;
-    double ch, cl1;
-    Product::two_product(a.hi_, b.hi_, ch, cl1);
-    const double cl2 = a.hi_ * b.lo_ + a.lo_ * b.hi_;  // RN(RN(xh·yl) + RN(xl·yh))
-    fast_two_sum(ch, cl1 + cl2, r.hi_, r.lo_);
+    dd_product<Product>(a.hi_, a.lo_, b.hi_, b.lo_, r.hi_, r.lo_);
     r.m_ = a.m_ * b.m_;
     r.k_ = a.k_ + b.k_ + 1;
     r.valid_ = a.valid_ && b.valid_ && std::isfinite(r.hi_) &&
@@ -174,11 +188,7 @@ class FilteredDDWith {
   [[gnu::always_inline]] static FilteredDDWith sum(const FilteredDDWith& a, double bh, double bl,
                                                    const FilteredDDWith& b) {
     FilteredDDWith r;
-    double sh, sl, th, tl, vh, vl;
-    two_sum(a.hi_, bh, sh, sl);
-    two_sum(a.lo_, bl, th, tl);
-    fast_two_sum(sh, sl + th, vh, vl);
-    fast_two_sum(vh, tl + vl, r.hi_, r.lo_);
+    dd_sum(a.hi_, a.lo_, bh, bl, r.hi_, r.lo_);
     r.m_ = a.m_ + b.m_;
     r.k_ = std::max(a.k_, b.k_) + 1;
     r.valid_ = a.valid_ && b.valid_ && std::isfinite(r.hi_);

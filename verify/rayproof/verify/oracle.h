@@ -43,6 +43,7 @@ int compare(const ExactParameter& a, const ExactParameter& b);
 
 struct RoundingStats {
   std::uint64_t rounded = 0;          // correctly rounded t values produced
+  std::uint64_t direct = 0;           // ... by the shape's direct path (oracle.cpp's round_static)
   std::uint64_t expansion = 0;        // ... that needed expansions (double-double could not)
   std::uint64_t rational = 0;         // ... that needed GMP rationals (expansions could not)
   std::uint64_t exact_fallbacks = 0;  // ... of those, where the MPFR enclosure straddled a midpoint
@@ -99,6 +100,7 @@ class Oracle {
     bool double_double = true;          // t's midpoint tests in double-double before expansions
     bool keep_exact_parameter = false;  // fill Verdict::exact_t (in rationals) for audits and tests
     bool fma = true;  // double-double products by the CPU's FMA where it has one (Dekker's values, faster)
+    bool direct = true;  // judge: the static filter and the shape's direct rounding of t before the stages
   };
   Oracle() = default;
   explicit Oracle(Options options) : options_(options) {}
@@ -110,7 +112,8 @@ class Oracle {
   void merge_stats(const Oracle& other);
 
  private:
-  Verdict judge_as_given(const Ray& ray, const Shape& shape);  // no scaling, no rule
+  Verdict judge_in_stages(const Ray& ray, const Shape& shape, HitRule rule);  // judge past the direct path
+  Verdict judge_as_given(const Ray& ray, const Shape& shape);                  // no scaling, no rule
   Options options_{};
   std::array<OracleStats, 4> stats_{};
 };
