@@ -210,6 +210,53 @@ struct SpherePolicy : NoSpecialCase {
     if (ahead == 0) return std::nullopt;
     return ahead > 0 ? Decision<Source>{HitClass::enter, true, Source::near_root} : Decision<Source>{};
   }
+
+  // t directly (direct_rounding.h), where decide_static found an entry (near root) or an exit
+  // (far root): terms()'s a, b′, c and D′ in double-double, then a cancellation-free quotient,
+  // with S = √D′ + b̂′·sign(b̂′) (the roots' product is c/a, so each form below equals its root):
+  //   near root (c > 0, b′ > 0): t = (b′ − √D′)/a = c/S;
+  //   far root (c < 0):          t = (b′ + √D′)/a = S/a where b̂′ ≥ 0, −c/S where b̂′ < 0
+  //   (exact identities for any b′, so a wrong sign of b̂′ near 0 costs only accuracy).
+  //  - f = o − m exactly (TwoSum): leaves. Every other operation is one rounding at ε = 2^-100
+  //    (dd_sum, dd_product), so filtered.h's bound holds with k roundings on the deepest path:
+  //    a = d·d and b′ = −f·d 3, c = f·f − r² 4, D′ = b′² − a·c 9; M at most m from F_i = |f̂_i|,
+  //    D_i = |d_i|, R = |r|: m_a = ΣD_i², m_b = ΣF_i·D_i, m_c = ΣF_i² + R², m_D = m_b² + m_a·m_c
+  //    (the hi parts' (1 + u) and m's own roundings, at most k, paid by the two spare roundings
+  //    of kGammaDD[k]·m = fl(γ_ε(k + 2)·m)).
+  //  - S = dd_sum of two non-negative enclosures: within 2^-99·Ŝ plus theirs.
+  //  - Range: every F_i, D_i, R ≤ 2^100 and every m ≥ 2^-600 (underflows absorbed, as for the
+  //    triangle); bounded_sqrt and round_quotient check the rest.
+  template <class Product>
+  [[gnu::always_inline]] static std::optional<double> round_static(const Ray& ray, const Sphere& s, Source source) {
+    using filter_detail::kGammaDD;
+    PlainDD f[3];
+    double d[3], F[3], D[3];
+    for (int i = 0; i < 3; ++i) {
+      f[i] = exact_difference(ray.origin[i], s.center[i]), d[i] = ray.direction[i];
+      F[i] = std::abs(f[i].hi), D[i] = std::abs(ray.direction[i]);
+    }
+    const double R = std::abs(s.radius);
+    const double a_m = (D[0] * D[0] + D[1] * D[1]) + D[2] * D[2], b_m = (F[0] * D[0] + F[1] * D[1]) + F[2] * D[2];
+    const double c_m = ((F[0] * F[0] + F[1] * F[1]) + F[2] * F[2]) + R * R, disc_m = b_m * b_m + a_m * c_m;
+    const double largest_leaf = std::max(std::max(largest(V<double>{F[0], F[1], F[2]}), largest(V<double>{D[0], D[1], D[2]})), R);
+    if (!(largest_leaf <= 0x1p100 && std::min(std::min(a_m, b_m), std::min(c_m, disc_m)) >= 0x1p-600)) return std::nullopt;
+    const PlainDD a = dd_dot<Product>(d, d), minus_b = dd_dot<Product>(f, d);
+    const PlainDD c = dd_dot<Product>(f, f) - product<Product>(s.radius, s.radius);
+    const PlainDD disc = product<Product>(minus_b, minus_b) - product<Product>(a, c);
+    const auto root = bounded_sqrt<Product>({disc.hi, disc.lo, kGammaDD[9] * disc_m});
+    if (!root) return std::nullopt;
+    // |b̂′| + √D′: b̂′ = −minus_b, so its magnitude is minus_b with the sign of −minus_b.hi.
+    const bool b_negative = minus_b.hi > 0;
+    const PlainDD b_magnitude = b_negative ? minus_b : PlainDD{-minus_b.hi, -minus_b.lo};
+    PlainDD sum;
+    dd_sum(b_magnitude.hi, b_magnitude.lo, root->hi, root->lo, sum.hi, sum.lo);
+    const BoundedDD S{sum.hi, sum.lo, (0x1p-99 * std::abs(sum.hi) + kGammaDD[3] * b_m) + root->error};
+    const BoundedDD bounded_a{a.hi, a.lo, kGammaDD[3] * a_m}, bounded_c{c.hi, c.lo, kGammaDD[4] * c_m};
+    if (source == Source::near_root) return round_quotient<Product>(bounded_c, S);
+    if (source != Source::far_root) return std::nullopt;
+    if (!b_negative) return round_quotient<Product>(S, bounded_a);
+    return round_quotient<Product>({-c.hi, -c.lo, bounded_c.error}, S);
+  }
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -273,7 +320,7 @@ struct PlanePolicy : NoSpecialCase {
     const double n[3] = {p.normal.x(), p.normal.y(), p.normal.z()};
     const double d[3] = {ray.direction.x(), ray.direction.y(), ray.direction.z()};
     const double minus_o[3] = {-ray.origin.x(), -ray.origin.y(), -ray.origin.z()};
-    BoundedDD num = compensated_dot<Product>(p.offset, n, minus_o), den = compensated_dot<Product>(0, n, d);
+    BoundedDD num = compensated_dot<Product>(p.offset, n, minus_o), den = compensated_dot<Product, false>(0, n, d);
     if (den.hi < 0) num.hi = -num.hi, num.lo = -num.lo, den.hi = -den.hi, den.lo = -den.lo;
     return round_quotient<Product>(num, den);
   }
@@ -410,16 +457,16 @@ struct TrianglePolicy {
   template <class Product>
   [[gnu::always_inline]] static std::optional<double> round_static(const Ray& ray, const Triangle& tri, Source) {
     using filter_detail::kGammaDD;
-    PlainDD e1[3], e2[3], w[3], d[3];
-    double E[3], W[3], F[3];
+    PlainDD e1[3], e2[3], w[3];
+    double d[3], E[3], W[3], F[3];
     for (int k = 0; k < 3; ++k) {
       e1[k] = exact_difference(tri.v[1][k], tri.v[0][k]), e2[k] = exact_difference(tri.v[2][k], tri.v[0][k]);
-      w[k] = exact_difference(tri.v[0][k], ray.origin[k]), d[k] = {ray.direction[k], 0};
+      w[k] = exact_difference(tri.v[0][k], ray.origin[k]), d[k] = ray.direction[k];
       E[k] = std::max(std::abs(e1[k].hi), std::abs(e2[k].hi)), W[k] = std::abs(w[k].hi);
       F[k] = std::abs(ray.direction[k]);
     }
-    auto magnitude = [&](const double(&f)[3]) { return 2 * ((E[1] * E[2] * f[0] + E[2] * E[0] * f[1]) + E[0] * E[1] * f[2]); };
-    const double den_m = magnitude(F), num_m = magnitude(W);
+    const double yz = E[1] * E[2], zx = E[2] * E[0], xy = E[0] * E[1];
+    const double den_m = 2 * ((yz * F[0] + zx * F[1]) + xy * F[2]), num_m = 2 * ((yz * W[0] + zx * W[1]) + xy * W[2]);
     const double largest_leaf = std::max(std::max(largest(V<double>{E[0], E[1], E[2]}), largest(V<double>{W[0], W[1], W[2]})),
                                          largest(V<double>{F[0], F[1], F[2]}));
     if (!(largest_leaf <= 0x1p100 && den_m >= 0x1p-600 && num_m >= 0x1p-600)) return std::nullopt;
@@ -428,10 +475,7 @@ struct TrianglePolicy {
       const int j = (i + 1) % 3, k = (i + 2) % 3;
       n[i] = product<Product>(e1[j], e2[k]) - product<Product>(e1[k], e2[j]);
     }
-    auto dot3 = [&](const PlainDD(&f)[3]) {
-      return (product<Product>(n[0], f[0]) + product<Product>(n[1], f[1])) + product<Product>(n[2], f[2]);
-    };
-    const PlainDD num_value = dot3(w), den_value = dot3(d);
+    const PlainDD num_value = dd_dot<Product>(n, w), den_value = dd_dot<Product>(n, d);
     const double sign = den_value.hi < 0 ? -1 : 1;  // (exact)
     const BoundedDD num{sign * num_value.hi, sign * num_value.lo, kGammaDD[5] * num_m};
     const BoundedDD den{sign * den_value.hi, sign * den_value.lo, kGammaDD[5] * den_m};
@@ -1024,16 +1068,18 @@ template <class P, class Source>
     const Ray& ray, const typename P::ShapeType& shape, Source source) {
   return round_in_double_double<P, FilteredDDFma>(ray, shape, source);
 }
-bool cpu_has_fma() {
-  static const bool has = __builtin_cpu_supports("fma");
-  return has;
-}
+// (Read once at start-up, not through a function-local static: judge asks on every query.)
+const bool kCpuHasFma = [] {
+  __builtin_cpu_init();  // may run before the CPU model is initialised otherwise
+  return __builtin_cpu_supports("fma") != 0;
+}();
+[[gnu::always_inline]] inline bool cpu_has_fma() { return kCpuHasFma; }
 #else
 template <class P, class Source>
 std::optional<double> round_in_double_double_fma(const Ray& ray, const typename P::ShapeType& shape, Source source) {
   return round_in_double_double<P, FilteredDD>(ray, shape, source);
 }
-bool cpu_has_fma() { return false; }
+inline bool cpu_has_fma() { return false; }
 #endif
 
 // t from the fastest stage that proves its rounding: double-double, expansions, rationals.
@@ -1224,19 +1270,23 @@ Verdict Oracle::judge(const Ray& ray, const Shape& shape, HitRule rule) {
   OracleStats& stats = stats_[shape.index()];
   ++stats.queries;
   // (Audits that keep the exact parameter want it for the query as given, from the stages.)
+  // (One Verdict returned by name from every path: a copy of one costs a tenth of a plane's judge.)
+  Verdict v;
+  bool done = false;
   if (options_.direct && options_.filter && options_.static_filter && options_.double_double &&
       !options_.keep_exact_parameter) {
-    Verdict v;
-    bool done = false;
     switch (static_cast<ShapeKind>(shape.index())) {
       case ShapeKind::sphere: done = judge_shape_directly<SpherePolicy>(ray, shape, options_, stats, v); break;
       case ShapeKind::plane: done = judge_shape_directly<PlanePolicy>(ray, shape, options_, stats, v); break;
       case ShapeKind::triangle: done = judge_shape_directly<TrianglePolicy>(ray, shape, options_, stats, v); break;
       case ShapeKind::box: done = judge_shape_directly<BoxPolicy>(ray, shape, options_, stats, v); break;
     }
-    if (done) return rule == HitRule::nearest_contact ? v : apply_rule(std::move(v), rule);
   }
-  return judge_in_stages(ray, shape, rule);
+  if (!done)
+    v = judge_in_stages(ray, shape, rule);
+  else if (rule != HitRule::nearest_contact && !kept_by_rule(v.cls, v.front, rule))
+    v = Verdict{};
+  return v;
 }
 
 Verdict Oracle::judge_in_stages(const Ray& ray, const Shape& shape, HitRule rule) {

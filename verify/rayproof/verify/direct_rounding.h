@@ -46,6 +46,29 @@ template <class Product>
   dd_product<Product>(a.hi, a.lo, b.hi, b.lo, r.hi, r.lo);
   return r;
 }
+// The same with a double factor (dd_product with b's low part 0, which the compiler cannot drop
+// itself: x·0 is not 0 for every double x), and of two doubles (TwoProduct: exact).
+template <class Product>
+[[gnu::always_inline]] inline PlainDD product(const PlainDD& a, double b) {
+  PlainDD r;
+  double ch, cl1;
+  Product::two_product(a.hi, b, ch, cl1);
+  fast_two_sum(ch, cl1 + a.lo * b, r.hi, r.lo);
+  return r;
+}
+template <class Product>
+[[gnu::always_inline]] inline PlainDD product(double a, double b) {
+  PlainDD r;
+  Product::two_product(a, b, r.hi, r.lo);
+  return r;
+}
+
+// x·y over three terms in double-double (each operation one rounding at ε = 2^-100), for factors
+// of either kind above.
+template <class Product, class X, class Y>
+[[gnu::always_inline]] inline PlainDD dd_dot(const X (&x)[3], const Y (&y)[3]) {
+  return (product<Product>(x[0], y[0]) + product<Product>(x[1], y[1])) + product<Product>(x[2], y[2]);
+}
 
 // c + x·y over three terms, as Ogita, Rump & Oishi's Dot2 ("Accurate sum and dot product", SIAM
 // J. Sci. Comput. 26(6), 2005) keeps it before its last rounding: the cascade of rounded sums p
@@ -58,18 +81,45 @@ template <class Product>
 //  - S ≤ Ŝ·(1 + γ(4)) for Ŝ the rounded sum of |c| and the |fl(x_i·y_i)|, so the bound used,
 //    fl(2^-99·Ŝ + 2^-1070), covers 2^-100·S with its own rounding and three underflows to spare.
 // (The plane's terms: den = n·d with c = 0, num = k − n·o.)
-template <class Product>
+// (kAddend false: c is 0, and the first TwoSum, 0 + h, is skipped.)
+template <class Product, bool kAddend = true>
 [[gnu::always_inline]] inline BoundedDD compensated_dot(double c, const double (&x)[3], const double (&y)[3]) {
   double h[3], r[3];
   for (int i = 0; i < 3; ++i) Product::two_product(x[i], y[i], h[i], r[i]);
-  double p = c, q[3];
-  for (int i = 0; i < 3; ++i) two_sum(p, h[i], p, q[i]);
-  const double s = ((q[0] + r[0]) + (q[1] + r[1])) + (q[2] + r[2]);
+  double p = kAddend ? c : h[0], q[3] = {0, 0, 0};
+  for (int i = kAddend ? 0 : 1; i < 3; ++i) two_sum(p, h[i], p, q[i]);
+  const double s = kAddend ? ((q[0] + r[0]) + (q[1] + r[1])) + (q[2] + r[2]) : (r[0] + (q[1] + r[1])) + (q[2] + r[2]);
   const double magnitude = ((std::abs(c) + std::abs(h[0])) + std::abs(h[1])) + std::abs(h[2]);
   BoundedDD sum;
   two_sum(p, s, sum.hi, sum.lo);  // normalised (round_quotient needs |lo| small beside hi), exactly
   sum.error = 0x1p-99 * magnitude + 0x1p-1070;
   return sum;
+}
+
+// √X as an enclosure, from an enclosure x of X > 0; nullopt where X is not known well enough.
+//  - σ = fl(√xh) and ρ = X − σ² exactly; then √X = σ + ρ/(2σ) − (√X − σ)²/(2σ) (expand
+//    (√X − σ)(√X + σ) = ρ), and |√X − σ| ≤ |ρ|/σ, so |√X − σ − ρ/(2σ)| ≤ ρ²/(2σ³).
+//  - ρ = (xh − p − e) + xl + (X − xh − xl) with (p, e) = TwoProduct(σ, σ); xh − p is exact
+//    (Sterbenz: p is within a factor 2 of xh), and ρ̂ = fl(fl(xh − p − e) + xl) is within
+//    2^-52·(|fl(xh − p − e)| + |ρ̂|) of the first three, so |ρ − ρ̂| ≤ E_ρ = that + x.error.
+//  - κ = fl(ρ̂/(2σ)) is within u(1 + u)|κ| of ρ̂/(2σ). Where |ρ̂| + E_ρ ≤ 2^-45·σ² (checked), the
+//    square term is at most 2^-45·(|ρ̂| + E_ρ)/(2σ), so |√X − (σ + κ)| ≤ E_ρ/σ + 2^-44·|κ|
+//    (E_ρ/σ pays for 2·E_ρ/(2σ) after its rounding).
+//  - Range: xh in [2^-400, 2^400]: σ² neither under- nor overflows, TwoProduct is exact.
+template <class Product>
+[[gnu::always_inline]] inline std::optional<BoundedDD> bounded_sqrt(const BoundedDD& x) {
+  if (!(x.hi >= 0x1p-400 && x.hi <= 0x1p400)) return std::nullopt;
+  const double sigma = std::sqrt(x.hi);
+  double p, e;
+  Product::two_product(sigma, sigma, p, e);
+  const double g = (x.hi - p) - e, rho = g + x.lo;
+  const double rho_error = 0x1p-52 * (std::abs(g) + std::abs(rho)) + x.error;
+  if (!(std::abs(rho) + rho_error <= 0x1p-45 * (sigma * sigma))) return std::nullopt;
+  const double kappa = rho / (2 * sigma);
+  BoundedDD root;
+  fast_two_sum(sigma, kappa, root.hi, root.lo);  // |κ| ≤ 2^-45·σ: exact
+  root.error = rho_error / sigma + 0x1p-44 * std::abs(kappa);
+  return root;
 }
 
 // The double nearest t = N/D > 0, where N and D are known as enclosures num and den; nullopt
