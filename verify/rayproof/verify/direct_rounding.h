@@ -4,11 +4,17 @@
 // rounds to. No bookkeeping per operation (FilteredDD's magnitude, round count and validity
 // flags) and no midpoint walk: where the test cannot prove the rounding (t within about 2^-40
 // of an ulp of a midpoint, or inputs outside a path's range) the generic stages decide.
+// Unproved is NaN, not an empty std::optional: an optional is built in memory part by part and
+// read back whole, which stalls store-to-load forwarding (a fifth of a sphere's judge), while a
+// NaN stays in its register and fails every later range check by itself.
 #pragma once
 
 #include <cstdint>
 #include <cstring>
-#include <optional>
+#include <limits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "rayproof/verify/filtered.h"
 
@@ -19,9 +25,15 @@ struct BoundedDD {
   double hi, lo, error;
 };
 
-// A double-double value without bounds (each shape's round_static bounds its terms a priori):
-// dd_sum and dd_product (filtered.h), each one rounding at ε = 2^-100 relative to its exact
-// result, and exact differences of two doubles.
+// A double-double value without bounds (each shape's round_static bounds its terms a priori),
+// normalised (|lo| ≤ u·|hi|), and exact differences of two doubles.
+//  - Products: dd_product (filtered.h), within 7u² of their exact result, relatively.
+//  - Sums: the "sloppy" sum with an exact last step: (s, e) = TwoSum(xh, yh), w = fl(e + fl(xl +
+//    yl)), (zh, zl) = TwoSum(s, w). Its error, fl(xl + yl)'s and w's roundings, is at most
+//    u²(|xh| + |yh|) + 2u²(1 + u)(|xh| + |yh|) < 4u²(|x| + |y|): not relative to |x + y| (it is
+//    when the signs agree), but filtered.h's bound needs only that much of a sum, error ≤
+//    ε·(|x̂| + |ŷ|), as its induction shows (|x̂| ≤ (1 + θ)·M_x for each operand). ε = 2^-100
+//    covers both. Half the latency of AccurateDWPlusDW, which sets the time of the sphere's t.
 struct PlainDD {
   double hi, lo;
 };
@@ -30,15 +42,18 @@ struct PlainDD {
   two_sum(a, -b, r.hi, r.lo);
   return r;
 }
-[[gnu::always_inline]] inline PlainDD operator+(const PlainDD& a, const PlainDD& b) {
+[[gnu::always_inline]] inline PlainDD dd_sum_within_magnitudes(double ah, double al, double bh, double bl) {
+  double s, e;
+  two_sum(ah, bh, s, e);
   PlainDD r;
-  dd_sum(a.hi, a.lo, b.hi, b.lo, r.hi, r.lo);
+  two_sum(s, e + (al + bl), r.hi, r.lo);
   return r;
 }
+[[gnu::always_inline]] inline PlainDD operator+(const PlainDD& a, const PlainDD& b) {
+  return dd_sum_within_magnitudes(a.hi, a.lo, b.hi, b.lo);
+}
 [[gnu::always_inline]] inline PlainDD operator-(const PlainDD& a, const PlainDD& b) {
-  PlainDD r;
-  dd_sum(a.hi, a.lo, -b.hi, -b.lo, r.hi, r.lo);
-  return r;
+  return dd_sum_within_magnitudes(a.hi, a.lo, -b.hi, -b.lo);
 }
 template <class Product>
 [[gnu::always_inline]] inline PlainDD product(const PlainDD& a, const PlainDD& b) {
@@ -96,39 +111,45 @@ template <class Product, bool kAddend = true>
   return sum;
 }
 
-// √X as an enclosure, from an enclosure x of X > 0; nullopt where X is not known well enough.
+// √X as an enclosure, from an enclosure x of X > 0; hi NaN where X is not known well enough.
 //  - σ = fl(√xh) and ρ = X − σ² exactly; then √X = σ + ρ/(2σ) − (√X − σ)²/(2σ) (expand
 //    (√X − σ)(√X + σ) = ρ), and |√X − σ| ≤ |ρ|/σ, so |√X − σ − ρ/(2σ)| ≤ ρ²/(2σ³).
 //  - ρ = (xh − p − e) + xl + (X − xh − xl) with (p, e) = TwoProduct(σ, σ); xh − p is exact
 //    (Sterbenz: p is within a factor 2 of xh), and ρ̂ = fl(fl(xh − p − e) + xl) is within
 //    2^-52·(|fl(xh − p − e)| + |ρ̂|) of the first three, so |ρ − ρ̂| ≤ E_ρ = that + x.error.
-//  - κ = fl(ρ̂/(2σ)) is within u(1 + u)|κ| of ρ̂/(2σ). Where |ρ̂| + E_ρ ≤ 2^-45·σ² (checked), the
+//  - κ = fl(ρ̂·fl(0.5/σ)) is within 2u(1 + u)|κ| of ρ̂/(2σ). Where |ρ̂| + E_ρ ≤ 2^-45·σ² (checked), the
 //    square term is at most 2^-45·(|ρ̂| + E_ρ)/(2σ), so |√X − (σ + κ)| ≤ E_ρ/σ + 2^-44·|κ|
 //    (E_ρ/σ pays for 2·E_ρ/(2σ) after its rounding).
 //  - Range: xh in [2^-400, 2^400]: σ² neither under- nor overflows, TwoProduct is exact.
 template <class Product>
-[[gnu::always_inline]] inline std::optional<BoundedDD> bounded_sqrt(const BoundedDD& x) {
-  if (!(x.hi >= 0x1p-400 && x.hi <= 0x1p400)) return std::nullopt;
+[[gnu::always_inline]] inline BoundedDD bounded_sqrt(const BoundedDD& x) {
+  constexpr double unproved = std::numeric_limits<double>::quiet_NaN();
+  if (!(x.hi >= 0x1p-400 && x.hi <= 0x1p400)) return {unproved, 0, 0};
+#if defined(__SSE2__)  // the instruction: std::sqrt is a library call (errno), with every register saved
+  const double sigma = _mm_cvtsd_f64(_mm_sqrt_pd(_mm_set1_pd(x.hi)));  // (both lanes: valgrind decodes this)
+#else
   const double sigma = std::sqrt(x.hi);
+#endif
   double p, e;
   Product::two_product(sigma, sigma, p, e);
+  const double half_inverse = 0.5 / sigma;  // (a product by it below: the division overlaps ρ's work)
   const double g = (x.hi - p) - e, rho = g + x.lo;
   const double rho_error = 0x1p-52 * (std::abs(g) + std::abs(rho)) + x.error;
-  if (!(std::abs(rho) + rho_error <= 0x1p-45 * (sigma * sigma))) return std::nullopt;
-  const double kappa = rho / (2 * sigma);
+  if (!(std::abs(rho) + rho_error <= 0x1p-45 * (sigma * sigma))) return {unproved, 0, 0};
+  const double kappa = rho * half_inverse;
   BoundedDD root;
   fast_two_sum(sigma, kappa, root.hi, root.lo);  // |κ| ≤ 2^-45·σ: exact
   root.error = rho_error / sigma + 0x1p-44 * std::abs(kappa);
   return root;
 }
 
-// The double nearest t = N/D > 0, where N and D are known as enclosures num and den; nullopt
-// where this test cannot prove it (then the generic stages decide).
+// The double nearest t = N/D > 0, where N and D are known as enclosures num and den; NaN where
+// this test cannot prove it (then the generic stages decide).
 //  - A candidate c: nh/dh corrected once by its residual (its accuracy decides only how often
 //    the test below passes: nh/dh alone is off by up to an ulp where nl, dl are that large).
 //  - t = c + R/D exactly with R = N − c·D. If |R| < H·D, H half the gap below c (the smaller of
 //    c's two gaps: no side to choose), t lies strictly inside c's rounding interval (no tie), so
-//    t rounds to c. Otherwise nullopt: t is near a midpoint (about 2^-40 of random cases) or
+//    t rounds to c. Otherwise NaN: t is near a midpoint (about 2^-40 of random cases) or
 //    the candidate missed.
 //  - R = (nh − c·dh) + nl − c·dl + (N − nh − nl) − c·(D − dh − dl). With (p, e) = TwoProduct(c, dh)
 //    exact, r = fl(fl(fl(nh − p) − e) + fl(nl − fl(c·dl))) has five roundings, each within u of
@@ -141,15 +162,15 @@ template <class Product>
 //  - Range: nh, dh and c in [2^-400, 2^400] (NaN refused): TwoProduct is exact (|c·dh| ≥ 2^-969 as
 //    c·dh ≥ nh/2 wherever the test can pass), nothing overflows, and H·dh does not underflow.
 template <class Product>
-[[gnu::always_inline]] inline std::optional<double> round_quotient(const BoundedDD& num, const BoundedDD& den) {
+[[gnu::always_inline]] inline double round_quotient(const BoundedDD& num, const BoundedDD& den) {
+  constexpr double unproved = std::numeric_limits<double>::quiet_NaN();
   const double nh = num.hi, dh = den.hi, nl = num.lo, dl = den.lo;
-  const double inverse = 1 / dh, q = nh * inverse;
+  const double inverse = 1 / dh, q = nh * inverse;  // (a denominator known early takes the division off the path)
   double p, e;
   Product::two_product(q, dh, p, e);
   const double c = q + (((nh - p) - e) + (nl - q * dl)) * inverse;
   auto in_range = [](double x) { return x >= 0x1p-400 && x <= 0x1p400; };
-  if (!(in_range(nh) & in_range(dh) & in_range(c)) || !(std::abs(dl) + den.error <= 0x1p-51 * dh))
-    return std::nullopt;
+  if (!(in_range(nh) & in_range(dh) & in_range(c)) || !(std::abs(dl) + den.error <= 0x1p-51 * dh)) return unproved;
   Product::two_product(c, dh, p, e);
   const double g = nh - p, r0 = g - e, a = c * dl;
   const double r = r0 + (nl - a);
@@ -161,8 +182,7 @@ template <class Product>
   double below;
   std::memcpy(&below, &bits, sizeof bits);
   const double half_gap = (c - below) * 0.5;
-  if (((std::abs(r) + bound) + 0x1p-1060) * (1 + 0x1p-40) < half_gap * dh * (1 - 0x1p-40)) return c;
-  return std::nullopt;
+  return ((std::abs(r) + bound) + 0x1p-1060) * (1 + 0x1p-40) < half_gap * dh * (1 - 0x1p-40) ? c : unproved;
 }
 
 }  // namespace rayproof
