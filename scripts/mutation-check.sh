@@ -107,6 +107,13 @@ mutate "fma-product-by-plain-arithmetic" lib/rayproof/core/eft.h \
   "  e = __builtin_fma(a, b, -p);" "  e = a * b - p;"
 mutate "direct-rounding-ignores-its-enclosure" verify/oracle.cpp \
   "  if (a != b) return std::nullopt;" "  (void)b;"
+mutate "sphere-direct-root-uncorrected" verify/rayproof/verify/direct_rounding.h \
+  "  fast_two_sum(sigma, kappa, root.hi, root.lo);  // |κ| ≤ 2^-45·σ: exact" "  root.hi = sigma, root.lo = 0;"
+mutate "box-direct-other-plane" verify/oracle.cpp \
+  "const double plane = (d > 0) != source.far ? b.min[axis] : b.max[axis];" \
+  "const double plane = (d > 0) == source.far ? b.min[axis] : b.max[axis];"
+mutate "triangle-direct-from-the-wrong-vertex" verify/oracle.cpp \
+  "w[k] = exact_difference(tri.v[0][k], ray.origin[k])," "w[k] = exact_difference(tri.v[1][k], ray.origin[k]),"
 mutate "leaf-reach-zero" lib/rayproof/core/scene_rays.h \
   "constexpr double leaf_reach(Precision p) { return p == Precision::f32 ? 0x1p-16 : 0x1p-45; }" \
   "constexpr double leaf_reach(Precision) { return 0; }"
