@@ -112,8 +112,9 @@ mutate "sphere-direct-root-uncorrected" verify/rayproof/verify/direct_rounding.h
 mutate "box-direct-other-plane" verify/oracle.cpp \
   "const double plane = (d > 0) != source.far ? b.min[axis] : b.max[axis];" \
   "const double plane = (d > 0) == source.far ? b.min[axis] : b.max[axis];"
-mutate "triangle-direct-from-the-wrong-vertex" verify/oracle.cpp \
-  "w[k] = exact_difference(tri.v[0][k], ray.origin[k])," "w[k] = exact_difference(tri.v[1][k], ray.origin[k]),"
+mutate "triangle-direct-normal-by-a-sum" verify/oracle.cpp \
+  "n[i] = product<Product>(e1[j], e2[k]) - product<Product>(e1[k], e2[j]);" \
+  "n[i] = product<Product>(e1[j], e2[k]) + product<Product>(e1[k], e2[j]);"
 mutate "leaf-reach-zero" lib/rayproof/core/scene_rays.h \
   "constexpr double leaf_reach(Precision p) { return p == Precision::f32 ? 0x1p-16 : 0x1p-45; }" \
   "constexpr double leaf_reach(Precision) { return 0; }"
