@@ -630,11 +630,17 @@ struct BoxPolicy : NoSpecialCase {
   // The same parameter from its one slab alone (the class needs all three): terms()'s
   // arithmetic for that axis, so the value is the same bit for bit. Slab k is the k-th axis
   // with d ≠ 0; its near plane is min where d > 0, max where d < 0 (the far plane the other).
+  // The axis of slab `slab` (the slab-th axis with d ≠ 0; the same where every d ≠ 0).
+  [[gnu::always_inline]] static int axis_of_slab(const Ray& ray, int slab) {
+    if (ray.direction.x() != 0 && ray.direction.y() != 0 && ray.direction.z() != 0) return slab;  // nearly always
+    int axis = 0;
+    for (int k = -1; axis < 3; ++axis)
+      if (ray.direction[axis] != 0 && ++k == slab) break;
+    return axis;
+  }
   template <class NT>
   static ParameterOf<NT> parameter_alone(const Ray& ray, const Box& b, Source source) {
-    int axis = 0;
-    for (int slab = -1; axis < 3; ++axis)
-      if (ray.direction[axis] != 0 && ++slab == source.slab) break;
+    const int axis = axis_of_slab(ray, source.slab);
     const double o = ray.origin[axis], d = ray.direction[axis];
     const bool min_plane = (d > 0) != source.far;
     const NT num = NT(min_plane ? b.min[axis] : b.max[axis]) - NT(o);
@@ -644,10 +650,7 @@ struct BoxPolicy : NoSpecialCase {
   // and its denominator an input, so both enclosures have error 0. round_quotient checks the range.
   template <class Product>
   [[gnu::always_inline]] static double round_static(const Ray& ray, const Box& b, Source source) {
-    int axis = source.slab;  // the slab's axis: the same where every d ≠ 0, as nearly always
-    if (ray.direction.x() == 0 || ray.direction.y() == 0 || ray.direction.z() == 0)
-      for (int slab = -1, a = 0; a < 3; ++a)
-        if (ray.direction[a] != 0 && ++slab == source.slab) axis = a;
+    const int axis = axis_of_slab(ray, source.slab);
     const double o = ray.origin[axis], d = ray.direction[axis];
     const double plane = (d > 0) != source.far ? b.min[axis] : b.max[axis];
     const PlainDD num = d > 0 ? exact_difference(plane, o) : exact_difference(o, plane);
