@@ -242,8 +242,10 @@ struct SpherePolicy : NoSpecialCase {
     const double R = std::abs(s.radius);
     const double a_m = (D[0] * D[0] + D[1] * D[1]) + D[2] * D[2], b_m = (F[0] * D[0] + F[1] * D[1]) + F[2] * D[2];
     const double c_m = ((F[0] * F[0] + F[1] * F[1]) + F[2] * F[2]) + R * R, disc_m = b_m * b_m + a_m * c_m;
-    const double largest_leaf = std::max(std::max(largest(V<double>{F[0], F[1], F[2]}), largest(V<double>{D[0], D[1], D[2]})), R);
-    if (!(largest_leaf <= 0x1p100 && std::min(std::min(a_m, b_m), std::min(c_m, disc_m)) >= 0x1p-600)) return std::numeric_limits<double>::quiet_NaN();
+    const double largest_leaf =
+        std::max(std::max(largest(V<double>{F[0], F[1], F[2]}), largest(V<double>{D[0], D[1], D[2]})), R);
+    if (!(largest_leaf <= 0x1p100 && std::min(std::min(a_m, b_m), std::min(c_m, disc_m)) >= 0x1p-600))
+      return std::numeric_limits<double>::quiet_NaN();
     const PlainDD a = dd_dot<Product>(d, d), minus_b = dd_dot<Product>(f, d);
     // (c as a tree, (f₀² + f₁²) + (f₂² − r²): one sum less on the critical path than f·f − r²)
     const PlainDD c = (product<Product>(f[0], f[0]) + product<Product>(f[1], f[1])) +
@@ -482,9 +484,11 @@ struct TrianglePolicy {
     }
     const double yz = E[1] * E[2], zx = E[2] * E[0], xy = E[0] * E[1];
     const double den_m = 2 * ((yz * F[0] + zx * F[1]) + xy * F[2]), num_m = 2 * ((yz * W[0] + zx * W[1]) + xy * W[2]);
-    const double largest_leaf = std::max(std::max(largest(V<double>{E[0], E[1], E[2]}), largest(V<double>{W[0], W[1], W[2]})),
-                                         largest(V<double>{F[0], F[1], F[2]}));
-    if (!(largest_leaf <= 0x1p100 && den_m >= 0x1p-600 && num_m >= 0x1p-600)) return std::numeric_limits<double>::quiet_NaN();
+    const double largest_leaf =
+        std::max(std::max(largest(V<double>{E[0], E[1], E[2]}), largest(V<double>{W[0], W[1], W[2]})),
+                 largest(V<double>{F[0], F[1], F[2]}));
+    if (!(largest_leaf <= 0x1p100 && den_m >= 0x1p-600 && num_m >= 0x1p-600))
+      return std::numeric_limits<double>::quiet_NaN();
     PlainDD n[3];
     for (int i = 0; i < 3; ++i) {
       const int j = (i + 1) % 3, k = (i + 2) % 3;
@@ -1266,7 +1270,7 @@ template <class P>
 #if defined(__x86_64__)
 template <class P>
 [[gnu::target("fma"), gnu::flatten, gnu::noinline]] bool judge_directly_fma(const Ray& ray, const Shape& shape,
-                                                                             OracleStats& stats, Verdict& v) {
+                                                                            OracleStats& stats, Verdict& v) {
   return judge_directly<P, FmaProduct>(ray, shape, stats, v);
 }
 #else

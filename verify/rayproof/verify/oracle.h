@@ -99,7 +99,7 @@ class Oracle {
     bool static_filter = true;          // the semi-static double filter in front of the intervals
     bool double_double = true;          // t's midpoint tests in double-double before expansions
     bool keep_exact_parameter = false;  // fill Verdict::exact_t (in rationals) for audits and tests
-    bool fma = true;  // double-double products by the CPU's FMA where it has one (Dekker's values, faster)
+    bool fma = true;     // double-double products by the CPU's FMA where it has one (Dekker's values, faster)
     bool direct = true;  // judge: the static filter and the shape's direct rounding of t before the stages
   };
   Oracle() = default;
@@ -113,7 +113,7 @@ class Oracle {
 
  private:
   Verdict judge_in_stages(const Ray& ray, const Shape& shape, HitRule rule);  // judge past the direct path
-  Verdict judge_as_given(const Ray& ray, const Shape& shape);                  // no scaling, no rule
+  Verdict judge_as_given(const Ray& ray, const Shape& shape);                 // no scaling, no rule
   Options options_{};
   std::array<OracleStats, 4> stats_{};
 };
