@@ -7,7 +7,9 @@
 // parameter the decision names — and one driver layers four stages over it: a semi-static
 // double filter with a proved error bound (verify/filtered.h), CGAL::Interval_nt, exact
 // floating-point expansions (while no product under- or overflows), then GMP rationals; each
-// answers only when every sign is certain. The correctly rounded t comes from midpoint tests in
+// answers only when every sign is certain. judge first tries each shape's direct path: the static
+// filter's class and t's terms once in double-double with a priori bounds, one quotient test
+// (verify/direct_rounding.h). Else the correctly rounded t comes from midpoint tests in
 // double-double with error bounds, else in expansions, else from a 128-bit MPFR enclosure with
 // exact midpoint tests where it straddles a rounding boundary. Each fallback is counted.
 #pragma once
