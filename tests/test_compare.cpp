@@ -4,6 +4,8 @@
 
 #include <cfloat>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 
 #include "rayproof/verify/compare.h"
@@ -30,6 +32,44 @@ TEST(Compare, AgreementOfEveryPairOfClasses) {
                                                   : Agreement::wrong;
       EXPECT_EQ(agreement_of(classes[e], classes[r]), want) << to_string(classes[e]) << " -> " << to_string(classes[r]);
     }
+}
+
+// The one double-to-float conversion (fp.h): round to nearest, ties to even, ±inf from
+// FLT_MAX + ½ulp (0x1.ffffffp+127) on, NaN for NaN, subnormal floats and their ties included:
+// checked against an independent rounding written from the bits.
+TEST(Compare, ToNearestFloat) {
+  const float inf = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(to_nearest_float(0x1.ffffffp+127), inf);
+  EXPECT_EQ(to_nearest_float(-0x1.ffffffp+127), -inf);
+  EXPECT_EQ(to_nearest_float(std::nextafter(0x1.ffffffp+127, 0.0)), FLT_MAX);
+  EXPECT_EQ(to_nearest_float(-std::nextafter(0x1.ffffffp+127, 0.0)), -FLT_MAX);
+  EXPECT_EQ(to_nearest_float(DBL_MAX), inf);
+  EXPECT_EQ(to_nearest_float(-INFINITY), -inf);
+  EXPECT_TRUE(std::isnan(to_nearest_float(NAN)));
+  EXPECT_EQ(to_nearest_float(1 + 0x1p-24), 1.0f);                    // a tie: to even
+  EXPECT_EQ(to_nearest_float(1 + 0x1p-24 + 0x1p-52), 1 + 0x1p-23f);  // just above it
+  EXPECT_EQ(to_nearest_float(1 + 3 * 0x1p-24), 1 + 0x1p-22f);        // a tie: to even, upwards
+  EXPECT_EQ(to_nearest_float(0x1p-150), 0.0f);                       // half the smallest subnormal: to 0
+  EXPECT_EQ(to_nearest_float(0x1.8p-150), 0x1p-149f);                // above it
+  EXPECT_EQ(to_nearest_float(-0.0), -0.0f);
+  EXPECT_TRUE(std::signbit(to_nearest_float(-0.0)));
+  // Random doubles over float's whole range against a rounding from the bits: the two floats
+  // around x (by nextafter from the truncation) and the nearer, ties to the even one.
+  std::uint64_t state = 1;
+  for (int i = 0; i < 100000; ++i) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    const double x = std::ldexp(1 + double(state >> 11) * 0x1p-53, int(state % 300) - 160) * (state & 1 ? -1 : 1);
+    const double a = std::abs(x);
+    if (!(a < double(FLT_MAX))) continue;
+    float lo = float(a);  // some float next to a (the cast rounds in the current mode)
+    if (double(lo) > a) lo = std::nextafter(lo, 0.0f);
+    const float hi = std::nextafter(lo, inf);
+    const double below = a - double(lo), above = double(hi) - a;
+    std::uint32_t bits;
+    std::memcpy(&bits, &lo, sizeof bits);
+    const float nearest = below < above ? lo : above < below ? hi : (bits % 2 == 0 ? lo : hi);
+    ASSERT_EQ(to_nearest_float(x), x < 0 ? -nearest : nearest) << std::hexfloat << x;
+  }
 }
 
 TEST(Compare, UlpDistance) {

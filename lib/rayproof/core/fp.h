@@ -7,6 +7,9 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace rayproof {
 
@@ -56,11 +59,17 @@ inline std::optional<std::uint64_t> ulp_distance_f32(float a, float b) {
 // x rounded to the nearest float (ties to even): ±inf from FLT_MAX + ½ulp = 0x1.ffffffp+127 on,
 // where round-to-nearest overflows, NaN for NaN. The one double-to-float conversion of rayproof:
 // casting an out-of-range double to float is undefined in C++, so the test comes first.
+// On x86 the conversion instruction itself, whose IEEE rounding gives exactly that (±inf from
+// 0x1.ffffffp+127 on) without the range test: float variants convert a dozen numbers a query.
 inline float to_nearest_float(double x) {
   if (std::isnan(x)) return std::numeric_limits<float>::quiet_NaN();
+#if defined(__SSE2__)
+  return _mm_cvtss_f32(_mm_cvtsd_ss(_mm_setzero_ps(), _mm_set_sd(x)));
+#else
   if (!(std::fabs(x) < 0x1.ffffffp+127))
     return x > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
   return static_cast<float>(x);
+#endif
 }
 
 // The neighbouring doubles of x: by the bits for positive finite x (the oracle's fast paths, where
