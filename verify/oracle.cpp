@@ -222,7 +222,7 @@ struct SpherePolicy : NoSpecialCase {
   //   far root (c < 0):          t = (b′ + √D′)/a = S/a where b̂′ ≥ 0, −c/S where b̂′ < 0
   //   (exact identities for any b′, so a wrong sign of b̂′ near 0 costs only accuracy).
   //  - f = o − m exactly (TwoSum): leaves. Every other operation is one rounding at ε = 2^-100
-  //    (dd_sum, dd_product), so filtered.h's bound holds with k roundings on the deepest path:
+  //    (PlainDD's sums and products), so filtered.h's bound holds with k roundings on the deepest path:
   //    a = d·d and b′ = −f·d 3, c = f·f − r² 4, D′ = b′² − a·c 9; M at most m from F_i = |f̂_i|,
   //    D_i = |d_i|, R = |r|: m_a = ΣD_i², m_b = ΣF_i·D_i, m_c = ΣF_i² + R², m_D = m_b² + m_a·m_c
   //    (the hi parts' (1 + u) and m's own roundings, at most k, paid by the two spare roundings
@@ -270,7 +270,8 @@ struct SpherePolicy : NoSpecialCase {
     const PlainDD b_magnitude = b_negative ? minus_b : PlainDD{-minus_b.hi, -minus_b.lo};
     const PlainDD sum = b_magnitude + PlainDD{root.hi, root.lo};
     const BoundedDD S{sum.hi, sum.lo, (0x1p-99 * (std::abs(minus_b.hi) + root.hi) + b_error) + root.error};
-    if (source == Source::near_root) return round_quotient<Product>(bounded_c, S);
+    if (source == Source::near_root)  // (b′ > 0 is certified there; S is b′ + √D′ only if b̂′ agrees)
+      return b_negative ? std::numeric_limits<double>::quiet_NaN() : round_quotient<Product>(bounded_c, S);
     if (!b_negative) return round_quotient<Product>(S, bounded_a);
     return round_quotient<Product>({-c.hi, -c.lo, bounded_c.error}, S);
   }
@@ -462,7 +463,7 @@ struct TrianglePolicy {
   // t directly (direct_rounding.h), where decide_static found a crossing: plane_crossing's
   // num = n·(v₀ − o) and den = n·d with n = (v₁ − v₀) × (v₂ − v₀), in double-double.
   //  - The differences e₁ = v₁ − v₀, e₂ = v₂ − v₀, w = v₀ − o are exact (TwoSum): leaves.
-  //  - Every other operation is one rounding at ε = 2^-100 (dd_sum, dd_product), so filtered.h's
+  //  - Every other operation is one rounding at ε = 2^-100 (PlainDD's sums and products), so filtered.h's
   //    bound holds with k the roundings on the deepest path: n_i = e₁·e₂ − e₁·e₂ 2, n_i·d_i 3,
   //    two sums 5 (the same for num), and M the expression over the leaves' magnitudes, at most
   //    m = 2·Σ_cyclic E_y·E_z·F_x with E_k = max(|ê₁_k|, |ê₂_k|) and F = |d| (den) or |ŵ| (num):
