@@ -60,33 +60,35 @@ bool exactly_collinear_rational(const Vec3& a, const Vec3& b, const Vec3& c) {
 bool finite(double x) { return std::isfinite(x); }
 }  // namespace
 
-const char* degenerate_reason(const Shape& shape) {
-  struct Check {
-    const char* operator()(const Sphere& s) const {
-      if (!all_finite(s.center) || !finite(s.radius)) return "non-finite sphere";
-      if (!(s.radius > 0)) return "radius must be > 0";
-      return nullptr;
-    }
-    const char* operator()(const Plane& p) const {
-      if (!all_finite(p.normal) || !finite(p.offset)) return "non-finite plane";
-      if (p.normal.x() == 0 && p.normal.y() == 0 && p.normal.z() == 0) return "zero plane normal";
-      return nullptr;
-    }
-    const char* operator()(const Triangle& t) const {
-      for (const Vec3& v : t.v)
-        if (!all_finite(v)) return "non-finite triangle vertex";
-      if (exactly_collinear(t.v[0], t.v[1], t.v[2])) return "triangle vertices are collinear";
-      return nullptr;
-    }
-    const char* operator()(const Box& b) const {
-      if (!all_finite(b.min) || !all_finite(b.max)) return "non-finite box";
-      for (int i = 0; i < 3; ++i)
-        if (!(b.min[i] < b.max[i])) return "box min must be < max on every axis";
-      return nullptr;
-    }
-  };
-  return std::visit(Check{}, shape);
-}
+namespace {
+struct Check {
+  const char* operator()(const Sphere& s) const {
+    if (!all_finite(s.center) || !finite(s.radius)) return "non-finite sphere";
+    if (!(s.radius > 0)) return "radius must be > 0";
+    return nullptr;
+  }
+  const char* operator()(const Plane& p) const {
+    if (!all_finite(p.normal) || !finite(p.offset)) return "non-finite plane";
+    if (p.normal.x() == 0 && p.normal.y() == 0 && p.normal.z() == 0) return "zero plane normal";
+    return nullptr;
+  }
+  const char* operator()(const Triangle& t) const {
+    for (const Vec3& v : t.v)
+      if (!all_finite(v)) return "non-finite triangle vertex";
+    if (exactly_collinear(t.v[0], t.v[1], t.v[2])) return "triangle vertices are collinear";
+    return nullptr;
+  }
+  const char* operator()(const Box& b) const {
+    if (!all_finite(b.min) || !all_finite(b.max)) return "non-finite box";
+    for (int i = 0; i < 3; ++i)
+      if (!(b.min[i] < b.max[i])) return "box min must be < max on every axis";
+    return nullptr;
+  }
+};
+}  // namespace
+
+const char* degenerate_reason(const Shape& shape) { return std::visit(Check{}, shape); }
+const char* degenerate_reason(const Triangle& t) { return Check{}(t); }
 
 Shape scaled(const Shape& shape, double f) {
   return std::visit(

@@ -168,7 +168,9 @@ TEST(OracleStages, DirectRoundingAtAndBesideMidpoints) {
       const double expected = k <= 0 ? 1 + 0x1p-51 : plane;  // the tie to even (1 + 2^-52 is odd)
       EXPECT_EQ(*truth.t, expected) << k;
       const OracleStats& stats = filtered.stats(static_cast<ShapeKind>(shape.index()));
-      if (k == 0) EXPECT_EQ(stats.rounding.direct, 0u) << "a tie was 'proved' by the quotient test";
+      if (k == 0) {
+        EXPECT_EQ(stats.rounding.direct, 0u) << "a tie was 'proved' by the quotient test";
+      }
     }
   }
 }

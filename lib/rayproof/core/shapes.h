@@ -67,6 +67,7 @@ std::span<const ShapeField> shape_fields(ShapeKind k);
 // Checks are exact: a triangle is collinear only when its cross product is exactly zero
 // in exact arithmetic (decided by an exact orientation test on the doubles).
 const char* degenerate_reason(const Shape& s);
+const char* degenerate_reason(const Triangle& t);  // the same, without making a Shape of it
 
 // The shape with every length multiplied by `factor` (centre, radius, plane offset, vertices,
 // corners; a plane's normal keeps its direction). With a power of two as factor this is exact
