@@ -253,23 +253,24 @@ struct SpherePolicy : NoSpecialCase {
     const PlainDD disc = product<Product>(minus_b, minus_b) - product<Product>(a, c);
     const BoundedDD root = bounded_sqrt<Product>({disc.hi, disc.lo, kGammaDD[9] * disc_m});
     const BoundedDD bounded_a{a.hi, a.lo, kGammaDD[3] * a_m}, bounded_c{c.hi, c.lo, kGammaDD[4] * c_m};
-    const double b_error = kGammaDD[3] * b_m;
+    const PlainDD root_value{root.hi, root.lo};
+    // The error of b̂′ ∓ √D̂′ either way (the PlainDD sum's, then both operands').
+    const double sum_error = (0x1p-99 * (std::abs(minus_b.hi) + root.hi) + kGammaDD[3] * b_m) + root.error;
     if (source == Source::near_root) {
       // First (b′ − √D′)/a itself: its denominator is known early, so the quotient's division is
       // off the critical path, and the cancellation (b′ + √D′)²/(a·c) costs few of the ~100 bits
       // but where the origin nearly touches the sphere; there c/S decides.
-      const PlainDD difference = PlainDD{-minus_b.hi, -minus_b.lo} - PlainDD{root.hi, root.lo};
-      const BoundedDD numerator{difference.hi, difference.lo,
-                                (0x1p-99 * (std::abs(minus_b.hi) + root.hi) + b_error) + root.error};
-      if (const double t = round_quotient<Product>(numerator, bounded_a); t == t) return t;  // (not NaN)
+      const PlainDD difference = PlainDD{-minus_b.hi, -minus_b.lo} - root_value;
+      if (const double t = round_quotient<Product>({difference.hi, difference.lo, sum_error}, bounded_a); t == t)
+        return t;  // (not NaN)
     } else if (source != Source::far_root) {
       return std::numeric_limits<double>::quiet_NaN();
     }
     // |b̂′| + √D′: b̂′ = −minus_b, so its magnitude is minus_b with the sign of −minus_b.hi.
     const bool b_negative = minus_b.hi > 0;
     const PlainDD b_magnitude = b_negative ? minus_b : PlainDD{-minus_b.hi, -minus_b.lo};
-    const PlainDD sum = b_magnitude + PlainDD{root.hi, root.lo};
-    const BoundedDD S{sum.hi, sum.lo, (0x1p-99 * (std::abs(minus_b.hi) + root.hi) + b_error) + root.error};
+    const PlainDD sum = b_magnitude + root_value;
+    const BoundedDD S{sum.hi, sum.lo, sum_error};
     if (source == Source::near_root)  // (b′ > 0 is certified there; S is b′ + √D′ only if b̂′ agrees)
       return b_negative ? std::numeric_limits<double>::quiet_NaN() : round_quotient<Product>(bounded_c, S);
     if (!b_negative) return round_quotient<Product>(S, bounded_a);
@@ -338,9 +339,8 @@ struct PlanePolicy : NoSpecialCase {
     const double n[3] = {p.normal.x(), p.normal.y(), p.normal.z()};
     const double d[3] = {ray.direction.x(), ray.direction.y(), ray.direction.z()};
     const double minus_o[3] = {-ray.origin.x(), -ray.origin.y(), -ray.origin.z()};
-    BoundedDD num = compensated_dot<Product>(p.offset, n, minus_o), den = compensated_dot<Product, false>(0, n, d);
-    if (den.hi < 0) num.hi = -num.hi, num.lo = -num.lo, den.hi = -den.hi, den.lo = -den.lo;
-    return round_quotient<Product>(num, den);
+    return round_ratio<Product>(compensated_dot<Product>(p.offset, n, minus_o),
+                                compensated_dot<Product, false>(0, n, d));
   }
 };
 
@@ -495,11 +495,8 @@ struct TrianglePolicy {
       const int j = (i + 1) % 3, k = (i + 2) % 3;
       n[i] = product<Product>(e1[j], e2[k]) - product<Product>(e1[k], e2[j]);
     }
-    const PlainDD num_value = dd_dot<Product>(n, w), den_value = dd_dot<Product>(n, d);
-    const double sign = den_value.hi < 0 ? -1 : 1;  // (exact)
-    const BoundedDD num{sign * num_value.hi, sign * num_value.lo, kGammaDD[5] * num_m};
-    const BoundedDD den{sign * den_value.hi, sign * den_value.lo, kGammaDD[5] * den_m};
-    return round_quotient<Product>(num, den);
+    const PlainDD num = dd_dot<Product>(n, w), den = dd_dot<Product>(n, d);
+    return round_ratio<Product>({num.hi, num.lo, kGammaDD[5] * num_m}, {den.hi, den.lo, kGammaDD[5] * den_m});
   }
 
   // A coplanar ray is a 2D problem the 3D terms cannot settle.
@@ -1246,23 +1243,17 @@ namespace {
 template <class P, class Product>
 [[gnu::always_inline]] inline bool judge_directly(const Ray& ray, const Shape& shape, OracleStats& stats,
                                                   Verdict& verdict) {
-  if constexpr (requires(const typename P::ShapeType& s, typename P::Source source) {
-                  P::template round_static<Product>(ray, s, source);
-                }) {
-    const auto& s = *std::get_if<typename P::ShapeType>(&shape);
-    const auto d = P::decide_static(ray, s);
-    if (!d || P::special_case_needed(*d)) return false;
-    if (d->source) {
-      const double t = P::template round_static<Product>(ray, s, *d->source);  // NaN: unproved
-      if (t != t) return false;
-      verdict.t = t;
-      ++stats.rounding.rounded, ++stats.rounding.direct;
-    }
-    verdict.cls = d->cls, verdict.front = d->front;
-    return true;
-  } else {
-    return false;
+  const auto& s = *std::get_if<typename P::ShapeType>(&shape);
+  const auto d = P::decide_static(ray, s);
+  if (!d || P::special_case_needed(*d)) return false;
+  if (d->source) {
+    const double t = P::template round_static<Product>(ray, s, *d->source);  // NaN: unproved
+    if (t != t) return false;
+    verdict.t = t;
+    ++stats.rounding.rounded, ++stats.rounding.direct;
   }
+  verdict.cls = d->cls, verdict.front = d->front;
+  return true;
 }
 template <class P>
 [[gnu::noinline]] bool judge_directly_dekker(const Ray& ray, const Shape& shape, OracleStats& stats, Verdict& v) {

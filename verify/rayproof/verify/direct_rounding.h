@@ -185,4 +185,11 @@ template <class Product>
   return ((std::abs(r) + bound) + 0x1p-1060) * (1 + 0x1p-40) < half_gap * dh * (1 - 0x1p-40) ? c : unproved;
 }
 
+// t = N/D > 0 for a D of either sign: both negated where D̂ < 0 (exact), then round_quotient.
+template <class Product>
+[[gnu::always_inline]] inline double round_ratio(const BoundedDD& num, const BoundedDD& den) {
+  const double sign = den.hi < 0 ? -1 : 1;
+  return round_quotient<Product>({sign * num.hi, sign * num.lo, num.error}, {sign * den.hi, sign * den.lo, den.error});
+}
+
 }  // namespace rayproof
