@@ -87,6 +87,10 @@ struct CheckRun {
   std::vector<const Tracer*> tracers;                // judged on mesh cases
   std::map<std::string, std::map<std::string, long>> tracer_kinds;  // tracer → kind → cases
   long mesh_cases = 0;
+  double tolerance_ulps = kDefaultToleranceUlps;
+  std::string fail_on = "none";
+  long failing = 0;  // tracer outcomes --fail-on counts
+  std::map<std::string, std::map<std::string, long>> tracer_levels;  // tracer → bug/rounding → disagreements
   std::vector<ShapeKind> shapes;  // --shapes: an --exec command (every shape) gets only these
   std::set<std::string> ids;      // --id: only these cases are judged
   std::set<std::string> ids_seen;
@@ -112,9 +116,20 @@ void judge_mesh_case(const std::string& path, long line, const MeshCase& c, Chec
       ++run.tracer_kinds[t->name]["not_representable"];
       continue;
     }
-    const fuzz::TracerOutcome o = fuzz::judge_tracer_on_case(*t, *seen);
+    fuzz::VerdictSettings settings{run.tolerance_ulps, std::nullopt};
+    if (c.found.is_object() && c.found.contains("range") && c.found.at("range").is_string())  // replayed as found
+      settings.range = range_rule_from_string(c.found.at("range").get<std::string>());
+    const fuzz::TracerOutcome o = fuzz::judge_tracer_on_case(*t, *seen, settings);
     nlohmann::ordered_json entry = fuzz::reported_json(o, c.all);
     entry["kind"] = std::string(to_string(o.kind));
+    if (fuzz::has_backward_error(o.kind)) {
+      entry["beta"] = beta_json(o.backward);
+      entry["level"] = std::string(to_string(o.level));
+    } else if (is_disagreement(o.kind)) {
+      entry["level"] = "bug";
+    }
+    if (is_disagreement(o.kind)) ++run.tracer_levels[t->name][std::string(to_string(o.level))];
+    if (fails_on(run.fail_on, o.kind, o.level)) ++run.failing;
     if (!o.reason.empty()) entry["reason"] = o.reason;
     if (o.judgement.ulp) entry["ulp"] = *o.judgement.ulp;
     tracers[t->name] = entry;
@@ -250,6 +265,8 @@ int run_check(const CheckOptions& opts) {
   CheckRun run{parse_variants(opts.variants, parse_shapes(opts.shapes)), parse_rule(opts.rule),
                Oracle(Oracle::Options{!opts.exact_only})};
   run.tracers = parse_tracers(opts.tracer_flags.names);
+  run.tolerance_ulps = opts.tracer_flags.tolerance_ulps;
+  run.fail_on = opts.tracer_flags.fail_on;
   run.ids.insert(opts.ids.begin(), opts.ids.end());
   run.shapes = parse_shapes(opts.shapes);
   refuse_output_over_input(opts.output, [&] {
@@ -273,6 +290,8 @@ int run_check(const CheckOptions& opts) {
   for (const auto& [name, kinds] : run.tracer_kinds) {  // mesh cases: one line per tracer
     std::cerr << "tracer " << name << ":";
     for (const auto& [kind, n] : kinds) std::cerr << " " << kind << " " << n;
+    if (run.tracer_levels.contains(name))
+      for (const auto& [level, n] : run.tracer_levels.at(name)) std::cerr << " (" << level << "-level " << n << ")";
     std::cerr << "\n";
   }
   if (opts.format != "json") print_digest(std::cerr, run.disagreements, run.variants);
@@ -295,6 +314,8 @@ int run_check(const CheckOptions& opts) {
                                  {"variants", summary_json(run.summary)},
                                  {"mesh_cases", run.mesh_cases},
                                  {"tracers", run.tracer_kinds},
+                                 {"tracer_levels", run.tracer_levels},
+                                 {"tolerance_ulps", run.tolerance_ulps},
                                  {"oracle", oracle_stats_json(run.oracle)}},
                             2)
                << "\n";
@@ -305,7 +326,11 @@ int run_check(const CheckOptions& opts) {
     for (const std::string& problem : peers::answers_problems(*v))
       ++answer_problems, std::cerr << "rayproof: " << problem << "\n";
   if (run.unopened > 0) return 2;
-  return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0 || run.stopped > 0) ? 1 : 0;
+  if (run.failing > 0)
+    std::cerr << "rayproof check: --fail-on " << run.fail_on << ": " << run.failing << " tracer outcomes fail\n";
+  return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0 || run.stopped > 0 || run.failing > 0)
+             ? 1
+             : 0;
 }
 
 }  // namespace

@@ -114,8 +114,9 @@ fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
 }
 
 // `fuzz --tracer ...`: whole tracers on the tracer families (docs/spec/tracer.md).
-void run_tracer_fuzz(const FuzzOptions& opts) {
+int run_tracer_fuzz(const FuzzOptions& opts) {
   fuzz::TracerCampaignOptions o;
+  o.verdicts.tolerance_ulps = opts.tracers.tolerance_ulps;
   o.families = parse_tracer_families(opts.families);
   o.tracers = parse_tracers(opts.tracers.names);
   std::tie(o.shard, o.shards) = parse_shard(opts.shard);
@@ -149,6 +150,17 @@ void run_tracer_fuzz(const FuzzOptions& opts) {
     summary->stream() << json_text(report.to_json(), 2) << "\n";
     summary->commit();
   }
+  // --fail-on (verdicts.md): bug-level disagreements and failures, or every disagreement.
+  std::uint64_t failing = 0;
+  for (const auto& [key, t] : report.tallies) {
+    if (opts.tracers.fail_on == "none") break;
+    for (const char* k : {"tracer_errors", "crash", "timeout"}) failing += t.count(k);
+    for (const char* k : {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit"})
+      failing += opts.tracers.fail_on == "rounding" ? t.count(k) : t.level(std::string(k) + "_bugs");
+  }
+  if (failing == 0) return 0;
+  std::cerr << "rayproof fuzz: --fail-on " << opts.tracers.fail_on << ": " << failing << " tracer outcomes fail\n";
+  return 1;
 }
 
 void run_fuzz(const FuzzOptions& opts) {
@@ -254,10 +266,11 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
   cmd->callback([opts, &exit_code] {
     load_externals(opts->ext);
     load_tracers(opts->tracers, opts->ext.case_timeout);
-    if (opts->tracers.given())
-      run_tracer_fuzz(*opts);
-    else
-      run_fuzz(*opts);
+    if (opts->tracers.given()) {
+      exit_code = run_tracer_fuzz(*opts);
+      return;
+    }
+    run_fuzz(*opts);
     exit_code = 0;
   });
 }

@@ -38,6 +38,7 @@ void add_variants_command(CLI::App& app, int& exit_code) {
       for (const Tracer* t : all_tracers()) {
         std::cout << t->name << "\tmesh\t" << to_string(t->precision) << "\t" << t->source;
         if (t->origin != "built-in") std::cout << " [" << t->origin << "]";
+        std::cout << " (range: " << to_string(t->range) << ")";  // verdicts.md §1
         std::cout << "\n";
       }
     exit_code = 0;

@@ -15,6 +15,7 @@
 #include "rayproof/fuzz/generators.h"
 #include "rayproof/fuzz/tracer_families.h"
 #include "rayproof/studies/trade.h"
+#include "rayproof/verify/backward_error.h"
 #include "rayproof/verify/diagnose.h"
 
 namespace rayproof::cli {
@@ -66,12 +67,18 @@ void load_externals(const ExternalFlags& flags);
 struct TracerFlags {
   std::vector<std::string> plugins, execs, names;
   std::string precision = "double";
+  std::vector<std::string> ranges;  // --tracer-range NAME=open|closed
+  double tolerance_ulps = kDefaultToleranceUlps;
+  std::string fail_on = "none";  // --fail-on bug|rounding|none
   bool given() const { return !plugins.empty() || !execs.empty() || !names.empty(); }
 };
 void add_tracer_flags(CLI::App* cmd, TracerFlags& flags);
 // Registers the peer tracers (Embree where built, CGAL's AABB tree), loads the plugins and
 // registers the exec tracers; loading errors are std::runtime_error (exit code 2).
 void load_tracers(const TracerFlags& flags, double case_timeout);
+// --fail-on: whether a tracer outcome of this kind and level makes the run exit 1 (bug: bug-level
+// disagreements, tracer errors, crashes and timeouts; rounding: every disagreement; none: never).
+bool fails_on(const std::string& fail_on, TraceKind kind, Level level);
 // The chosen tracers: named ones (every one for `all` or nothing given) and every exec tracer.
 std::vector<const Tracer*> parse_tracers(const std::vector<std::string>& names);
 std::vector<fuzz::TracerFamily> parse_tracer_families(const std::vector<std::string>& names);

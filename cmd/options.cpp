@@ -137,6 +137,21 @@ void add_tracer_flags(CLI::App* cmd, TracerFlags& flags) {
   cmd->add_option("--tracer-precision", flags.precision,
                   "double, or float: --tracer-exec commands get float-rounded meshes and rays")
       ->check(CLI::IsMember({"double", "float"}));
+  cmd->add_option("--tracer-range", flags.ranges,
+                  "NAME=open|closed: declares or overrides a tracer's range (docs/spec/verdicts.md); repeatable");
+  cmd->add_option("--tolerance-ulps", flags.tolerance_ulps,
+                  "K: a disagreement whose backward error is at most K ulps (with a witness) is rounding-level, "
+                  "not a bug (default 16; 0: the strict reading)")
+      ->check(CLI::Range(0.0, 1e15));
+  cmd->add_option("--fail-on", flags.fail_on,
+                  "bug|rounding|none: exit 1 when a tracer shows a bug-level disagreement (or a crash), any "
+                  "disagreement, or never (default)")
+      ->check(CLI::IsMember({"bug", "rounding", "none"}));
+}
+
+bool fails_on(const std::string& fail_on, TraceKind kind, Level level) {
+  if (fail_on == "none" || !is_disagreement(kind)) return false;
+  return fail_on == "rounding" || level == Level::bug;
 }
 
 void load_tracers(const TracerFlags& flags, double case_timeout) {
@@ -155,6 +170,14 @@ void load_tracers(const TracerFlags& flags, double case_timeout) {
   for (const std::string& text : flags.execs) {
     const auto [name, command] = peers::split_assignment("--tracer-exec", text);
     peers::add_exec_tracer(name, command, options);
+  }
+  for (const std::string& text : flags.ranges) {
+    const auto [name, value] = peers::split_assignment("--tracer-range", text);
+    const auto range = range_rule_from_string(value);
+    if (!range) throw std::runtime_error("--tracer-range " + printable(text) + ": expected NAME=open or NAME=closed");
+    if (!set_tracer_range(name, *range))
+      throw std::runtime_error("--tracer-range " + printable(text) + ": no tracer is named '" + printable(name) +
+                               "' (see rayproof variants)");
   }
 }
 

@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <set>
 #include <sstream>
+#include <cstring>
 
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/core/parallel.h"
@@ -66,13 +67,45 @@ void TracerCampaignReport::merge(const TracerCampaignReport& o) {
 }
 
 std::string one_hit_rule_line(const TracerCampaignReport& r, const std::string& tracer) {
-  std::uint64_t holes = 0, doubles = 0, edge_rays = 0;
-  for (const auto& [k, t] : r.tallies)
-    if (k.name == tracer) holes += t.edge_holes, doubles += t.edge_double_hits, edge_rays += t.edge_rays;
+  // Bug-level only (verdicts.md §4): an edge hole a witness shows to be rounding is no breach.
+  std::uint64_t holes = 0, doubles = 0, edge_rays = 0, any_hit_rays = 0;
+  bool levels = false;
+  for (const auto& [k, t] : r.tallies) {
+    if (k.name != tracer) continue;
+    levels = levels || t.tolerance_ulps.has_value();
+    holes += t.tolerance_ulps ? t.level("edge_hole_bugs") : t.edge_holes;
+    doubles += t.edge_double_hits, edge_rays += t.edge_rays;
+    if (k.family.size() > 4 && k.family.ends_with("-any")) any_hit_rays += t.cases - t.count("unsupported");
+  }
   std::ostringstream out;
-  out << "one hit per shared edge and vertex: " << (holes + doubles == 0 ? "holds" : "fails") << " (" << holes
-      << " holes, " << doubles << " double hits in " << edge_rays << " edge rays)";
+  out << "one hit per shared edge and vertex: ";
+  if (edge_rays == 0) return out.str() + "not tested (no edge rays)";
+  out << (holes + doubles == 0 ? "holds" : "fails") << " (" << holes << (levels ? " bug-level" : "") << " holes, ";
+  if (any_hit_rays == 0)
+    out << "double hits not tested: no any-hit mode";
+  else
+    out << doubles << " double hits";
+  out << " in " << edge_rays << " edge rays)";
   return out.str();
+}
+
+// The closed range's notes (verdicts.md §1): how many right answers a range end made right.
+std::vector<std::string> range_end_lines(const TracerCampaignReport& r, const std::string& tracer) {
+  std::vector<std::string> lines;
+  for (const auto& [k, t] : r.tallies) {
+    if (k.name != tracer) continue;
+    const bool spawned = k.family.rfind("spawned", 0) == 0;
+    if (const auto n = t.level("at_tmin"))
+      lines.push_back(k.family + ": accepts t = tmin: " + std::to_string(n) + " of " + std::to_string(t.cases) + " " +
+                      k.family + " rays " +
+                      (spawned ? "re-hit the triangle they leave (give tmin > 0, or an offset origin)"
+                               : "report a contact at exactly tmin"));
+    if (const auto n = t.level("at_tmax"))
+      lines.push_back(k.family + ": accepts t = tmax: " + std::to_string(n) + " of " + std::to_string(t.cases) + " " +
+                      k.family + " rays report a contact at exactly tmax (a shadow ray to a point on a surface is "
+                      "blocked by it: give tmax short of the point)");
+  }
+  return lines;
 }
 
 void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std::ostream& out) {
@@ -80,9 +113,37 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
     out << json_text(r.to_json(), 2) << "\n";
     return;
   }
-  const char* columns[] = {
-      "cases",    "right",       "hole",          "false_hit", "not_nearest", "double_hit", "missed_in_any_hit",
-      "in_plane", "unsupported", "tracer_errors", "crash",     "timeout"};
+  // Bugs first, rounding-level disagreements beside them, labelled (verdicts.md §4); then notes
+  // and failures. Without levels (a summary from before verdicts.md) the plain counts show.
+  struct Column {
+    const char* title;
+    std::function<std::uint64_t(const TracerTally&)> value;
+  };
+  auto level = [](const char* kind, const char* suffix) {
+    return [kind, suffix](const TracerTally& t) {
+      return t.tolerance_ulps ? t.level(std::string(kind) + suffix) : (suffix[1] == 'b' ? t.count(kind) : 0);
+    };
+  };
+  auto plain = [](const char* kind) { return [kind](const TracerTally& t) { return t.count(kind); }; };
+  const std::vector<Column> columns = {
+      {"cases", [](const TracerTally& t) { return t.cases; }},
+      {"right", plain("right")},
+      {"hole", level("hole", "_bugs")},
+      {"false_hit", level("false_hit", "_bugs")},
+      {"not_nearest", level("not_nearest", "_bugs")},
+      {"double_hit", level("double_hit", "_bugs")},
+      {"missed", level("missed_in_any_hit", "_bugs")},
+      {"r:hole", level("hole", "_rounding")},
+      {"r:false_hit", level("false_hit", "_rounding")},
+      {"r:not_nearest", level("not_nearest", "_rounding")},
+      {"r:missed", level("missed_in_any_hit", "_rounding")},
+      {"ties", [](const TracerTally& t) { return t.level("ties"); }},
+      {"at_range_end", [](const TracerTally& t) { return t.level("at_range_end"); }},
+      {"in_plane", plain("in_plane")},
+      {"unsupported", plain("unsupported")},
+      {"tracer_errors", plain("tracer_errors")},
+      {"crash", plain("crash")},
+      {"timeout", plain("timeout")}};
   const bool md = format == TableFormat::markdown;
   auto cell = [&](const std::string& text, int width, bool left) {
     if (md) return "| " + text + " ";
@@ -90,24 +151,24 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
     s << (left ? std::left : std::right) << std::setw(width) << text << " ";
     return s.str();
   };
-  std::string header = cell("tracer", 22, true) + cell("family", 18, true);
-  for (const char* c : columns) header += cell(c, static_cast<int>(std::max<size_t>(6, std::strlen(c))), false);
+  auto width = [](const char* title) { return static_cast<int>(std::max<size_t>(6, std::strlen(title))); };
+  std::string header = cell("tracer", 22, true) + cell("family", 18, true) + cell("range", 6, true);
+  for (const Column& c : columns) header += cell(c.title, width(c.title), false);
   header += cell("bits-p50", 8, false) + cell("bits-max", 8, false) + cell("ns/ray", 9, false);
+  out << "bugs first; r:KIND are rounding-level disagreements (backward error within --tolerance-ulps, each with a "
+         "witness the exact oracle checked)\n";
   out << header << (md ? "|" : "") << "\n";
   if (md) {
-    out << "|---|---|";
-    for (size_t i = 0; i < std::size(columns) + 3; ++i) out << "---:|";
+    out << "|---|---|---|";
+    for (size_t i = 0; i < columns.size() + 3; ++i) out << "---:|";
     out << "\n";
   }
   std::map<std::string, std::vector<std::pair<std::string, const TracerTally*>>> by_tracer;
   for (const auto& [k, t] : r.tallies) by_tracer[k.name].push_back({k.family, &t});
   for (const auto& [name, rows] : by_tracer) {
     for (const auto& [family, t] : rows) {
-      std::string line = cell(name, 22, true) + cell(family, 18, true);
-      line += cell(std::to_string(t->cases), 6, false);
-      for (size_t i = 1; i < std::size(columns); ++i)
-        line += cell(std::to_string(t->count(columns[i])),
-                     static_cast<int>(std::max<size_t>(6, std::strlen(columns[i]))), false);
+      std::string line = cell(name, 22, true) + cell(family, 18, true) + cell(t->range.empty() ? "-" : t->range, 6, true);
+      for (const Column& c : columns) line += cell(std::to_string(c.value(*t)), width(c.title), false);
       char buf[3][32];
       const json bits = bits_json(t->ulps);
       std::snprintf(buf[0], 32, "%.1f", bits["p50"].get<double>());
@@ -119,7 +180,10 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
     }
   }
   out << "\n";
-  for (const auto& [name, rows] : by_tracer) out << name << ": " << one_hit_rule_line(r, name) << "\n";
+  for (const auto& [name, rows] : by_tracer) {
+    out << name << ": " << one_hit_rule_line(r, name) << "\n";
+    for (const std::string& l : range_end_lines(r, name)) out << name << ": " << l << "\n";
+  }
 }
 
 // ----------------------------------------------------------------------------- one case
@@ -142,8 +206,39 @@ TraceKind kind_of_failure(AnswerFailure f) {
 }
 }  // namespace
 
-TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen) {
+bool has_backward_error(TraceKind k) {
+  return k == TraceKind::hole || k == TraceKind::false_hit || k == TraceKind::not_nearest ||
+         k == TraceKind::double_hit || k == TraceKind::missed_in_any_hit;
+}
+
+void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const TracerRay& ray, const MeshTruth& truth,
+                        Precision p, const VerdictSettings& settings, bool all) {
+  o.level = Level::bug;
+  o.backward = {};
+  if (!has_backward_error(o.kind)) return;
+  MeshAnswer a;
+  a.all = all;
+  a.triangle = o.answer.triangle;
+  a.triangles = o.all.triangles;
+  o.backward = backward_error(oracle, ray, truth, o.judgement, a, p, o.range);
+  o.level = level_of(o.backward, settings.tolerance_ulps);
+}
+
+void add_verdict_fields(json& found, const TracerOutcome& o) {
+  found["range"] = std::string(to_string(o.range));
+  if (!has_backward_error(o.kind)) {
+    if (is_disagreement(o.kind)) found["level"] = "bug";
+    return;
+  }
+  found["level"] = std::string(to_string(o.level));
+  found["beta"] = beta_json(o.backward);
+  if (o.backward.witness) found["witness"] = o.backward.witness->to_json();
+  if (o.backward.refused) found["witness_check"] = "refused";
+}
+
+TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const VerdictSettings& settings) {
   TracerOutcome out;
+  out.range = settings.range_of(t);
   BuiltScene built = t.build(*seen.mesh);
   if (!built.scene) {
     // A tracer that stopped earlier answers nothing more: no kind of its own to show (shrinking
@@ -165,7 +260,10 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen) {
       out.reason = t.stop_reason();
       return out;
     }
-    out.judgement = oracle.judge_all_hits(seen.ray, oracle.truth(seen.ray, true), out.all);
+    const MeshTruth truth = oracle.truth(seen.ray, true);
+    out.judgement = oracle.judge_all_hits(seen.ray, truth, out.all, settings.rules_for(t));
+    out.kind = out.judgement.kind;
+    add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
   } else {
     std::vector<TraceAnswer> a(1);
     built.scene->nearest(std::span(&seen.ray, 1), a);
@@ -175,7 +273,10 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen) {
       out.reason = t.stop_reason();
       return out;
     }
-    out.judgement = oracle.judge_nearest(seen.ray, oracle.truth(seen.ray, false), out.answer, t.precision);
+    const MeshTruth truth = oracle.truth(seen.ray, false);
+    out.judgement = oracle.judge_nearest(seen.ray, truth, out.answer, t.precision, settings.rules_for(t));
+    out.kind = out.judgement.kind;
+    add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
   }
   out.kind = out.judgement.kind;
   out.reason = out.judgement.detail;
@@ -210,7 +311,8 @@ std::shared_ptr<TriangleMesh> subset(const TriangleMesh& m, const std::vector<st
 }
 }  // namespace
 
-MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget) {
+MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget,
+                          const VerdictSettings& settings, std::optional<Level> level) {
   if (kind == TraceKind::crash || kind == TraceKind::timeout) return seen;  // the tracer has stopped
   MeshCase best = seen;
   std::vector<std::uint32_t> all(seen.mesh->triangle_count());
@@ -219,7 +321,8 @@ MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind,
     if (keep.empty() || budget-- <= 0) return false;
     MeshCase c = best;
     c.mesh = subset(*best.mesh, keep);
-    if (judge_tracer_on_case(t, c).kind != kind) return false;
+    const TracerOutcome o = judge_tracer_on_case(t, c, settings);
+    if (o.kind != kind || (level && o.level != *level)) return false;
     best = std::move(c);
     return true;
   };
@@ -230,7 +333,7 @@ MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind,
     const MeshTruth truth = oracle.truth(best.ray, true);
     const std::vector<std::uint32_t> touched = truth.touched();
     std::set<std::uint32_t> core(touched.begin(), touched.end());
-    const TracerOutcome o = judge_tracer_on_case(t, best);
+    const TracerOutcome o = judge_tracer_on_case(t, best, settings);
     if (o.answer.hit() && o.answer.triangle < best.mesh->triangle_count()) core.insert(o.answer.triangle);
     for (std::uint32_t x : o.all.triangles)
       if (x < best.mesh->triangle_count()) core.insert(x);
@@ -261,6 +364,12 @@ MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind,
 // ----------------------------------------------------------------------------- the campaign
 namespace {
 
+json ranges_of(const TracerCampaignOptions& o) {
+  json r = json::object();
+  for (const Tracer* x : o.tracers) r[x->name] = std::string(to_string(o.verdicts.range_of(*x)));
+  return r;
+}
+
 json fingerprint(const TracerCampaignOptions& o) {
   json f = json::array(), t = json::array();
   for (TracerFamily x : o.families) f.push_back(std::string(to_string(x)));
@@ -273,6 +382,8 @@ json fingerprint(const TracerCampaignOptions& o) {
           {"shards", o.shards},
           {"shrink", o.shrink},
           {"max_findings", o.max_findings},
+          {"tolerance_ulps", o.verdicts.tolerance_ulps},
+          {"ranges", ranges_of(o)},
           {"batch_meshes", o.batch_meshes}};
 }
 
@@ -337,6 +448,23 @@ struct TracerState {
   std::atomic<bool> stopped{false};
 };
 
+// One judged ray counted: its kind, and verdicts.md's levels, β and notes.
+void count_outcome(TracerTally& tally, const TracerOutcome& o) {
+  tally.add(to_string(o.kind));
+  if (o.kind == TraceKind::right) {
+    if (o.judgement.tie) ++tally.levels["ties"];
+    if (o.judgement.at_range_end != RangeEnd::none) {
+      ++tally.levels["at_range_end"];
+      ++tally.levels[o.judgement.at_range_end == RangeEnd::tmin ? "at_tmin" : "at_tmax"];
+    }
+  }
+  if (!has_backward_error(o.kind)) return;
+  ++tally.levels[std::string(to_string(o.kind)) + (o.level == Level::bug ? "_bugs" : "_rounding")];
+  ++tally.beta[beta_bucket(o.backward)];
+  if (o.backward.refused) ++tally.levels["witness_refused"];
+  if (o.judgement.edge_hole && o.level == Level::bug) ++tally.levels["edge_hole_bugs"];
+}
+
 void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, const TracerCampaignOptions& o,
                 std::vector<TracerState>& states, MeshResult& result) {
   const MeshWork work = generate_mesh_work(family, o.seed, m, rays_here);
@@ -372,6 +500,9 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
     Seen& s = view(t.precision);
     TracerTally& near = result.tallies[{ti, false}];
     TracerTally& any = result.tallies[{ti, true}];
+    const RangeRule range = o.verdicts.range_of(t);
+    const JudgeRules rules = o.verdicts.rules_for(t);
+    for (TracerTally* x : {&near, &any}) x->tolerance_ulps = o.verdicts.tolerance_ulps, x->range = to_string(range);
     auto count = [](TracerTally& tally, TraceKind k) { tally.add(to_string(k)); };
     std::vector<std::size_t> live;  // rays this tracer can be given
     for (std::size_t i = 0; i < s.rays.size(); ++i) {
@@ -425,9 +556,10 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
         break;
       }
       if (!s.nearest[i]) s.nearest[i] = s.oracle->truth(rays[k], false);
-      out.judgement = s.oracle->judge_nearest(rays[k], *s.nearest[i], out.answer, t.precision);
-      out.kind = out.judgement.kind, out.reason = out.judgement.detail;
-      count(near, out.kind);
+      out.judgement = s.oracle->judge_nearest(rays[k], *s.nearest[i], out.answer, t.precision, rules);
+      out.kind = out.judgement.kind, out.reason = out.judgement.detail, out.range = range;
+      add_backward_error(out, *s.oracle, rays[k], *s.nearest[i], t.precision, o.verdicts, false);
+      count_outcome(near, out);
       near.edge_rays += out.judgement.edge_ray, near.edge_holes += out.judgement.edge_hole;
       if (out.judgement.ulp) near.ulps.add(*out.judgement.ulp);
       if (is_disagreement(out.kind)) finding(i, false, out.kind, out);
@@ -461,9 +593,10 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
         continue;
       }
       if (!s.complete[i]) s.complete[i] = s.oracle->truth(rays[k], true);
-      out.judgement = s.oracle->judge_all_hits(rays[k], *s.complete[i], out.all);
-      out.kind = out.judgement.kind, out.reason = out.judgement.detail;
-      count(any, out.kind);
+      out.judgement = s.oracle->judge_all_hits(rays[k], *s.complete[i], out.all, rules);
+      out.kind = out.judgement.kind, out.reason = out.judgement.detail, out.range = range;
+      add_backward_error(out, *s.oracle, rays[k], *s.complete[i], t.precision, o.verdicts, true);
+      count_outcome(any, out);
       any.edge_rays += out.judgement.edge_ray, any.edge_holes += out.judgement.edge_hole;
       any.edge_double_hits += out.judgement.edge_double;
       if (is_disagreement(out.kind)) finding(i, true, out.kind, out);
@@ -478,9 +611,9 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
   MeshCase c = f.seen;
   // One finding per ray, mode and tracer: the tracer's name keeps the ids unique.
   c.id = family_key(family, f.all) + "/" + std::to_string(o.seed) + "/" + std::to_string(f.index) + "/" + t.name;
-  if (o.shrink) c = shrink_mesh_case(t, c, f.kind);
+  if (o.shrink) c = shrink_mesh_case(t, c, f.kind, 300, o.verdicts, f.outcome.level);
   const bool shrunk = c.mesh != f.seen.mesh;
-  const TracerOutcome now = shrunk ? judge_tracer_on_case(t, c) : f.outcome;
+  const TracerOutcome now = shrunk ? judge_tracer_on_case(t, c, o.verdicts) : f.outcome;
   MeshOracle oracle(c.mesh);
   c.expect = expect_json(oracle, c.ray);
   c.found = {{"tracer", t.name},
@@ -494,9 +627,24 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
              {"seed", o.seed},
              {"index", f.index},
              {"triangles_found_in", f.mesh_triangles}};
+  add_verdict_fields(c.found, now.kind == f.kind ? now : f.outcome);
   if (!now.reason.empty()) c.found["reason"] = now.reason;
   if (!f.outcome.reason.empty() && now.reason.empty()) c.found["reason"] = f.outcome.reason;
   return json_text(mesh_case_to_json(c)) + "\n";
+}
+
+// The findings file rewritten (atomically) with bug-level findings before rounding-level ones,
+// each group in the order found (verdicts.md §4).
+void bugs_first(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return;  // a device or FIFO: written as it came
+  std::ifstream in(path);
+  std::string line, bugs, rounding;
+  while (std::getline(in, line)) (line.find("\"level\":\"rounding\"") != std::string::npos ? rounding : bugs) += line + "\n";
+  if (rounding.empty()) return;
+  AtomicFile file(path);
+  file.stream() << bugs << rounding;
+  file.commit();
 }
 
 }  // namespace
@@ -538,7 +686,10 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
           cp.report.tallies[{family_key(family, key.second), o.tracers[key.first]->name}].merge(tally);
         }
         for (const PendingFinding& f : r.findings) {
-          std::uint64_t& written = cp.findings_in[family_key(family, f.all) + "\t" + o.tracers[f.tracer]->name];
+          // Counted per kind and level, so bugs are never crowded out by double hits or rounding.
+          std::uint64_t& written = cp.findings_in[family_key(family, f.all) + "\t" + o.tracers[f.tracer]->name +
+                                                  "\t" + std::string(to_string(f.kind)) + "\t" +
+                                                  std::string(to_string(f.outcome.level))];
           if (written < o.max_findings) ++written, chosen.push_back(&f);
         }
       }
@@ -563,10 +714,13 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
       if (o.progress) o.progress(family, end - lo, hi - lo);
     }
   }
-  if (o.keep_checkpoint)
+  if (o.keep_checkpoint) {
     save(checkpoint_path, o, cp);
-  else
+  } else {
+    out.close();
+    bugs_first(o.output);
     std::filesystem::remove(checkpoint_path);
+  }
   json families = json::array(), tracers = json::array();
   for (TracerFamily x : o.families) families.push_back(std::string(to_string(x)));
   for (const Tracer* x : o.tracers) tracers.push_back(x->name);

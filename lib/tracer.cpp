@@ -196,6 +196,22 @@ const Tracer* find_tracer(std::string_view name) {
   return nullptr;
 }
 
+std::string_view to_string(RangeRule r) { return r == RangeRule::closed ? "closed" : "open"; }
+
+std::optional<RangeRule> range_rule_from_string(std::string_view text) {
+  if (text == "open") return RangeRule::open;
+  if (text == "closed") return RangeRule::closed;
+  return std::nullopt;
+}
+
+bool set_tracer_range(std::string_view name, RangeRule range) {
+  std::lock_guard lock(registry_mutex());
+  if (const auto it = builtin().find(name); it != builtin().end()) return it->second.range = range, true;
+  for (Tracer& t : registered())
+    if (t.name == name) return t.range = range, true;
+  return false;
+}
+
 const Tracer& register_tracer(Tracer t) {
   const bool valid = !t.name.empty() && std::all_of(t.name.begin(), t.name.end(), [](char c) {
     return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-';

@@ -126,6 +126,7 @@ void register_cgal_aabb_tracer() {
   Tracer t;
   t.name = "cgal-aabb";
   t.precision = Precision::f64;
+  t.range = RangeRule::closed;  // a Ray_3 contains its source: a contact at t = 0 is a hit
   t.source =
       "CGAL " CGAL_VERSION_STR " AABB_tree over Epick triangles: first_intersection / all_intersected_primitives";
   t.origin = "peer: CGAL (header-only)";

@@ -88,6 +88,7 @@ class EmbreeTracerScene final : public TracerScene {
 void register_embree_tracers() {
   for (bool robust : {false, true}) {
     Tracer t;
+    t.range = RangeRule::closed;  // tnear and tfar are inclusive (Embree 3 API: "tnear <= t <= tfar")
     t.name = robust ? "embree-robust" : "embree";
     t.precision = Precision::f32;
     t.source = std::string("Intel Embree ") + RTC_VERSION_STRING +

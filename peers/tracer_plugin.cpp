@@ -40,6 +40,17 @@ namespace {
 constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;
 constexpr const char* kWorkerEnv = "RAYPROOF_TRACER_WORKER";  // "table:PATH" or "serve:PATH"
 
+// A row of the ABI 1 table: ABI 2's without `range` (tracer.md).
+struct rayproof_tracer_abi1 {
+  const char* name;
+  const char* precision;
+  const char* source;
+  void* (*build)(const struct rayproof_mesh* mesh);
+  void (*nearest)(void* scene, const struct rayproof_ray* rays, size_t count, struct rayproof_trace* out);
+  size_t (*all_hits)(void* scene, const struct rayproof_ray* ray, uint32_t* triangles, size_t capacity);
+  void (*release)(void* scene);
+};
+
 enum class Op : std::uint32_t { build = 1, nearest = 2, all_hits = 3, release = 4 };
 
 // The start of the shared file. Build: the vertices (double) then the indices (u32) follow.
@@ -72,8 +83,24 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
   const WorkerStart start = start_worker(setting);
   int count = 0;
   std::string error;
-  const rayproof_tracer* table = load_library_table<rayproof_tracer>(
-      start.path, "rayproof_tracers", RAYPROOF_TRACER_ABI, "rayproof/tracer.h", "tracers", count, error);
+  // ABI 2 first, then 1, whose rows lack `range` (a shorter stride): both copied into ABI 2 rows.
+  std::vector<rayproof_tracer> rows;
+  if (const auto* t2 = load_library_table<rayproof_tracer>(start.path, "rayproof_tracers", 2, "rayproof/tracer.h",
+                                                           "tracers", count, error)) {
+    rows.assign(t2, t2 + count);
+  } else if (is_forked_copy()) {
+    ::_exit(0);
+  } else if (error.find("returned NULL") != std::string::npos) {
+    error.clear();
+    if (const auto* t1 = load_library_table<rayproof_tracer_abi1>(start.path, "rayproof_tracers", 1,
+                                                                  "rayproof/tracer.h", "tracers", count, error))
+      for (int i = 0; i < count; ++i)
+        rows.push_back({t1[i].name, t1[i].precision, t1[i].source, t1[i].build, t1[i].nearest, t1[i].all_hits,
+                        t1[i].release, nullptr});
+    else if (error.find("returned NULL") != std::string::npos)
+      error = "rayproof_tracers returned NULL for ABI 2 and for ABI 1 (built for another ABI?)";
+  }
+  const rayproof_tracer* table = rows.empty() ? nullptr : rows.data();
   if (is_forked_copy()) ::_exit(0);  // a copy forked at load time says nothing
   if (start.table_only) {
     json rows = json::array();
@@ -83,7 +110,8 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
                       {"source", describe_string(table[i].source)},
                       {"build", table[i].build != nullptr},
                       {"nearest", table[i].nearest != nullptr},
-                      {"all_hits", table[i].all_hits != nullptr}});
+                      {"all_hits", table[i].all_hits != nullptr},
+                      {"range", describe_string(table[i].range)}});
     report_table_and_exit(start.report_fd, error, "tracers", rows);
   }
   if (!table) ::_exit(3);
@@ -411,6 +439,9 @@ std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const Ext
     if (precision != "double" && precision != "float")
       throw fail(where + ": precision must be \"double\" or \"float\"");
     if (!t.value("build", false) || !t.value("nearest", false)) throw fail(where + ": build and nearest must be set");
+    const bool declared = t.contains("range") && !t.at("range").is_null();
+    const std::string range = declared ? table_string(t, "range") : "open";
+    if (!range_rule_from_string(range)) throw fail(where + ": range must be \"open\", \"closed\" or NULL");
     PluginTracerState& state = loaded_code().make<PluginTracerState>();
     state.library = &library, state.index = static_cast<std::uint32_t>(i), state.options = options;
     Tracer r;
@@ -419,6 +450,7 @@ std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const Ext
     r.source = table_source(t);
     r.origin = file;
     r.has_all_hits = t.value("all_hits", false);
+    r.range = *range_rule_from_string(range);
     r.build = [&state](const TriangleMesh& mesh) { return build_plugin_scene(state, mesh); };
     r.stop_reason = [&state] { return state.reason(); };
     try {

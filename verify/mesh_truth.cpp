@@ -88,7 +88,7 @@ MeshOracle::MeshOracle(std::shared_ptr<const TriangleMesh> mesh) : mesh_(std::mo
   around_vertex_.resize(m.vertex_count());
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = m.corners(i);
-    for (std::uint32_t v : c) boxes[i].grow(m.vertex(v));
+    for (std::uint32_t v : c) boxes[i].grow(m.vertex(v)), magnitude_ = std::max(magnitude_, m.vertex(v).cwiseAbs().maxCoeff());
     degenerate_[i] = m.degenerate(i);
     for (int k = 0; k < 3; ++k) {
       edges_[edge_key(c[k], c[(k + 1) % 3])].push_back(static_cast<std::uint32_t>(i));
@@ -158,20 +158,42 @@ std::optional<MeshContact> MeshOracle::contact(const TracerRay& r, std::uint32_t
 }
 
 void MeshOracle::analyse_point(const Ray& ray, CrossingPoint& point, const MeshTruth& truth) {
-  std::vector<Feature> features;
-  bool facing_front = false, facing_back = false;
+  std::vector<PointContact> at;
   for (std::uint32_t t : point.triangles) {
     const MeshContact& c = *truth.contact_of(t);
-    if (!c.boundary) {
-      point.has_interior = true;
-      continue;
+    PointContact p{t, c.boundary, c.front, {}};
+    if (c.boundary) {
+      const TriangleSides s = triangle_sides(ray, mesh_->triangle(t));
+      for (int k = 0; k < 3; ++k) p.zero_edge[k] = s.edge[k] == 0;
     }
-    (c.front ? facing_front : facing_back) = true;
-    const TriangleSides s = triangle_sides(ray, mesh_->triangle(t));
-    const auto corner = mesh_->corners(t);
+    at.push_back(p);
+  }
+  point.has_interior = std::any_of(at.begin(), at.end(), [](const PointContact& p) { return !p.boundary; });
+  point.one_hit_rule = one_hit_rule_applies(at);
+}
+
+bool MeshOracle::manifold_edge(std::uint32_t a, std::uint32_t b) const {
+  const auto it = edges_.find(edge_key(a, b));
+  if (it == edges_.end() || it->second.size() != 2) return false;
+  auto runs_a_to_b = [&](std::uint32_t t) {
+    const auto c = mesh_->corners(t);
+    for (int k = 0; k < 3; ++k)
+      if (c[k] == a && c[(k + 1) % 3] == b) return true;
+    return false;
+  };
+  return runs_a_to_b(it->second[0]) != runs_a_to_b(it->second[1]);
+}
+
+bool MeshOracle::one_hit_rule_applies(const std::vector<PointContact>& at) const {
+  std::vector<Feature> features;
+  bool facing_front = false, facing_back = false;
+  for (const PointContact& p : at) {
+    if (!p.boundary) return false;  // an interior crossing there: required, no rule
+    (p.front ? facing_front : facing_back) = true;
+    const auto corner = mesh_->corners(p.triangle);
     int zeros = 0, first_zero = -1, second_zero = -1;
     for (int k = 0; k < 3; ++k)
-      if (s.edge[k] == 0) (zeros++ == 0 ? first_zero : second_zero) = k;
+      if (p.zero_edge[k]) (zeros++ == 0 ? first_zero : second_zero) = k;
     if (zeros == 1) {
       features.push_back({std::min(corner[first_zero], corner[(first_zero + 1) % 3]),
                           std::max(corner[first_zero], corner[(first_zero + 1) % 3]), false});
@@ -180,40 +202,35 @@ void MeshOracle::analyse_point(const Ray& ray, CrossingPoint& point, const MeshT
       const int v = (second_zero == first_zero + 1) ? second_zero : first_zero;
       features.push_back({corner[v], corner[v], true});
     } else {
-      return;  // not a boundary crossing after all: no rule
+      return false;  // not a boundary crossing after all: no rule
     }
   }
-  if (point.has_interior || features.empty() || (facing_front && facing_back)) return;
-  if (!std::all_of(features.begin(), features.end(), [&](const Feature& f) { return f == features.front(); })) return;
+  if (features.empty() || (facing_front && facing_back)) return false;
+  if (!std::all_of(features.begin(), features.end(), [&](const Feature& f) { return f == features.front(); }))
+    return false;
   const Feature f = features.front();
-  std::set<std::uint32_t> group(point.triangles.begin(), point.triangles.end());
+  std::set<std::uint32_t> group;
+  for (const PointContact& p : at) group.insert(p.triangle);
   if (!f.vertex) {
     // A manifold edge: exactly two triangles have it, both crossed here, wound oppositely.
-    const auto& having = edges_.at(edge_key(f.a, f.b));
-    if (having.size() != 2 || group != std::set<std::uint32_t>(having.begin(), having.end())) return;
-    auto runs_a_to_b = [&](std::uint32_t t) {
-      const auto c = mesh_->corners(t);
-      for (int k = 0; k < 3; ++k)
-        if (c[k] == f.a && c[(k + 1) % 3] == f.b) return true;
-      return false;
-    };
-    point.one_hit_rule = runs_a_to_b(having[0]) != runs_a_to_b(having[1]);
-    return;
+    const auto it = edges_.find(edge_key(f.a, f.b));
+    if (it == edges_.end() || group != std::set<std::uint32_t>(it->second.begin(), it->second.end())) return false;
+    return manifold_edge(f.a, f.b);
   }
   // A closed fan: every triangle around the vertex crossed here; around the centre each
   // neighbour is left once (centre → x) and arrived at once (y → centre).
   const auto& around = around_vertex_[f.a];
-  if (around.size() < 3 || group != std::set<std::uint32_t>(around.begin(), around.end())) return;
+  if (around.size() < 3 || group != std::set<std::uint32_t>(around.begin(), around.end())) return false;
   std::multiset<std::uint32_t> leaving, arriving;
   for (std::uint32_t t : around) {
     const auto c = mesh_->corners(t);
     for (int k = 0; k < 3; ++k)
       if (c[k] == f.a) leaving.insert(c[(k + 1) % 3]), arriving.insert(c[(k + 2) % 3]);
   }
-  if (leaving != arriving) return;
+  if (leaving != arriving) return false;
   for (std::uint32_t x : leaving)
-    if (leaving.count(x) != 1) return;
-  point.one_hit_rule = true;
+    if (leaving.count(x) != 1) return false;
+  return true;
 }
 
 MeshTruth MeshOracle::truth(const TracerRay& r, bool complete) {
@@ -277,7 +294,7 @@ std::optional<std::uint64_t> t_error(double reported, double exact_rounded, Prec
 }  // namespace
 
 TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& truth, const TraceAnswer& a,
-                                         Precision p) {
+                                         Precision p, JudgeRules rules) {
   TraceJudgement j;
   const CrossingPoint* req = truth.first_required();
   j.edge_ray = req && req->one_hit_rule && req == &truth.points.front();
@@ -315,20 +332,46 @@ TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& tr
     c = *known;
   else
     c = contact(r, a.triangle);
-  if (!c) return done(TraceKind::false_hit);
-  if (std::isnan(c->t)) return done(TraceKind::right);  // a degenerate triangle: optional
-  if (!c->crossing) {
-    const bool before =
-        truth.points.empty() || compare_t(r.ray, *c, *truth.contact_of(truth.points.front().triangles.front())) <= 0;
-    return done(before ? TraceKind::right : TraceKind::not_nearest);
+  if (!c) {
+    // Closed range (verdicts.md §1): a contact at exactly tmin or tmax is in range. At tmin
+    // nothing lies before it; at tmax every crossing in range lies before it.
+    if (rules.range == RangeRule::closed) {
+      if (touches_at(r.ray, a.triangle, r.tmin)) return j.at_range_end = RangeEnd::tmin, done(TraceKind::right);
+      if (std::isfinite(r.tmax) && touches_at(r.ray, a.triangle, r.tmax)) {
+        if (req) return done(TraceKind::not_nearest);
+        return j.at_range_end = RangeEnd::tmax, done(TraceKind::right);
+      }
+    }
+    return done(TraceKind::false_hit);
   }
-  if (req && compare_t(r.ray, *c, *truth.contact_of(req->triangles.front())) > 0) return done(TraceKind::not_nearest);
+  if (std::isnan(c->t)) return done(TraceKind::right);  // a degenerate triangle: optional
+  // Precision ties (verdicts.md §2): no code computing t in precision p can order two contacts
+  // whose exact t round to the same number there. For doubles c->t is that rounding; for floats
+  // exact_t_as_float rounds the exact t itself (never the double, which could round twice).
+  auto tie_with = [&](const MeshContact& first) {
+    if (!rules.ties || std::isnan(first.t)) return false;
+    if (p == Precision::f64) return c->t == first.t;
+    const float mine = exact_t_as_float(Query{r.ray, mesh_->triangle(c->triangle), {}}, HitRule::nearest_contact, c->t);
+    const float theirs =
+        exact_t_as_float(Query{r.ray, mesh_->triangle(first.triangle), {}}, HitRule::nearest_contact, first.t);
+    return mine == theirs;
+  };
+  auto later_than = [&](const MeshContact& first) {
+    if (compare_t(r.ray, *c, first) <= 0) return false;
+    if (tie_with(first)) return j.tie = true, false;
+    return true;
+  };
+  if (!c->crossing) {
+    const bool after = !truth.points.empty() && later_than(*truth.contact_of(truth.points.front().triangles.front()));
+    return done(after ? TraceKind::not_nearest : TraceKind::right);
+  }
+  if (req && later_than(*truth.contact_of(req->triangles.front()))) return done(TraceKind::not_nearest);
   j.ulp = t_error(a.t, c->t, p, Query{r.ray, mesh_->triangle(a.triangle), {}});
   return done(TraceKind::right);
 }
 
-TraceJudgement MeshOracle::judge_all_hits([[maybe_unused]] const TracerRay& r, const MeshTruth& truth,
-                                          const AllHitsAnswer& a) {
+TraceJudgement MeshOracle::judge_all_hits(const TracerRay& r, const MeshTruth& truth, const AllHitsAnswer& a,
+                                          JudgeRules rules) {
   TraceJudgement j;
   std::set<std::uint32_t> reported;
   for (std::uint32_t t : a.triangles) {
@@ -359,8 +402,20 @@ TraceJudgement MeshOracle::judge_all_hits([[maybe_unused]] const TracerRay& r, c
     }
   }
   if (reported.empty() && truth.first_required()) hole = true;
-  for (std::uint32_t t : reported)
-    if (!truth.contact_of(t)) false_hit = true;
+  for (std::uint32_t t : reported) {
+    if (truth.contact_of(t)) continue;
+    if (rules.range == RangeRule::closed) {  // a contact at a closed range's end: in range, optional
+      if (touches_at(r.ray, t, r.tmin)) {
+        j.at_range_end = RangeEnd::tmin;
+        continue;
+      }
+      if (std::isfinite(r.tmax) && touches_at(r.ray, t, r.tmax)) {
+        j.at_range_end = RangeEnd::tmax;
+        continue;
+      }
+    }
+    false_hit = true;
+  }
   if (hole)
     j.kind = TraceKind::hole;
   else if (false_hit)

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "rayproof/core/tracer.h"
 #include "rayproof/verify/report.h"
 
 namespace rayproof {
@@ -202,6 +203,16 @@ constexpr const char* kTracerKinds[] = {
     "right",    "hole",        "false_hit",     "not_nearest", "double_hit", "missed_in_any_hit",
     "in_plane", "unsupported", "tracer_errors", "crash",       "timeout"};
 std::string kind_key(std::string_view kind) { return kind == "tracer_error" ? "tracer_errors" : std::string(kind); }
+// The kinds whose disagreements verdicts.md splits into bugs and rounding-level ones, and the notes.
+constexpr const char* kLevelledKinds[] = {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit"};
+constexpr const char* kNotes[] = {"ties", "at_range_end", "at_tmin", "at_tmax", "edge_hole_bugs", "witness_refused"};
+bool is_level_key(const std::string& k) {
+  for (const char* n : kNotes)
+    if (k == n) return true;
+  for (const char* kind : kLevelledKinds)
+    if (k == std::string(kind) + "_bugs" || k == std::string(kind) + "_rounding") return true;
+  return false;
+}
 }  // namespace
 
 std::uint64_t TracerTally::count(std::string_view kind) const {
@@ -222,7 +233,18 @@ std::uint64_t TracerTally::disagreements() const {
   return n;
 }
 
+std::uint64_t TracerTally::level(std::string_view key) const {
+  const auto it = levels.find(std::string(key));
+  return it == levels.end() ? 0 : it->second;
+}
+
 void TracerTally::merge(const TracerTally& o) {
+  if (cases && o.cases && tolerance_ulps != o.tolerance_ulps)
+    throw std::runtime_error("tallies judged with different --tolerance-ulps cannot be merged");
+  if (!cases || !tolerance_ulps) tolerance_ulps = o.tolerance_ulps;
+  if (range.empty()) range = o.range;
+  for (const auto& [k, n] : o.levels) levels[k] += n;
+  for (const auto& [k, n] : o.beta) beta[k] += n;
   for (const auto& [k, n] : o.kinds) kinds[k] += n;
   cases += o.cases, edge_rays += o.edge_rays, edge_holes += o.edge_holes, edge_double_hits += o.edge_double_hits;
   ulps.merge(o.ulps);
@@ -239,6 +261,14 @@ json TracerTally::to_json() const {
   j["edge_rays"] = edge_rays, j["edge_holes"] = edge_holes, j["edge_double_hits"] = edge_double_hits;
   j["ulp"] = ulps.to_json();
   j["seconds"] = seconds, j["timed_rays"] = timed_rays;
+  if (tolerance_ulps) {
+    for (const char* k : kLevelledKinds)
+      for (const char* l : {"_bugs", "_rounding"}) j[std::string(k) + l] = level(std::string(k) + l);
+    for (const char* k : kNotes) j[k] = level(k);
+    j["tolerance_ulps"] = *tolerance_ulps;
+    j["beta"] = beta;
+  }
+  if (!range.empty()) j["range"] = range;
   return j;
 }
 
@@ -249,7 +279,7 @@ TracerTally TracerTally::from_json(const json& j) {
   for (auto it = j.begin(); it != j.end(); ++it) {
     const std::string& k = it.key();
     if (k == "cases" || k == "bits" || k == "ns_per_ray" || k == "ulp" || k == "seconds" || k == "timed_rays" ||
-        k.rfind("edge_", 0) == 0)
+        k.rfind("edge_", 0) == 0 || k == "tolerance_ulps" || k == "beta" || k == "range" || is_level_key(k))
       continue;
     const std::uint64_t n = read_count(it.value(), printable_prefix(k, 40));
     if (n > t.cases - std::min(t.cases, total)) throw FieldError(k, "the kinds count more rays than cases");
@@ -272,6 +302,31 @@ TracerTally TracerTally::from_json(const json& j) {
     throw FieldError("seconds", "expected a number >= 0");
   t.seconds = j.at("seconds").get<double>();
   t.timed_rays = read_count(j.at("timed_rays"), "timed_rays");
+  if (j.contains("tolerance_ulps")) {
+    const double k = read_number(j.at("tolerance_ulps"), "tolerance_ulps");
+    if (!(k >= 0)) throw FieldError("tolerance_ulps", "expected a number >= 0");
+    t.tolerance_ulps = k;
+    for (auto it = j.begin(); it != j.end(); ++it)
+      if (is_level_key(it.key())) {
+        const std::uint64_t n = read_count(it.value(), it.key());
+        if (n) t.levels[it.key()] = n;
+      }
+    for (const char* k : kLevelledKinds) {
+      const std::string name(k);
+      if (t.level(name + "_bugs") + t.level(name + "_rounding") != t.count(name))
+        throw FieldError(name + "_bugs", name + "_bugs and " + name + "_rounding do not add up to " + name);
+    }
+    if (j.contains("beta")) {
+      if (!j.at("beta").is_object()) throw FieldError("beta", "expected an object of counts");
+      for (auto it = j.at("beta").begin(); it != j.at("beta").end(); ++it)
+        t.beta[it.key()] = read_count(it.value(), "beta." + printable_prefix(it.key(), 20));
+    }
+  }
+  if (j.contains("range")) {
+    if (!j.at("range").is_string() || !range_rule_from_string(j.at("range").get<std::string>()))
+      throw FieldError("range", "expected \"open\" or \"closed\"");
+    t.range = j.at("range").get<std::string>();
+  }
   return t;
 }
 

@@ -16,13 +16,25 @@
 #include "rayproof/core/tracer.h"
 #include "rayproof/fuzz/campaign.h"
 #include "rayproof/fuzz/tracer_families.h"
+#include "rayproof/verify/backward_error.h"
 #include "rayproof/verify/mesh_truth.h"
 #include "rayproof/verify/report.h"
 #include "rayproof/verify/tally.h"
 
 namespace rayproof::fuzz {
 
+// How answers are read (docs/spec/verdicts.md): the tolerance K splitting bugs from rounding-level
+// disagreements (0: the strict reading — no ties, every disagreement a bug) and, where given, a
+// range that overrides the tracer's own (check replays a finding under the range it was found with).
+struct VerdictSettings {
+  double tolerance_ulps = kDefaultToleranceUlps;
+  std::optional<RangeRule> range;
+  RangeRule range_of(const Tracer& t) const { return range.value_or(t.range); }
+  JudgeRules rules_for(const Tracer& t) const { return {range_of(t), tolerance_ulps > 0}; }
+};
+
 struct TracerCampaignOptions {
+  VerdictSettings verdicts;
   std::vector<TracerFamily> families;
   std::vector<const Tracer*> tracers;
   std::uint64_t count = 10000;  // rays per family (before sharding)
@@ -31,7 +43,7 @@ struct TracerCampaignOptions {
   int threads = 1;
   std::string output;  // findings; the checkpoint is output + ".checkpoint"
   bool resume = false, keep_checkpoint = false, shrink = true;
-  std::uint64_t max_findings = 20;  // written per family × tracer × mode; all are counted
+  std::uint64_t max_findings = 20;  // written per family × tracer × mode × kind × level; all are counted
   std::uint64_t batch_meshes = 16;  // meshes per batch (the unit of checkpointing)
   long crash_after_batches = -1;    // testing hook
   std::function<void(TracerFamily, std::uint64_t done, std::uint64_t total)> progress;
@@ -59,6 +71,9 @@ std::string one_hit_rule_line(const TracerCampaignReport& report, const std::str
 struct TracerOutcome {
   TraceKind kind = TraceKind::right;
   TraceJudgement judgement;
+  BackwardError backward;  // disagreements of the table's kinds: β and its witness
+  Level level = Level::bug;
+  RangeRule range = RangeRule::open;
   TraceAnswer answer;  // nearest mode
   AllHitsAnswer all;   // any-hit mode
   std::string reason;  // build failures, tracer errors, crashes: why
@@ -66,13 +81,21 @@ struct TracerOutcome {
 // The case as the tracer sees it (float: rounded; nullopt: not representable) ...
 std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c);
 // ... and judged there: the tracer builds over the mesh and answers the ray in the case's mode.
-TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen);
+TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const VerdictSettings& settings = {});
+// β and level of an outcome already judged (the table's kinds; errors, crashes: bugs, no β).
+void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const TracerRay& ray, const MeshTruth& truth,
+                        Precision p, const VerdictSettings& settings, bool all);
+// Whether a kind is split into bugs and rounding-level disagreements (verdicts.md §4).
+bool has_backward_error(TraceKind k);
+// The finding's verdict fields: level, beta, range, witness (verdicts.md §4).
+void add_verdict_fields(json& found, const TracerOutcome& o);
 // What the oracle expects of a case: {"touched", "nearest", "t"} (t: t* rounded, or null).
 json expect_json(MeshOracle& oracle, const TracerRay& ray);
 // The answer as the findings and check lines show it.
 json reported_json(const TracerOutcome& o, bool all);
 // Fewer triangles (and only the vertices they use) on which the tracer still gives `kind`;
 // `budget` caps the rebuilds. The case itself when nothing smaller shows it.
-MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget = 300);
+MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget = 300,
+                          const VerdictSettings& settings = {}, std::optional<Level> level = std::nullopt);
 
 }  // namespace rayproof::fuzz

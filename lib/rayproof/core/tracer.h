@@ -96,8 +96,16 @@ struct BuiltScene {
   std::string reason;
 };
 
+// Which contact parameters a tracer's range admits (docs/spec/verdicts.md §1): `open`,
+// tmin < t < tmax (DXR's rule for triangles, the case format's), or `closed`, tmin ≤ t ≤ tmax
+// (Embree's tnear/tfar, CGAL's Ray_3 and Segment_3, most BVH libraries).
+enum class RangeRule { open, closed };
+std::string_view to_string(RangeRule r);
+std::optional<RangeRule> range_rule_from_string(std::string_view text);
+
 struct Tracer {
   std::string name;
+  RangeRule range = RangeRule::open;  // declared by the tracer (ABI 2) or by --tracer-range
   Precision precision = Precision::f64;
   std::string source;
   std::string origin = "built-in";  // "built-in", a plugin path, "exec: COMMAND", or the peer library
@@ -115,6 +123,9 @@ std::vector<const Tracer*> all_tracers();
 // Adds a tracer; throws std::runtime_error on a bad or clashing name (with tracers and variants).
 const Tracer& register_tracer(Tracer t);
 const Tracer* find_tracer(std::string_view name);
+// --tracer-range NAME=open|closed: declares or overrides a loaded tracer's range; false when no
+// tracer has that name.
+bool set_tracer_range(std::string_view name, RangeRule range);
 
 // rayproof's BVH (core/bvh.h, conservative traversal) with a triangle variant at the leaves:
 // the tracer "bvh-VARIANT". Its answers are what the variant decides over every triangle within

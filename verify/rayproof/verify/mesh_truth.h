@@ -16,7 +16,9 @@
 //    contact is optional and any report of it is taken as right (its extent is not computed).
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string_view>
@@ -76,8 +78,20 @@ struct MeshTruth {
   std::vector<std::uint32_t> nearest() const;  // the triangles crossed at the first required point (else t*)
 };
 
+// How a tracer's answers are read (docs/spec/verdicts.md §1–2): its declared range, and whether
+// precision ties count as right (off in the strict reading, --tolerance-ulps 0).
+struct JudgeRules {
+  RangeRule range = RangeRule::open;
+  bool ties = true;
+};
+
+// Where a right answer's contact lies at an end of a closed range (a note, not a disagreement).
+enum class RangeEnd { none, tmin, tmax };
+
 struct TraceJudgement {
   TraceKind kind = TraceKind::right;
+  RangeEnd at_range_end = RangeEnd::none;  // right: the reported contact is exactly at tmin or tmax (closed)
+  bool tie = false;  // right: a precision tie (its rounded t equals the first required crossing's)
   bool edge_ray = false;  // the ray meets a point under the one-hit rule
   bool edge_hole = false, edge_double = false;
   std::optional<std::uint64_t> ulp;  // right answers: t's error in the tracer's precision
@@ -96,9 +110,36 @@ class MeshOracle {
   // One triangle's contact in range, or nullopt.
   std::optional<MeshContact> contact(const TracerRay& ray, std::uint32_t triangle);
 
-  TraceJudgement judge_nearest(const TracerRay& ray, const MeshTruth& truth, const TraceAnswer& answer, Precision p);
-  TraceJudgement judge_all_hits(const TracerRay& ray, const MeshTruth& truth, const AllHitsAnswer& answer);
+  TraceJudgement judge_nearest(const TracerRay& ray, const MeshTruth& truth, const TraceAnswer& answer, Precision p,
+                               JudgeRules rules = {});
+  TraceJudgement judge_all_hits(const TracerRay& ray, const MeshTruth& truth, const AllHitsAnswer& answer,
+                                JudgeRules rules = {});
 
+  // The mesh's connectivity, as the one-hit rule reads it. One triangle's contact at a crossing
+  // point: boundary crossings name their zero edges (edge k runs from corner k to corner k + 1).
+  struct PointContact {
+    std::uint32_t triangle = 0;
+    bool boundary = false, front = false;
+    std::array<bool, 3> zero_edge{};
+  };
+  // Whether the crossings at one point fall under the one-hit rule (a shared manifold edge or a
+  // closed fan's centre, crossed through from one side).
+  bool one_hit_rule_applies(const std::vector<PointContact>& at) const;
+  // An edge shared by exactly two triangles that run along it in opposite directions.
+  bool manifold_edge(std::uint32_t a, std::uint32_t b) const;
+  // Where the ray touches the triangle at exactly parameter t0 (closed triangle, exact), or none.
+  bool touches_at(const Ray& ray, std::uint32_t triangle, double t0) const;
+  // The largest |coordinate| of the mesh.
+  double magnitude() const { return magnitude_; }
+  // Calls visit(triangle) for every triangle whose box, grown by `margin` on each side, the ray
+  // may meet (conservative: Bvh::traverse).
+  template <class Visit>
+  void triangles_near(const Ray& ray, double margin, Visit&& visit) const {
+    double limit = std::numeric_limits<double>::infinity();
+    const double scale = std::max(magnitude_, ray.origin.cwiseAbs().maxCoeff());
+    const double reach = scale > 0 ? margin / scale * (1 + 0x1p-20) : kEveryPrimitive;
+    bvh_.traverse(ray, limit, [&](std::int32_t i) { return visit(leaf_order_[i]), false; }, BaselineLanes{}, reach);
+  }
   const Oracle& oracle() const { return oracle_; }
 
  private:
@@ -113,6 +154,7 @@ class MeshOracle {
   // Undirected edge (lo << 32 | hi) → the triangles having it; vertex → its triangles.
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> edges_;
   std::vector<std::vector<std::uint32_t>> around_vertex_;
+  double magnitude_ = 0;
   Oracle oracle_;
   Oracle with_parameter_{{.keep_exact_parameter = true}};
   // Exact parameters of the ray last asked about, by triangle: a fan's centre puts a dozen

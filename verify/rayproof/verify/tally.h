@@ -84,6 +84,14 @@ struct TracerTally {
   std::map<std::string, std::uint64_t> kinds;  // to_string(TraceKind) → count (every ray once)
   std::uint64_t cases = 0;
   std::uint64_t edge_rays = 0, edge_holes = 0, edge_double_hits = 0;
+  // verdicts.md §4: per kind of disagreement KIND_bugs and KIND_rounding (they add up to KIND);
+  // the notes `ties` and `at_range_end` (of it `at_tmin`, `at_tmax`) among the right answers;
+  // `edge_hole_bugs` (bug-level edge holes: the one-hit line counts these); `witness_refused`.
+  std::map<std::string, std::uint64_t> levels;
+  std::map<std::string, std::uint64_t> beta;  // histogram of β over disagreements: "2^k" buckets, "none"
+  std::optional<double> tolerance_ulps;       // K this tally was judged with (absent: before verdicts.md)
+  std::string range;                          // the tracer's range: "open" or "closed"
+  std::uint64_t level(std::string_view key) const;
   UlpHistogram ulps;   // right answers' t error, in the tracer's precision
   double seconds = 0;  // inside the tracer's calls (round trips included for external code)
   std::uint64_t timed_rays = 0;

@@ -1,0 +1,599 @@
+#include "rayproof/verify/backward_error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+namespace rayproof {
+
+// ------------------------------------------------------------------------------ exact numbers
+mpq_class exact_of(double x) {
+  mpq_class q(x);  // GMP converts a finite double exactly
+  return q;
+}
+
+double round_up(const mpq_class& x) {
+  double d = x.get_d();  // truncated toward zero
+  if (mpq_class(d) < x) d = std::nextafter(d, std::numeric_limits<double>::infinity());
+  return d;
+}
+
+std::string hex_exact(const mpq_class& x) {
+  if (x == 0) return "0x0p+0";
+  const mpz_class& den = x.get_den();
+  if (mpz_popcount(den.get_mpz_t()) != 1) throw std::runtime_error("hex_exact: not a dyadic rational");
+  const long k = static_cast<long>(mpz_sizeinbase(den.get_mpz_t(), 2)) - 1;  // den = 2^k
+  mpz_class m = abs(x.get_num());
+  const long bits = static_cast<long>(mpz_sizeinbase(m.get_mpz_t(), 2));
+  const long exponent = bits - 1 - k;
+  // m = 1.fff… · 2^(bits−1): the bits after the leading one, padded to whole hex digits.
+  mpz_class frac = m - (mpz_class(1) << (bits - 1));
+  long frac_bits = bits - 1;
+  const long pad = (4 - frac_bits % 4) % 4;
+  frac <<= pad, frac_bits += pad;
+  std::string digits = frac_bits ? frac.get_str(16) : "";
+  digits.insert(0, static_cast<std::size_t>(frac_bits / 4) - digits.size(), '0');
+  while (!digits.empty() && digits.back() == '0') digits.pop_back();
+  std::string out = x < 0 ? "-0x1" : "0x1";
+  if (!digits.empty()) out += "." + digits;
+  out += (exponent < 0 ? "p" : "p+") + std::to_string(exponent);
+  return out;
+}
+
+std::optional<mpq_class> parse_hex_exact(std::string_view text) {
+  std::string_view s = text;
+  bool negative = false;
+  if (!s.empty() && (s[0] == '-' || s[0] == '+')) negative = s[0] == '-', s.remove_prefix(1);
+  if (s.size() < 3 || s[0] != '0' || (s[1] != 'x' && s[1] != 'X')) return std::nullopt;
+  s.remove_prefix(2);
+  mpz_class m = 0;
+  long frac_digits = 0, digits = 0;
+  bool point = false;
+  std::size_t i = 0;
+  for (; i < s.size() && s[i] != 'p' && s[i] != 'P'; ++i) {
+    const char c = s[i];
+    if (c == '.') {
+      if (point) return std::nullopt;
+      point = true;
+      continue;
+    }
+    int v;
+    if (c >= '0' && c <= '9') v = c - '0';
+    else if (c >= 'a' && c <= 'f') v = c - 'a' + 10;
+    else if (c >= 'A' && c <= 'F') v = c - 'A' + 10;
+    else return std::nullopt;
+    if (++digits > 4000) return std::nullopt;  // a bound on what a reader allocates
+    m = m * 16 + v;
+    frac_digits += point;
+  }
+  if (digits == 0 || i + 1 >= s.size()) return std::nullopt;
+  std::string_view e = s.substr(i + 1);
+  bool eneg = false;
+  if (e[0] == '-' || e[0] == '+') eneg = e[0] == '-', e.remove_prefix(1);
+  if (e.empty() || e.size() > 6) return std::nullopt;
+  long exponent = 0;
+  for (char c : e) {
+    if (c < '0' || c > '9') return std::nullopt;
+    exponent = exponent * 10 + (c - '0');
+  }
+  exponent = (eneg ? -exponent : exponent) - 4 * frac_digits;
+  mpq_class q(m);
+  if (exponent >= 0)
+    q *= mpq_class(mpz_class(1) << exponent);
+  else
+    q /= mpq_class(mpz_class(1) << -exponent);
+  q.canonicalize();
+  return negative ? mpq_class(-q) : q;
+}
+
+double unit_roundoff(Precision p) { return p == Precision::f32 ? 0x1p-24 : 0x1p-53; }
+
+std::string_view to_string(Level l) { return l == Level::rounding ? "rounding" : "bug"; }
+
+json beta_json(const BackwardError& b) {
+  if (!b.beta) return "none";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2g", *b.beta);
+  return std::stod(buf);
+}
+
+std::string beta_bucket(const BackwardError& b) {
+  if (!b.beta) return "none";
+  if (!b.witness) return "unproved";  // estimated, but the exact judge refused every witness
+  if (*b.beta <= 0x1p-20) return "2^-20";
+  int k = -20;
+  while (k < 60 && std::ldexp(1.0, k) < *b.beta) ++k;
+  return "2^" + std::to_string(k);
+}
+
+namespace {
+using Q = mpq_class;
+
+ExactVec exact_vec(const Vec3& v) { return {exact_of(v.x()), exact_of(v.y()), exact_of(v.z())}; }
+ExactVec sub(const ExactVec& a, const ExactVec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+ExactVec cross(const ExactVec& a, const ExactVec& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+Q dot(const ExactVec& a, const ExactVec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+bool is_zero(const ExactVec& a) { return a[0] == 0 && a[1] == 0 && a[2] == 0; }
+
+json exact_vec_json(const ExactVec& v) { return json::array({hex_exact(v[0]), hex_exact(v[1]), hex_exact(v[2])}); }
+ExactVec read_exact_vec(const json& j, const std::string& field) {
+  if (!j.is_array() || j.size() != 3) throw FieldError(field, "expected [x, y, z]");
+  ExactVec v;
+  for (int k = 0; k < 3; ++k) {
+    const json& x = j[k];
+    std::optional<mpq_class> q;
+    if (x.is_number() && std::isfinite(x.get<double>()))
+      q = exact_of(x.get<double>());
+    else if (x.is_string())
+      q = parse_hex_exact(x.get<std::string>());
+    if (!q) throw FieldError(field + "[" + std::to_string(k) + "]", "expected an exact hex float");
+    v[k] = *q;
+  }
+  return v;
+}
+
+// The line o + t·d against one triangle, exactly: TrianglePolicy's terms (oracle.cpp) over the
+// rationals — n = (v₁ − v₀) × (v₂ − v₀), t = n·(v₀ − o) / n·d, edge k of sign d·((v_k − o) ×
+// (v_k+1 − o)); the line meets the closed triangle where no edge has the sign opposite to n·d.
+struct LineContact {
+  enum Kind { miss, crossing, in_plane, degenerate } kind = miss;
+  Q t;
+  bool front = false, boundary = false;
+  std::array<bool, 3> zero_edge{};
+};
+LineContact line_contact(const ExactVec& o, const ExactVec& d, const std::array<ExactVec, 3>& v) {
+  LineContact c;
+  const ExactVec n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
+  if (is_zero(n)) return c.kind = LineContact::degenerate, c;
+  const Q den = dot(n, d), num = dot(n, sub(v[0], o));
+  if (den == 0) {
+    if (num == 0) c.kind = LineContact::in_plane;
+    return c;
+  }
+  const int sd = sgn(den);
+  const ExactVec rel[3] = {sub(v[0], o), sub(v[1], o), sub(v[2], o)};
+  for (int k = 0; k < 3; ++k) {
+    const int se = sgn(dot(d, cross(rel[k], rel[(k + 1) % 3])));
+    if (se == -sd) return c;
+    c.zero_edge[k] = se == 0;
+    c.boundary = c.boundary || se == 0;
+  }
+  c.kind = LineContact::crossing;
+  c.t = num / den;
+  c.front = sd < 0;
+  return c;
+}
+
+// A point p lying in the triangle's plane: inside the closed triangle?
+bool in_plane_point_inside(const ExactVec& p, const std::array<ExactVec, 3>& v) {
+  const ExactVec n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
+  for (int k = 0; k < 3; ++k)
+    if (sgn(dot(n, cross(sub(v[(k + 1) % 3], v[k]), sub(p, v[k])))) < 0) return false;
+  return true;
+}
+
+bool in_range(const Q& t, const TracerRay& r, RangeRule range) {
+  const Q lo = exact_of(r.tmin);
+  if (range == RangeRule::closed ? t < lo : t <= lo) return false;
+  if (std::isinf(r.tmax)) return true;
+  const Q hi = exact_of(r.tmax);
+  return range == RangeRule::closed ? t <= hi : t < hi;
+}
+
+// The moved input: the witness's ray, and each vertex moved or as it was.
+struct MovedInput {
+  const TriangleMesh& mesh;
+  const Witness& w;
+  ExactVec vertex(std::uint32_t i) const {
+    if (const auto it = w.vertices.find(i); it != w.vertices.end()) return it->second;
+    return exact_vec(mesh.vertex(i));
+  }
+  std::array<ExactVec, 3> triangle(std::uint32_t t) const {
+    const auto c = mesh.corners(t);
+    return {vertex(c[0]), vertex(c[1]), vertex(c[2])};
+  }
+};
+
+// The exact truth over the moved input, as MeshTruth is over the given one.
+struct ExactContact {
+  std::uint32_t triangle;
+  Q t;
+  bool optional;  // at a closed range's end
+  MeshOracle::PointContact at;
+};
+struct ExactTruth {
+  std::vector<ExactContact> contacts;                // by t
+  std::vector<std::vector<std::size_t>> points;      // crossings (not optional) grouped by equal t
+  std::vector<bool> required;                        // per point
+  std::set<std::uint32_t> unknown;                   // in-plane or degenerate candidates: optional, t unknown
+  const ExactContact* of(std::uint32_t t) const {
+    for (const ExactContact& c : contacts)
+      if (c.triangle == t) return &c;
+    return nullptr;
+  }
+  std::optional<std::size_t> first_required() const {
+    for (std::size_t i = 0; i < points.size(); ++i)
+      if (required[i]) return i;
+    return std::nullopt;
+  }
+};
+
+
+ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
+                       const std::vector<std::uint32_t>& also) {
+  const TriangleMesh& mesh = oracle.mesh();
+  const MovedInput in{mesh, w};
+  // The candidates: triangles whose box, grown by the margin below, the double ray nearest the
+  // witness's ray meets (Bvh::traverse is conservative for that double ray). A point p = o' + t·d'
+  // of the witness's ray inside a moved triangle's box lies within dv (the largest vertex move)
+  // of the original box, and |p| ≤ M + dv; the axis k of the largest |d| then bounds
+  // t ≤ T = (M + dv + |o'_k|) / |d'_k|, and the double ray r0 at that t lies within
+  // dev_o + T·dev_d of p. Margin: twice dv + dev_o + T·dev_d (each computed upward to within a few
+  // roundings, which the factor 2 covers).
+  Ray r0{Vec3(w.origin[0].get_d(), w.origin[1].get_d(), w.origin[2].get_d()),
+         Vec3(w.direction[0].get_d(), w.direction[1].get_d(), w.direction[2].get_d())};
+  double dev_o = 0, dev_d = 0, dv = 0;
+  for (int k = 0; k < 3; ++k) {
+    dev_o = std::max(dev_o, round_up(abs(w.origin[k] - exact_of(r0.origin[k]))));
+    dev_d = std::max(dev_d, round_up(abs(w.direction[k] - exact_of(r0.direction[k]))));
+  }
+  for (const auto& [i, v] : w.vertices)
+    for (int k = 0; k < 3; ++k) dv = std::max(dv, round_up(abs(v[k] - exact_of(mesh.vertex(i)[k]))));
+  const double dmax = max_abs(r0.direction) - dev_d;
+  const double far = dmax > 0 ? (oracle.magnitude() + dv + max_abs(r0.origin) + dev_o) / dmax
+                              : std::numeric_limits<double>::infinity();
+  const double margin = 2 * (dv + dev_o + far * dev_d) + 0x1p-1000;
+  std::set<std::uint32_t> candidates(also.begin(), also.end());
+  for (const auto& [i, v] : w.vertices)
+    for (std::uint32_t t = 0; t < mesh.triangle_count(); ++t) {
+      const auto c = mesh.corners(t);
+      if (c[0] == i || c[1] == i || c[2] == i) candidates.insert(t);
+    }
+  if (std::isfinite(margin) && std::isfinite(far))
+    oracle.triangles_near(r0, margin, [&](std::uint32_t t) { candidates.insert(t); });
+  else
+    for (std::uint32_t t = 0; t < mesh.triangle_count(); ++t) candidates.insert(t);
+
+  ExactTruth truth;
+  const Q tmin = exact_of(r.tmin), tmax = std::isinf(r.tmax) ? Q(0) : exact_of(r.tmax);
+  for (std::uint32_t t : candidates) {
+    if (t >= mesh.triangle_count()) continue;
+    const LineContact c = line_contact(w.origin, w.direction, in.triangle(t));
+    if (c.kind == LineContact::in_plane || c.kind == LineContact::degenerate) {
+      truth.unknown.insert(t);
+      continue;
+    }
+    if (c.kind != LineContact::crossing || !in_range(c.t, r, range)) continue;
+    const bool at_end = range == RangeRule::closed && (c.t == tmin || (!std::isinf(r.tmax) && c.t == tmax));
+    truth.contacts.push_back({t, c.t, at_end, {t, c.boundary, c.front, c.zero_edge}});
+  }
+  std::sort(truth.contacts.begin(), truth.contacts.end(), [](const ExactContact& a, const ExactContact& b) {
+    return a.t != b.t ? a.t < b.t : a.triangle < b.triangle;
+  });
+  for (std::size_t i = 0; i < truth.contacts.size(); ++i) {
+    const ExactContact& c = truth.contacts[i];
+    if (c.optional) continue;
+    if (truth.points.empty() || truth.contacts[truth.points.back().front()].t != c.t) truth.points.push_back({});
+    truth.points.back().push_back(i);
+  }
+  for (const auto& p : truth.points) {
+    std::vector<MeshOracle::PointContact> at;
+    bool interior = false;
+    for (std::size_t i : p) at.push_back(truth.contacts[i].at), interior = interior || !truth.contacts[i].at.boundary;
+    truth.required.push_back(interior || oracle.one_hit_rule_applies(at));
+  }
+  return truth;
+}
+
+// The answer judged on the exact truth, as MeshOracle judges it (no ties): nullopt where a
+// reported triangle's contact is unknown (in-plane or degenerate after the move).
+std::optional<bool> exact_answer_right(const ExactTruth& truth, const MeshAnswer& a) {
+  const auto req = truth.first_required();
+  if (!a.all) {
+    if (a.triangle == kNoTriangle) return !req;
+    if (truth.unknown.contains(a.triangle)) return std::nullopt;
+    const ExactContact* c = truth.of(a.triangle);
+    if (!c) return false;
+    if (!req) return true;
+    return c->t <= truth.contacts[truth.points[*req].front()].t;
+  }
+  const std::set<std::uint32_t> reported(a.triangles.begin(), a.triangles.end());
+  for (std::uint32_t t : reported) {
+    if (truth.unknown.contains(t)) return std::nullopt;
+    if (!truth.of(t)) return false;
+  }
+  for (std::size_t i = 0; i < truth.points.size(); ++i) {
+    std::size_t n = 0;
+    for (std::size_t k : truth.points[i]) {
+      const ExactContact& c = truth.contacts[k];
+      const bool in = reported.contains(c.triangle);
+      n += in;
+      if (!in && !c.at.boundary) return false;  // an interior crossing left out
+    }
+    if (truth.required[i] && !truth.points[i].empty()) {
+      bool rule = true;
+      for (std::size_t k : truth.points[i]) rule = rule && truth.contacts[k].at.boundary;
+      if (rule && n != 1) return false;  // the one-hit rule: exactly one
+    }
+  }
+  return true;
+}
+
+std::vector<std::uint32_t> reported_of(const MeshAnswer& a, std::size_t triangles) {
+  std::vector<std::uint32_t> out;
+  if (!a.all && a.triangle != kNoTriangle && a.triangle < triangles) out.push_back(a.triangle);
+  if (a.all)
+    for (std::uint32_t t : a.triangles)
+      if (t < triangles) out.push_back(t);
+  return out;
+}
+
+// ε of a witness: the largest move over what it may move, exactly, rounded up.
+double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const Witness& w, double u) {
+  const Q uS = exact_of(u) * exact_of(w.scale), ud = exact_of(u) * exact_of(max_abs(r.ray.direction));
+  Q most = 0;
+  for (int k = 0; k < 3; ++k) {
+    most = std::max(most, Q(abs(w.origin[k] - exact_of(r.ray.origin[k])) / uS));
+    most = std::max(most, Q(abs(w.direction[k] - exact_of(r.ray.direction[k])) / ud));
+  }
+  for (const auto& [i, v] : w.vertices)
+    for (int k = 0; k < 3; ++k) most = std::max(most, Q(abs(v[k] - exact_of(oracle.mesh().vertex(i)[k])) / uS));
+  return round_up(most);
+}
+
+Witness unmoved(const TracerRay& r, double scale) {
+  Witness w;
+  w.scale = scale;
+  w.origin = exact_vec(r.ray.origin), w.direction = exact_vec(r.ray.direction);
+  return w;
+}
+
+// The ray moved so that at parameter tp it passes exactly through q: the move w = q − (o + tp·d)
+// is split as Δd = w·‖d‖∞ / (S + tp·‖d‖∞) (rounded: any double will do) and Δo = w − tp·Δd
+// (exact), so both use the same share of what they may move.
+void move_ray_through(Witness& w, const TracerRay& r, const ExactVec& q, double tp) {
+  const ExactVec o = exact_vec(r.ray.origin), d = exact_vec(r.ray.direction);
+  const Q tq = exact_of(tp);
+  const double dn = max_abs(r.ray.direction), share = dn / (w.scale + tp * dn);
+  for (int k = 0; k < 3; ++k) {
+    const Q move = q[k] - (o[k] + tq * d[k]);
+    const Q dd = exact_of(move.get_d() * share);
+    w.direction[k] = d[k] + dd;
+    w.origin[k] = o[k] + move - tq * dd;
+  }
+}
+
+// The point of segment [a, b] nearest the ray's line (Euclidean, in double: only its size
+// matters), exactly on the segment (a + s·(b − a) with s in [0, 1]), and the ray's parameter there.
+std::pair<ExactVec, double> nearest_on_edge(const Ray& ray, const Vec3& a, const Vec3& b) {
+  const Vec3 e = b - a, w0 = a - ray.origin, d = ray.direction;
+  const double A = e.dot(e), B = e.dot(d), C = d.dot(d), D = e.dot(w0), E = d.dot(w0);
+  const double den = A * C - B * B;
+  double s = den > 0 ? (B * E - C * D) / den : 0.5;
+  if (!(s >= 0)) s = 0;
+  if (s > 1) s = 1;
+  ExactVec q;
+  const ExactVec ea = exact_vec(a), eb = exact_vec(b);
+  const Q sq = exact_of(s);
+  for (int k = 0; k < 3; ++k) q[k] = ea[k] + sq * (eb[k] - ea[k]);
+  const Vec3 qd = a + s * e;
+  return {q, (qd - ray.origin).dot(d) / C};
+}
+
+// Moves triangle t's vertices along d so that its contact with the witness's ray comes to lie
+// in range and at or before the first required crossing; false where it has no such contact.
+bool move_triangle_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, std::uint32_t tri,
+                              RangeRule range, double u) {
+  const MovedInput in{oracle.mesh(), w};
+  const LineContact c = line_contact(w.origin, w.direction, in.triangle(tri));
+  if (c.kind != LineContact::crossing) return false;
+  const ExactTruth truth = exact_truth(oracle, r, w, range, {tri});
+  const auto req = truth.first_required();
+  const Q lo = exact_of(r.tmin);
+  std::optional<Q> hi;  // the latest t the contact may take
+  if (req) hi = truth.contacts[truth.points[*req].front()].t;
+  if (!std::isinf(r.tmax) && (!hi || exact_of(r.tmax) < *hi)) hi = exact_of(r.tmax);
+  // A contact strictly inside (lo, hi) by a 2^-12 ulp move, or half the room where less.
+  const double dn = max_abs(r.ray.direction);
+  Q room = exact_of(0x1p-12 * u * w.scale / dn);
+  if (hi && (*hi - lo) / 2 < room) room = (*hi - lo) / 2;
+  if (room <= 0) return false;
+  Q target;
+  if (c.t <= lo)
+    target = lo + room;
+  else if (hi && (c.t > *hi || (c.t == *hi && !req)))
+    target = *hi - room;
+  else
+    return true;  // in place already
+  const double shift = Q(c.t - target).get_d();  // contact at t − shift: vertices move by −shift·d
+  const Q sq = exact_of(shift);
+  for (std::uint32_t v : oracle.mesh().corners(tri)) {
+    ExactVec p = in.vertex(v);
+    for (int k = 0; k < 3; ++k) p[k] -= sq * w.direction[k];
+    w.vertices[v] = p;
+  }
+  return true;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------ the witness
+json Witness::to_json() const {
+  json v = json::object();
+  for (const auto& [i, p] : vertices) v[std::to_string(i)] = exact_vec_json(p);
+  return {{"ulps", ulps},
+          {"scale", hex_double(scale)},
+          {"ray", {{"origin", exact_vec_json(origin)}, {"direction", exact_vec_json(direction)}}},
+          {"vertices", v}};
+}
+
+Witness Witness::from_json(const json& j) {
+  Witness w;
+  if (!j.is_object()) throw FieldError("witness", "expected an object");
+  w.ulps = read_number(j.at("ulps"), "witness.ulps");
+  w.scale = read_number(j.at("scale"), "witness.scale");
+  const json& ray = require_object(j.at("ray"), "witness.ray");
+  w.origin = read_exact_vec(ray.at("origin"), "witness.ray.origin");
+  w.direction = read_exact_vec(ray.at("direction"), "witness.ray.direction");
+  if (j.contains("vertices")) {
+    const json& v = require_object(j.at("vertices"), "witness.vertices");
+    for (auto it = v.begin(); it != v.end(); ++it) {
+      const std::string field = "witness.vertices." + printable_prefix(it.key(), 20);
+      char* end = nullptr;
+      const unsigned long i = std::strtoul(it.key().c_str(), &end, 10);
+      if (it.key().empty() || *end != 0 || i > 0xfffffffeul) throw FieldError(field, "expected a vertex index");
+      w.vertices[static_cast<std::uint32_t>(i)] = read_exact_vec(it.value(), field);
+    }
+  }
+  return w;
+}
+
+// ------------------------------------------------------------------------------ MeshOracle
+bool MeshOracle::touches_at(const Ray& ray, std::uint32_t triangle, double t0) const {
+  if (triangle >= mesh_->triangle_count() || !std::isfinite(t0)) return false;
+  const ExactVec o = exact_vec(ray.origin), d = exact_vec(ray.direction);
+  const Triangle tri = mesh_->triangle(triangle);
+  const std::array<ExactVec, 3> v = {exact_vec(tri.v[0]), exact_vec(tri.v[1]), exact_vec(tri.v[2])};
+  const LineContact c = line_contact(o, d, v);
+  const Q t = exact_of(t0);
+  if (c.kind == LineContact::crossing) return c.t == t;
+  if (c.kind != LineContact::in_plane) return false;
+  ExactVec p;
+  for (int k = 0; k < 3; ++k) p[k] = o[k] + t * d[k];
+  return in_plane_point_inside(p, v);
+}
+
+// ------------------------------------------------------------------------------ β
+double involved_scale(const MeshOracle& oracle, const TracerRay& r, const MeshTruth& truth, const MeshAnswer& a,
+                      std::optional<std::uint32_t> subject) {
+  const TriangleMesh& mesh = oracle.mesh();
+  double s = max_abs(r.ray.origin);
+  auto add = [&](std::uint32_t t) {
+    if (t >= mesh.triangle_count()) return;
+    for (std::uint32_t v : mesh.corners(t)) s = std::max(s, max_abs(mesh.vertex(v)));
+  };
+  for (std::uint32_t t : reported_of(a, mesh.triangle_count())) add(t);
+  if (!truth.points.empty())
+    for (std::uint32_t t : truth.points.front().triangles) add(t);
+  if (const CrossingPoint* p = truth.first_required())
+    for (std::uint32_t t : p->triangles) add(t);
+  if (subject) add(*subject);
+  return s > 0 ? s : 0x1p-1022;
+}
+
+std::optional<bool> witness_holds(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
+                                  const MeshAnswer& a, Precision p) {
+  if (!(w.scale > 0) || !(w.ulps >= 0)) return false;
+  if (witness_ulps(oracle, r, w, unit_roundoff(p)) > w.ulps) return false;  // moves more than it claims
+  for (const auto& [i, v] : w.vertices)
+    if (i >= oracle.mesh().vertex_count()) return false;
+  if (w.direction[0] == 0 && w.direction[1] == 0 && w.direction[2] == 0) return false;
+  const ExactTruth truth = exact_truth(oracle, r, w, range, reported_of(a, oracle.mesh().triangle_count()));
+  return exact_answer_right(truth, a);
+}
+
+BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const MeshTruth& truth,
+                             const TraceJudgement& j, const MeshAnswer& a, Precision p, RangeRule range) {
+  BackwardError out;
+  const TriangleMesh& mesh = oracle.mesh();
+  // A double hit on a manifold edge or a closed fan's centre: every ray near it crosses the same
+  // triangles, whichever way the input moves (verdicts.md: β none).
+  if (j.kind == TraceKind::double_hit || (a.all && j.edge_double)) return out;
+  const double u = unit_roundoff(p);
+  std::optional<std::uint32_t> subject;  // the triangle the fix is about
+  std::vector<std::uint32_t> escape;     // a hole or a missed crossing: triangles whose edges may end it
+  bool through_any_edge = false;         // a missed crossing may end on a shared edge too (its neighbour reported)
+  const std::set<std::uint32_t> reported(a.triangles.begin(), a.triangles.end());
+  switch (j.kind) {
+    case TraceKind::hole: {
+      const CrossingPoint* hole = truth.first_required();
+      if (a.all)  // the first required point none of whose triangles is reported
+        for (const CrossingPoint& q : truth.points) {
+          if (!q.required()) continue;
+          if (std::none_of(q.triangles.begin(), q.triangles.end(), [&](std::uint32_t t) { return reported.contains(t); })) {
+            hole = &q;
+            break;
+          }
+        }
+      if (!hole) return out;
+      escape = hole->triangles;
+      break;
+    }
+    case TraceKind::false_hit:
+    case TraceKind::not_nearest:
+      if (!a.all) {
+        subject = a.triangle;
+      } else {
+        for (std::uint32_t t : a.triangles)
+          if (t < mesh.triangle_count() && !truth.contact_of(t)) {
+            subject = t;
+            break;
+          }
+      }
+      if (!subject || *subject >= mesh.triangle_count()) return out.refused = true, out;
+      break;
+    case TraceKind::missed_in_any_hit:
+      for (const CrossingPoint& q : truth.points)
+        for (std::uint32_t t : q.triangles)
+          if (!subject && !reported.contains(t) && !truth.contact_of(t)->boundary) subject = t;
+      if (!subject) return out.refused = true, out;
+      escape = {*subject};
+      through_any_edge = true;
+      break;
+    default:
+      return out.refused = true, out;  // tracer errors, crashes: no β
+  }
+  const double scale = involved_scale(oracle, r, truth, a, subject);
+  std::vector<Witness> candidates;
+  // Escapes: the ray moved onto an edge point nearest it, where the crossing stops being
+  // required (an open edge), or is shared with a reported neighbour.
+  bool any_open = false;
+  for (std::uint32_t t : escape) {
+    const auto c = mesh.corners(t);
+    for (int k = 0; k < 3; ++k) {
+      const bool open = !oracle.manifold_edge(c[k], c[(k + 1) % 3]);
+      any_open = any_open || open;
+      if (!open && !through_any_edge) continue;
+      const auto [q, tp] = nearest_on_edge(r.ray, mesh.vertex(c[k]), mesh.vertex(c[(k + 1) % 3]));
+      if (!(tp > 0)) continue;
+      Witness w = unmoved(r, scale);
+      move_ray_through(w, r, q, tp);
+      candidates.push_back(std::move(w));
+    }
+  }
+  if (!escape.empty() && !any_open && !through_any_edge) return out;  // closed around the crossing: none
+  if (subject && escape.empty()) {
+    const Triangle tri = mesh.triangle(*subject);
+    const std::array<ExactVec, 3> v = {exact_vec(tri.v[0]), exact_vec(tri.v[1]), exact_vec(tri.v[2])};
+    const LineContact c = line_contact(exact_vec(r.ray.origin), exact_vec(r.ray.direction), v);
+    if (c.kind == LineContact::crossing) {
+      Witness w = unmoved(r, scale);
+      if (move_triangle_into_place(oracle, r, w, *subject, range, u)) candidates.push_back(std::move(w));
+    } else {
+      for (int k = 0; k < 3; ++k) {
+        const auto [q, tp] = nearest_on_edge(r.ray, tri.v[k], tri.v[(k + 1) % 3]);
+        if (!(tp > 0)) continue;
+        Witness w = unmoved(r, scale);
+        move_ray_through(w, r, q, tp);
+        if (move_triangle_into_place(oracle, r, w, *subject, range, u)) candidates.push_back(std::move(w));
+      }
+    }
+  }
+  if (candidates.empty()) return out.refused = true, out;
+  for (Witness& w : candidates) w.ulps = witness_ulps(oracle, r, w, u);
+  std::sort(candidates.begin(), candidates.end(), [](const Witness& x, const Witness& y) { return x.ulps < y.ulps; });
+  out.beta = candidates.front().ulps;
+  for (Witness& w : candidates) {
+    if (witness_holds(oracle, r, w, range, a, p) == true) {
+      out.beta = w.ulps;
+      out.witness = std::move(w);
+      return out;
+    }
+  }
+  out.refused = true;
+  return out;
+}
+
+}  // namespace rayproof
