@@ -89,7 +89,7 @@ struct CheckRun {
   long mesh_cases = 0;
   double tolerance_ulps = kDefaultToleranceUlps;
   std::string fail_on = "none";
-  long failing = 0;  // tracer outcomes --fail-on counts
+  long failing = 0;                                                  // tracer outcomes --fail-on counts
   std::map<std::string, std::map<std::string, long>> tracer_levels;  // tracer → bug/rounding → disagreements
   std::vector<ShapeKind> shapes;  // --shapes: an --exec command (every shape) gets only these
   std::set<std::string> ids;      // --id: only these cases are judged
@@ -328,9 +328,8 @@ int run_check(const CheckOptions& opts) {
   if (run.unopened > 0) return 2;
   if (run.failing > 0)
     std::cerr << "rayproof check: --fail-on " << run.fail_on << ": " << run.failing << " tracer outcomes fail\n";
-  return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0 || run.stopped > 0 || run.failing > 0)
-             ? 1
-             : 0;
+  return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0 || run.stopped > 0 || run.failing > 0) ? 1
+                                                                                                                   : 0;
 }
 
 }  // namespace

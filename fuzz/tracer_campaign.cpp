@@ -102,7 +102,8 @@ std::vector<std::string> range_end_lines(const TracerCampaignReport& r, const st
                                : "report a contact at exactly tmin"));
     if (const auto n = t.level("at_tmax"))
       lines.push_back(k.family + ": accepts t = tmax: " + std::to_string(n) + " of " + std::to_string(t.cases) + " " +
-                      k.family + " rays report a contact at exactly tmax (a shadow ray to a point on a surface is "
+                      k.family +
+                      " rays report a contact at exactly tmax (a shadow ray to a point on a surface is "
                       "blocked by it: give tmax short of the point)");
   }
   return lines;
@@ -125,25 +126,24 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
     };
   };
   auto plain = [](const char* kind) { return [kind](const TracerTally& t) { return t.count(kind); }; };
-  const std::vector<Column> columns = {
-      {"cases", [](const TracerTally& t) { return t.cases; }},
-      {"right", plain("right")},
-      {"hole", level("hole", "_bugs")},
-      {"false_hit", level("false_hit", "_bugs")},
-      {"not_nearest", level("not_nearest", "_bugs")},
-      {"double_hit", level("double_hit", "_bugs")},
-      {"missed", level("missed_in_any_hit", "_bugs")},
-      {"r:hole", level("hole", "_rounding")},
-      {"r:false_hit", level("false_hit", "_rounding")},
-      {"r:not_nearest", level("not_nearest", "_rounding")},
-      {"r:missed", level("missed_in_any_hit", "_rounding")},
-      {"ties", [](const TracerTally& t) { return t.level("ties"); }},
-      {"at_range_end", [](const TracerTally& t) { return t.level("at_range_end"); }},
-      {"in_plane", plain("in_plane")},
-      {"unsupported", plain("unsupported")},
-      {"tracer_errors", plain("tracer_errors")},
-      {"crash", plain("crash")},
-      {"timeout", plain("timeout")}};
+  const std::vector<Column> columns = {{"cases", [](const TracerTally& t) { return t.cases; }},
+                                       {"right", plain("right")},
+                                       {"hole", level("hole", "_bugs")},
+                                       {"false_hit", level("false_hit", "_bugs")},
+                                       {"not_nearest", level("not_nearest", "_bugs")},
+                                       {"double_hit", level("double_hit", "_bugs")},
+                                       {"missed", level("missed_in_any_hit", "_bugs")},
+                                       {"r:hole", level("hole", "_rounding")},
+                                       {"r:false_hit", level("false_hit", "_rounding")},
+                                       {"r:not_nearest", level("not_nearest", "_rounding")},
+                                       {"r:missed", level("missed_in_any_hit", "_rounding")},
+                                       {"ties", [](const TracerTally& t) { return t.level("ties"); }},
+                                       {"at_range_end", [](const TracerTally& t) { return t.level("at_range_end"); }},
+                                       {"in_plane", plain("in_plane")},
+                                       {"unsupported", plain("unsupported")},
+                                       {"tracer_errors", plain("tracer_errors")},
+                                       {"crash", plain("crash")},
+                                       {"timeout", plain("timeout")}};
   const bool md = format == TableFormat::markdown;
   auto cell = [&](const std::string& text, int width, bool left) {
     if (md) return "| " + text + " ";
@@ -167,7 +167,8 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
   for (const auto& [k, t] : r.tallies) by_tracer[k.name].push_back({k.family, &t});
   for (const auto& [name, rows] : by_tracer) {
     for (const auto& [family, t] : rows) {
-      std::string line = cell(name, 22, true) + cell(family, 18, true) + cell(t->range.empty() ? "-" : t->range, 6, true);
+      std::string line =
+          cell(name, 22, true) + cell(family, 18, true) + cell(t->range.empty() ? "-" : t->range, 6, true);
       for (const Column& c : columns) line += cell(std::to_string(c.value(*t)), width(c.title), false);
       char buf[3][32];
       const json bits = bits_json(t->ulps);
@@ -640,7 +641,8 @@ void bugs_first(const std::string& path) {
   if (!std::filesystem::is_regular_file(path, ec)) return;  // a device or FIFO: written as it came
   std::ifstream in(path);
   std::string line, bugs, rounding;
-  while (std::getline(in, line)) (line.find("\"level\":\"rounding\"") != std::string::npos ? rounding : bugs) += line + "\n";
+  while (std::getline(in, line))
+    (line.find("\"level\":\"rounding\"") != std::string::npos ? rounding : bugs) += line + "\n";
   if (rounding.empty()) return;
   AtomicFile file(path);
   file.stream() << bugs << rounding;
@@ -687,9 +689,9 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
         }
         for (const PendingFinding& f : r.findings) {
           // Counted per kind and level, so bugs are never crowded out by double hits or rounding.
-          std::uint64_t& written = cp.findings_in[family_key(family, f.all) + "\t" + o.tracers[f.tracer]->name +
-                                                  "\t" + std::string(to_string(f.kind)) + "\t" +
-                                                  std::string(to_string(f.outcome.level))];
+          std::uint64_t& written =
+              cp.findings_in[family_key(family, f.all) + "\t" + o.tracers[f.tracer]->name + "\t" +
+                             std::string(to_string(f.kind)) + "\t" + std::string(to_string(f.outcome.level))];
           if (written < o.max_findings) ++written, chosen.push_back(&f);
         }
       }

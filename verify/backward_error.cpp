@@ -58,10 +58,14 @@ std::optional<mpq_class> parse_hex_exact(std::string_view text) {
       continue;
     }
     int v;
-    if (c >= '0' && c <= '9') v = c - '0';
-    else if (c >= 'a' && c <= 'f') v = c - 'a' + 10;
-    else if (c >= 'A' && c <= 'F') v = c - 'A' + 10;
-    else return std::nullopt;
+    if (c >= '0' && c <= '9')
+      v = c - '0';
+    else if (c >= 'a' && c <= 'f')
+      v = c - 'a' + 10;
+    else if (c >= 'A' && c <= 'F')
+      v = c - 'A' + 10;
+    else
+      return std::nullopt;
     if (++digits > 4000) return std::nullopt;  // a bound on what a reader allocates
     m = m * 16 + v;
     frac_digits += point;
@@ -204,10 +208,10 @@ struct ExactContact {
   MeshOracle::PointContact at;
 };
 struct ExactTruth {
-  std::vector<ExactContact> contacts;                // by t
-  std::vector<std::vector<std::size_t>> points;      // crossings (not optional) grouped by equal t
-  std::vector<bool> required;                        // per point
-  std::set<std::uint32_t> unknown;                   // in-plane or degenerate candidates: optional, t unknown
+  std::vector<ExactContact> contacts;            // by t
+  std::vector<std::vector<std::size_t>> points;  // crossings (not optional) grouped by equal t
+  std::vector<bool> required;                    // per point
+  std::set<std::uint32_t> unknown;               // in-plane or degenerate candidates: optional, t unknown
   const ExactContact* of(std::uint32_t t) const {
     for (const ExactContact& c : contacts)
       if (c.triangle == t) return &c;
@@ -219,7 +223,6 @@ struct ExactTruth {
     return std::nullopt;
   }
 };
-
 
 ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
                        const std::vector<std::uint32_t>& also) {
@@ -247,10 +250,8 @@ ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witne
   const double margin = 2 * (dv + dev_o + far * dev_d) + 0x1p-1000;
   std::set<std::uint32_t> candidates(also.begin(), also.end());
   for (const auto& [i, v] : w.vertices)
-    for (std::uint32_t t = 0; t < mesh.triangle_count(); ++t) {
-      const auto c = mesh.corners(t);
-      if (c[0] == i || c[1] == i || c[2] == i) candidates.insert(t);
-    }
+    if (i < mesh.vertex_count())
+      for (std::uint32_t t : oracle.triangles_around(i)) candidates.insert(t);
   if (std::isfinite(margin) && std::isfinite(far))
     oracle.triangles_near(r0, margin, [&](std::uint32_t t) { candidates.insert(t); });
   else
@@ -384,32 +385,41 @@ std::pair<ExactVec, double> nearest_on_edge(const Ray& ray, const Vec3& a, const
 
 // Moves triangle t's vertices along d so that its contact with the witness's ray comes to lie
 // in range and at or before the first required crossing; false where it has no such contact.
-bool move_triangle_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, std::uint32_t tri,
-                              RangeRule range, double u) {
+// Moves the triangles' vertices (each once, all by the same shift along d: a shared edge moves
+// whole) so that the first of them out of place comes into range and, in nearest mode, to at or
+// before the first required crossing; false where that triangle has no contact with the line.
+bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, const std::set<std::uint32_t>& tris,
+                     RangeRule range, double u, bool nearest) {
   const MovedInput in{oracle.mesh(), w};
-  const LineContact c = line_contact(w.origin, w.direction, in.triangle(tri));
-  if (c.kind != LineContact::crossing) return false;
-  const ExactTruth truth = exact_truth(oracle, r, w, range, {tri});
+  const std::vector<std::uint32_t> also(tris.begin(), tris.end());
+  const ExactTruth truth = exact_truth(oracle, r, w, range, also);
   const auto req = truth.first_required();
   const Q lo = exact_of(r.tmin);
-  std::optional<Q> hi;  // the latest t the contact may take
-  if (req) hi = truth.contacts[truth.points[*req].front()].t;
-  if (!std::isinf(r.tmax) && (!hi || exact_of(r.tmax) < *hi)) hi = exact_of(r.tmax);
+  std::optional<Q> hi;  // the latest t a contact may take
+  bool hi_included = false;
+  if (req && nearest) hi = truth.contacts[truth.points[*req].front()].t, hi_included = true;  // any-hit: in range
+  if (!std::isinf(r.tmax) && (!hi || exact_of(r.tmax) <= *hi)) hi = exact_of(r.tmax), hi_included = false;
   // A contact strictly inside (lo, hi) by a 2^-12 ulp move, or half the room where less.
   const double dn = max_abs(r.ray.direction);
   Q room = exact_of(0x1p-12 * u * w.scale / dn);
   if (hi && (*hi - lo) / 2 < room) room = (*hi - lo) / 2;
   if (room <= 0) return false;
-  Q target;
-  if (c.t <= lo)
-    target = lo + room;
-  else if (hi && (c.t > *hi || (c.t == *hi && !req)))
-    target = *hi - room;
-  else
-    return true;  // in place already
-  const double shift = Q(c.t - target).get_d();  // contact at t − shift: vertices move by −shift·d
-  const Q sq = exact_of(shift);
-  for (std::uint32_t v : oracle.mesh().corners(tri)) {
+  std::optional<double> shift;  // contact at t − shift: vertices move by −shift·d
+  for (std::uint32_t tri : tris) {
+    const LineContact c = line_contact(w.origin, w.direction, in.triangle(tri));
+    if (c.kind != LineContact::crossing) return false;
+    if (range == RangeRule::closed ? c.t < lo : c.t <= lo)
+      shift = Q(c.t - (lo + room)).get_d();
+    else if (hi && (c.t > *hi || (c.t == *hi && !hi_included)))
+      shift = Q(c.t - (*hi - room)).get_d();
+    if (shift) break;
+  }
+  if (!shift) return true;  // in place already
+  const Q sq = exact_of(*shift);
+  std::set<std::uint32_t> vertices;
+  for (std::uint32_t tri : tris)
+    for (std::uint32_t v : oracle.mesh().corners(tri)) vertices.insert(v);
+  for (std::uint32_t v : vertices) {
     ExactVec p = in.vertex(v);
     for (int k = 0; k < 3; ++k) p[k] -= sq * w.direction[k];
     w.vertices[v] = p;
@@ -502,9 +512,11 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // triangles, whichever way the input moves (verdicts.md: β none).
   if (j.kind == TraceKind::double_hit || (a.all && j.edge_double)) return out;
   const double u = unit_roundoff(p);
-  std::optional<std::uint32_t> subject;  // the triangle the fix is about
-  std::vector<std::uint32_t> escape;     // a hole or a missed crossing: triangles whose edges may end it
-  bool through_any_edge = false;         // a missed crossing may end on a shared edge too (its neighbour reported)
+  std::optional<std::uint32_t> subject;  // a reported triangle to bring into place, or a missed one
+  std::set<std::uint32_t> to_place;      // the reported triangles not touched in range (any-hit: all of them)
+  bool place_subject = false;            // false_hit, not_nearest: the subject is moved into place
+  bool only_open = false;                // a hole with nothing reported: only an open edge or vertex ends it
+  std::set<std::uint32_t> around;        // the ray is tried through these triangles' edges and vertices
   const std::set<std::uint32_t> reported(a.triangles.begin(), a.triangles.end());
   switch (j.kind) {
     case TraceKind::hole: {
@@ -512,13 +524,20 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       if (a.all)  // the first required point none of whose triangles is reported
         for (const CrossingPoint& q : truth.points) {
           if (!q.required()) continue;
-          if (std::none_of(q.triangles.begin(), q.triangles.end(), [&](std::uint32_t t) { return reported.contains(t); })) {
+          if (std::none_of(q.triangles.begin(), q.triangles.end(),
+                           [&](std::uint32_t t) { return reported.contains(t); })) {
             hole = &q;
             break;
           }
         }
       if (!hole) return out;
-      escape = hole->triangles;
+      around.insert(hole->triangles.begin(), hole->triangles.end());
+      // Nothing reported: only a move onto an open edge or vertex, or across a silhouette (a
+      // shared edge whose triangles face the ray from opposite sides), can end it; where none
+      // of the tries works and the crossing has no open edge or vertex, β is none.
+      only_open = reported.empty();
+      for (std::uint32_t t : reported)
+        if (t < mesh.triangle_count()) around.insert(t);
       break;
     }
     case TraceKind::false_hit:
@@ -533,55 +552,64 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
           }
       }
       if (!subject || *subject >= mesh.triangle_count()) return out.refused = true, out;
+      place_subject = true;
+      to_place.insert(*subject);
+      for (std::uint32_t t : a.triangles)
+        if (t < mesh.triangle_count() && !truth.contact_of(t)) to_place.insert(t);
+      around.insert(*subject);
+      if (const CrossingPoint* req = truth.first_required())
+        around.insert(req->triangles.begin(), req->triangles.end());
       break;
     case TraceKind::missed_in_any_hit:
       for (const CrossingPoint& q : truth.points)
         for (std::uint32_t t : q.triangles)
           if (!subject && !reported.contains(t) && !truth.contact_of(t)->boundary) subject = t;
       if (!subject) return out.refused = true, out;
-      escape = {*subject};
-      through_any_edge = true;
+      around.insert(*subject);
       break;
-    default:
-      return out.refused = true, out;  // tracer errors, crashes: no β
+    default: return out.refused = true, out;  // tracer errors, crashes: no β
   }
   const double scale = involved_scale(oracle, r, truth, a, subject);
   std::vector<Witness> candidates;
-  // Escapes: the ray moved onto an edge point nearest it, where the crossing stops being
-  // required (an open edge), or is shared with a reported neighbour.
+  auto through = [&](const ExactVec& q, double tp) {
+    if (!(tp > 0)) return;
+    Witness w = unmoved(r, scale);
+    move_ray_through(w, r, q, tp);
+    // A reported triangle that the moved ray meets beyond the first required crossing (or out
+    // of range) is moved along d into place as well.
+    if (place_subject && !move_into_place(oracle, r, w, to_place, range, u, !a.all)) return;
+    candidates.push_back(std::move(w));
+  };
+  if (place_subject) {  // the subject moved along d alone
+    Witness w = unmoved(r, scale);
+    if (move_into_place(oracle, r, w, to_place, range, u, !a.all)) candidates.push_back(std::move(w));
+  }
+  // The ray onto the nearest point of each edge, and onto each vertex: where a crossing stops
+  // being required (an open edge, a vertex that is no closed fan's centre: either answer is right
+  // there), joins a reported neighbour's (a shared edge or fan centre: the one-hit rule), or
+  // reaches the reported triangle.
   bool any_open = false;
-  for (std::uint32_t t : escape) {
+  std::set<std::uint32_t> vertices;
+  for (std::uint32_t t : around) {
     const auto c = mesh.corners(t);
     for (int k = 0; k < 3; ++k) {
       const bool open = !oracle.manifold_edge(c[k], c[(k + 1) % 3]);
       any_open = any_open || open;
-      if (!open && !through_any_edge) continue;
       const auto [q, tp] = nearest_on_edge(r.ray, mesh.vertex(c[k]), mesh.vertex(c[(k + 1) % 3]));
-      if (!(tp > 0)) continue;
-      Witness w = unmoved(r, scale);
-      move_ray_through(w, r, q, tp);
-      candidates.push_back(std::move(w));
+      through(q, tp);
+      vertices.insert(c[k]);
     }
   }
-  if (!escape.empty() && !any_open && !through_any_edge) return out;  // closed around the crossing: none
-  if (subject && escape.empty()) {
-    const Triangle tri = mesh.triangle(*subject);
-    const std::array<ExactVec, 3> v = {exact_vec(tri.v[0]), exact_vec(tri.v[1]), exact_vec(tri.v[2])};
-    const LineContact c = line_contact(exact_vec(r.ray.origin), exact_vec(r.ray.direction), v);
-    if (c.kind == LineContact::crossing) {
-      Witness w = unmoved(r, scale);
-      if (move_triangle_into_place(oracle, r, w, *subject, range, u)) candidates.push_back(std::move(w));
-    } else {
-      for (int k = 0; k < 3; ++k) {
-        const auto [q, tp] = nearest_on_edge(r.ray, tri.v[k], tri.v[(k + 1) % 3]);
-        if (!(tp > 0)) continue;
-        Witness w = unmoved(r, scale);
-        move_ray_through(w, r, q, tp);
-        if (move_triangle_into_place(oracle, r, w, *subject, range, u)) candidates.push_back(std::move(w));
-      }
-    }
+  for (std::uint32_t v : vertices) {
+    const bool open = !oracle.closed_fan_centre(v);
+    any_open = any_open || open;
+    const Vec3 p = mesh.vertex(v);
+    through(exact_vec(p), (p - r.ray.origin).dot(r.ray.direction) / r.ray.direction.squaredNorm());
   }
-  if (candidates.empty()) return out.refused = true, out;
+  // Nothing reported, no open edge or vertex at the crossing: a closed, consistently wound
+  // surface there, none — unless a try slips past a silhouette (a fold grazed) after all.
+  const bool closed_around = only_open && !any_open;
+  if (candidates.empty()) return closed_around ? out : (out.refused = true, out);
   for (Witness& w : candidates) w.ulps = witness_ulps(oracle, r, w, u);
   std::sort(candidates.begin(), candidates.end(), [](const Witness& x, const Witness& y) { return x.ulps < y.ulps; });
   out.beta = candidates.front().ulps;
@@ -592,6 +620,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       return out;
     }
   }
+  if (closed_around) return BackwardError{};  // closed around the crossing, nothing reported: none
   out.refused = true;
   return out;
 }

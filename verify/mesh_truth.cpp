@@ -88,7 +88,8 @@ MeshOracle::MeshOracle(std::shared_ptr<const TriangleMesh> mesh) : mesh_(std::mo
   around_vertex_.resize(m.vertex_count());
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = m.corners(i);
-    for (std::uint32_t v : c) boxes[i].grow(m.vertex(v)), magnitude_ = std::max(magnitude_, m.vertex(v).cwiseAbs().maxCoeff());
+    for (std::uint32_t v : c)
+      boxes[i].grow(m.vertex(v)), magnitude_ = std::max(magnitude_, m.vertex(v).cwiseAbs().maxCoeff());
     degenerate_[i] = m.degenerate(i);
     for (int k = 0; k < 3; ++k) {
       edges_[edge_key(c[k], c[(k + 1) % 3])].push_back(static_cast<std::uint32_t>(i));
@@ -217,15 +218,21 @@ bool MeshOracle::one_hit_rule_applies(const std::vector<PointContact>& at) const
     if (it == edges_.end() || group != std::set<std::uint32_t>(it->second.begin(), it->second.end())) return false;
     return manifold_edge(f.a, f.b);
   }
-  // A closed fan: every triangle around the vertex crossed here; around the centre each
-  // neighbour is left once (centre → x) and arrived at once (y → centre).
+  // A closed fan: every triangle around the vertex crossed here.
   const auto& around = around_vertex_[f.a];
-  if (around.size() < 3 || group != std::set<std::uint32_t>(around.begin(), around.end())) return false;
+  if (group != std::set<std::uint32_t>(around.begin(), around.end())) return false;
+  return closed_fan_centre(f.a);
+}
+
+bool MeshOracle::closed_fan_centre(std::uint32_t v) const {
+  // Around the centre each neighbour is left once (centre → x) and arrived at once (y → centre).
+  const auto& around = around_vertex_[v];
+  if (around.size() < 3) return false;
   std::multiset<std::uint32_t> leaving, arriving;
   for (std::uint32_t t : around) {
     const auto c = mesh_->corners(t);
     for (int k = 0; k < 3; ++k)
-      if (c[k] == f.a) leaving.insert(c[(k + 1) % 3]), arriving.insert(c[(k + 2) % 3]);
+      if (c[k] == v) leaving.insert(c[(k + 1) % 3]), arriving.insert(c[(k + 2) % 3]);
   }
   if (leaving != arriving) return false;
   for (std::uint32_t x : leaving)
@@ -293,8 +300,8 @@ std::optional<std::uint64_t> t_error(double reported, double exact_rounded, Prec
 }
 }  // namespace
 
-TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& truth, const TraceAnswer& a,
-                                         Precision p, JudgeRules rules) {
+TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& truth, const TraceAnswer& a, Precision p,
+                                         JudgeRules rules) {
   TraceJudgement j;
   const CrossingPoint* req = truth.first_required();
   j.edge_ray = req && req->one_hit_rule && req == &truth.points.front();

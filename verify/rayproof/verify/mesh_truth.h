@@ -91,7 +91,7 @@ enum class RangeEnd { none, tmin, tmax };
 struct TraceJudgement {
   TraceKind kind = TraceKind::right;
   RangeEnd at_range_end = RangeEnd::none;  // right: the reported contact is exactly at tmin or tmax (closed)
-  bool tie = false;  // right: a precision tie (its rounded t equals the first required crossing's)
+  bool tie = false;       // right: a precision tie (its rounded t equals the first required crossing's)
   bool edge_ray = false;  // the ray meets a point under the one-hit rule
   bool edge_hole = false, edge_double = false;
   std::optional<std::uint64_t> ulp;  // right answers: t's error in the tracer's precision
@@ -127,6 +127,9 @@ class MeshOracle {
   bool one_hit_rule_applies(const std::vector<PointContact>& at) const;
   // An edge shared by exactly two triangles that run along it in opposite directions.
   bool manifold_edge(std::uint32_t a, std::uint32_t b) const;
+  // A vertex whose triangles form one closed, consistently wound fan around it.
+  bool closed_fan_centre(std::uint32_t v) const;
+  const std::vector<std::uint32_t>& triangles_around(std::uint32_t v) const { return around_vertex_[v]; }
   // Where the ray touches the triangle at exactly parameter t0 (closed triangle, exact), or none.
   bool touches_at(const Ray& ray, std::uint32_t triangle, double t0) const;
   // The largest |coordinate| of the mesh.
@@ -138,7 +141,8 @@ class MeshOracle {
     double limit = std::numeric_limits<double>::infinity();
     const double scale = std::max(magnitude_, ray.origin.cwiseAbs().maxCoeff());
     const double reach = scale > 0 ? margin / scale * (1 + 0x1p-20) : kEveryPrimitive;
-    bvh_.traverse(ray, limit, [&](std::int32_t i) { return visit(leaf_order_[i]), false; }, BaselineLanes{}, reach);
+    bvh_.traverse(
+        ray, limit, [&](std::int32_t i) { return visit(leaf_order_[i]), false; }, BaselineLanes{}, reach);
   }
   const Oracle& oracle() const { return oracle_; }
 
