@@ -202,8 +202,10 @@ int run_merge(const MergeOptions& o) {
     }
   }
   merged.findings_written = merged_tracers.findings_written = findings.size();
-  if (out) {
-    for (const auto& [k, text] : findings) out->stream() << text << "\n";
+  if (out) {  // bug-level findings before rounding-level ones (verdicts.md §4), each in campaign order
+    for (const bool rounding : {false, true})
+      for (const auto& [k, text] : findings)
+        if ((text.find("\"level\":\"rounding\"") != std::string::npos) == rounding) out->stream() << text << "\n";
     out->commit();
   }
   if (tracers)

@@ -27,9 +27,15 @@ json TracerCampaignReport::to_json() const {
   json rule = json::object();
   std::set<std::string> names;
   for (const auto& [k, v] : tallies) names.insert(k.name);
-  for (const std::string& n : names) rule[n] = one_hit_rule_line(*this, n);
-  json j = {{"kind", "tracers"},   {"tallies", t}, {"seconds", s}, {"rays", r}, {"findings_written", findings_written},
-            {"one_hit_rule", rule}};
+  json diagnosis = json::object();
+  for (const std::string& n : names) rule[n] = one_hit_rule_line(*this, n), diagnosis[n] = tracer_diagnosis(*this, n);
+  json j = {{"kind", "tracers"},
+            {"tallies", t},
+            {"seconds", s},
+            {"rays", r},
+            {"findings_written", findings_written},
+            {"one_hit_rule", rule},
+            {"diagnosis", diagnosis}};
   shard_of.write_to(j);
   return j;
 }
@@ -109,6 +115,70 @@ std::vector<std::string> range_end_lines(const TracerCampaignReport& r, const st
   return lines;
 }
 
+std::vector<std::string> tracer_diagnosis(const TracerCampaignReport& r, const std::string& tracer) {
+  std::vector<std::string> lines;
+  auto num = [](double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", x);
+    return std::string(buf);
+  };
+  std::uint64_t edge_holes = 0, edge_zero = 0, edge_rays = 0, doubles = 0;
+  for (const auto& [k, t] : r.tallies) {
+    if (k.name != tracer) continue;
+    edge_holes += t.level("edge_hole_bugs"), edge_zero += t.level("zero_direction_edge_hole_bugs");
+    edge_rays += t.edge_rays, doubles += t.edge_double_hits;
+    if (k.family.ends_with("-any")) continue;
+    // Per family (nearest mode): bug-level holes set apart from the right answers by one number.
+    const std::uint64_t holes = t.level("hole_bugs");
+    if (holes == 0) continue;
+    auto at = [&](const char* key, double fallback) {
+      const auto it = t.extremes.find(key);
+      return it == t.extremes.end() ? fallback : it->second;
+    };
+    const double hole_t = at("hole_t_max", -1), right_t = at("right_t_min", INFINITY);
+    const std::string n = k.family + ": " + std::to_string(holes) + " bug-level holes";
+    // A threshold 2^k below which most rays are bug-level holes and above which almost none are.
+    std::uint64_t holes_below = 0, rays_below = 0, right_total = 0;
+    bool by_det = false;
+    for (int b = -60; b <= 60; ++b) right_total += t.level("det_right:" + std::to_string(b));
+    for (int b = -60; b <= 60; ++b) {
+      const std::uint64_t h = t.level("det_hole:" + std::to_string(b)), g = t.level("det_right:" + std::to_string(b));
+      holes_below += h, rays_below += h + g;
+      const std::uint64_t holes_above = holes - std::min(holes, holes_below);
+      const std::uint64_t rays_above = holes + right_total - std::min(holes + right_total, rays_below);
+      if (holes_below > 0 && holes_below * 10 >= holes * 9 && holes_below * 2 >= rays_below &&
+          holes_above * 100 <= rays_above) {
+        lines.push_back(n + ": " + std::to_string(holes_below) + " where |det| < 2^" + std::to_string(b + 1) + " (of " +
+                        std::to_string(rays_below) + " rays there), " + std::to_string(holes_above) + " above (of " +
+                        std::to_string(rays_above) +
+                        "): an absolute determinant epsilon (not scale invariant: bound |det| relative to "
+                        "|e1 x e2| |d|, or use a watertight test)");
+        by_det = true;
+        break;
+      }
+    }
+    if (!by_det && t.level("zero_direction_hole_bugs") == holes)
+      lines.push_back(n +
+                      ", every one on a ray with a direction component of +-0: 1/0 or 0*inf in the slab test "
+                      "(1/+-0 = +-inf is right; 0*inf = NaN where the origin lies on a box plane, and a 1e30 in "
+                      "place of inf skips boxes)");
+    if (hole_t >= 0 && hole_t < right_t && std::isfinite(right_t))
+      lines.push_back(n + ", every one at t <= " + num(hole_t) + ", every crossing at t >= " + num(right_t) +
+                      " answered: an unscaled tmin or epsilon on t (scale it with the hit point, or offset the "
+                      "origin)");
+  }
+  if (edge_holes > edge_zero)
+    lines.push_back(std::to_string(edge_holes - edge_zero) + " bug-level holes at shared edges and fan centres in " +
+                    std::to_string(edge_rays) +
+                    " edge rays on rays without a +-0 direction component: the triangle test is not watertight "
+                    "there (or its tie rule gives a point to no triangle)");
+  if (doubles > 0)
+    lines.push_back(std::to_string(doubles) +
+                    " double hits at shared edges and fan centres in any-hit mode: a closed (inclusive) triangle "
+                    "test; a tie rule (top-left) reports each once, as DXR and Vulkan promise");
+  return lines;
+}
+
 void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std::ostream& out) {
   if (format == TableFormat::json) {
     out << json_text(r.to_json(), 2) << "\n";
@@ -184,6 +254,7 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
   for (const auto& [name, rows] : by_tracer) {
     out << name << ": " << one_hit_rule_line(r, name) << "\n";
     for (const std::string& l : range_end_lines(r, name)) out << name << ": " << l << "\n";
+    for (const std::string& l : tracer_diagnosis(r, name)) out << name << ": diagnosis: " << l << "\n";
   }
 }
 
@@ -221,7 +292,7 @@ void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const Tracer
   a.all = all;
   a.triangle = o.answer.triangle;
   a.triangles = o.all.triangles;
-  o.backward = backward_error(oracle, ray, truth, o.judgement, a, p, o.range);
+  o.backward = backward_error(oracle, ray, truth, o.judgement, a, p, o.range, settings.tolerance_ulps);
   o.level = level_of(o.backward, settings.tolerance_ulps);
 }
 
@@ -235,9 +306,11 @@ void add_verdict_fields(json& found, const TracerOutcome& o) {
   found["beta"] = beta_json(o.backward);
   if (o.backward.witness) found["witness"] = o.backward.witness->to_json();
   if (o.backward.refused) found["witness_check"] = "refused";
+  if (o.backward.estimated) found["witness_check"] = "not needed: beyond the tolerance";
 }
 
-TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const VerdictSettings& settings) {
+TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const VerdictSettings& settings,
+                                   bool with_backward_error) {
   TracerOutcome out;
   out.range = settings.range_of(t);
   BuiltScene built = t.build(*seen.mesh);
@@ -264,7 +337,7 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const 
     const MeshTruth truth = oracle.truth(seen.ray, true);
     out.judgement = oracle.judge_all_hits(seen.ray, truth, out.all, settings.rules_for(t));
     out.kind = out.judgement.kind;
-    add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
+    if (with_backward_error) add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
   } else {
     std::vector<TraceAnswer> a(1);
     built.scene->nearest(std::span(&seen.ray, 1), a);
@@ -277,7 +350,7 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const 
     const MeshTruth truth = oracle.truth(seen.ray, false);
     out.judgement = oracle.judge_nearest(seen.ray, truth, out.answer, t.precision, settings.rules_for(t));
     out.kind = out.judgement.kind;
-    add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
+    if (with_backward_error) add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
   }
   out.kind = out.judgement.kind;
   out.reason = out.judgement.detail;
@@ -313,39 +386,53 @@ std::shared_ptr<TriangleMesh> subset(const TriangleMesh& m, const std::vector<st
 }  // namespace
 
 MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget,
-                          const VerdictSettings& settings, std::optional<Level> level) {
+                          const VerdictSettings& settings, std::optional<Level> level, bool levels_each_probe,
+                          const TracerOutcome* found) {
   if (kind == TraceKind::crash || kind == TraceKind::timeout) return seen;  // the tracer has stopped
+  const int budget_for_levels = levels_each_probe ? 0 : budget / 5;
   MeshCase best = seen;
   std::vector<std::uint32_t> all(seen.mesh->triangle_count());
   for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  // Probes compare the kind alone (β costs rational checks); the level is checked at the end,
+  // and where shrinking changed it, shrinking starts again comparing both with a smaller budget.
+  bool check_level = level && levels_each_probe;
   auto shows = [&](const std::vector<std::uint32_t>& keep) {
     if (keep.empty() || budget-- <= 0) return false;
     MeshCase c = best;
     c.mesh = subset(*best.mesh, keep);
-    const TracerOutcome o = judge_tracer_on_case(t, c, settings);
-    if (o.kind != kind || (level && o.level != *level)) return false;
+    const TracerOutcome o = judge_tracer_on_case(t, c, settings, check_level);
+    if (o.kind != kind || (check_level && o.level != *level)) return false;
     best = std::move(c);
     return true;
   };
   // First the triangles the ray touches and those the tracer reported (with their neighbours:
   // the one-hit rule needs the whole edge or fan).
   {
-    MeshOracle oracle(best.mesh);
-    const MeshTruth truth = oracle.truth(best.ray, true);
-    const std::vector<std::uint32_t> touched = truth.touched();
+    // The case's expect and the outcome as found, where given, spare a judgement of the whole mesh.
+    std::vector<std::uint32_t> touched;
+    if (best.expect.is_object() && best.expect.contains("touched"))
+      touched = best.expect.at("touched").get<std::vector<std::uint32_t>>();
+    else
+      touched = MeshOracle(best.mesh).truth(best.ray, true).touched();
     std::set<std::uint32_t> core(touched.begin(), touched.end());
-    const TracerOutcome o = judge_tracer_on_case(t, best, settings);
+    const TracerOutcome o = found ? *found : judge_tracer_on_case(t, best, settings, false);
     if (o.answer.hit() && o.answer.triangle < best.mesh->triangle_count()) core.insert(o.answer.triangle);
     for (std::uint32_t x : o.all.triangles)
       if (x < best.mesh->triangle_count()) core.insert(x);
-    std::set<std::uint32_t> vertices;
-    for (std::uint32_t x : core)
-      for (std::uint32_t v : best.mesh->corners(x)) vertices.insert(v);
+    // One ring of neighbours; where the level is compared at every probe (a bug-level hole needs
+    // the surface closed around it), two.
     std::vector<std::uint32_t> keep;
-    for (std::uint32_t x : all) {
-      const auto c = best.mesh->corners(x);
-      if (core.contains(x) || vertices.contains(c[0]) || vertices.contains(c[1]) || vertices.contains(c[2]))
-        keep.push_back(x);
+    for (int ring = 0; ring < (check_level ? 2 : 1); ++ring) {
+      std::set<std::uint32_t> vertices;
+      for (std::uint32_t x : core)
+        for (std::uint32_t v : best.mesh->corners(x)) vertices.insert(v);
+      keep.clear();
+      for (std::uint32_t x : all) {
+        const auto c = best.mesh->corners(x);
+        if (core.contains(x) || vertices.contains(c[0]) || vertices.contains(c[1]) || vertices.contains(c[2]))
+          keep.push_back(x);
+      }
+      core.insert(keep.begin(), keep.end());
     }
     if (keep.size() < all.size()) shows(keep);
   }
@@ -358,6 +445,14 @@ MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind,
         if (i < start || i >= start + chunk) keep.push_back(i);
       if (!shows(keep)) start += chunk;
     }
+  }
+  if (level && best.mesh != seen.mesh && judge_tracer_on_case(t, best, settings).level != *level) {
+    // Shrinking changed the level (a bug-level hole whose closed surface was cut open): again,
+    // comparing both; where nothing smaller keeps the level, the case shrunk by kind is written
+    // (finding_line keeps the level found on the whole mesh, and says so).
+    MeshCase again =
+        budget_for_levels > 0 ? shrink_mesh_case(t, seen, kind, budget_for_levels, settings, level, true, found) : seen;
+    return again.mesh != seen.mesh ? again : best;
   }
   return best;
 }
@@ -437,6 +532,7 @@ struct PendingFinding {
   std::string detail;
   int log2_translate = 0;
   std::uint64_t mesh_triangles = 0;
+  json expect;  // the oracle's expect on the mesh as found (a finding written unshrunk uses it)
 };
 
 struct MeshResult {
@@ -448,6 +544,38 @@ struct MeshResult {
 struct TracerState {
   std::atomic<bool> stopped{false};
 };
+
+// |n·d| of a triangle for the ray (n = (v₁ − v₀) × (v₂ − v₀)): the determinant Möller–Trumbore
+// compares with its epsilon, in double (evidence for a diagnosis, not a decision).
+double determinant(const TriangleMesh& mesh, std::uint32_t t, const Ray& ray) {
+  const Triangle tri = mesh.triangle(t);
+  return std::abs(cross(tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]).dot(ray.direction));
+}
+
+bool has_zero_component(const Vec3& d) { return d.x() == 0 || d.y() == 0 || d.z() == 0; }
+
+// The diagnosis evidence of a nearest-mode outcome (TracerTally::extremes).
+void note_evidence(TracerTally& tally, const TracerOutcome& o, const TriangleMesh& mesh, const TracerRay& ray,
+                   const MeshTruth& truth) {
+  const CrossingPoint* p = truth.first_required();
+  if (!p) return;
+  const double det = determinant(mesh, p->triangles.front(), ray.ray);
+  // |det| by powers of two (2^-60 and below in one bucket), for holes and for right answers.
+  const int k = det > 0x1p-60 ? std::min(60, std::ilogb(det)) : -60;
+  if (o.kind == TraceKind::hole && o.level == Level::bug) ++tally.levels["det_hole:" + std::to_string(k)];
+  if (o.kind == TraceKind::right) ++tally.levels["det_right:" + std::to_string(k)];
+  if (o.kind == TraceKind::hole && o.level == Level::bug) {
+    tally.note_max("hole_det_max", det), tally.note_max("hole_t_max", p->t);
+    if (has_zero_component(ray.ray.direction)) ++tally.levels["zero_direction_hole_bugs"];
+  } else if (o.kind == TraceKind::right) {
+    tally.note_min("right_det_min", det), tally.note_min("right_t_min", p->t);
+  }
+}
+
+void count_zero_direction_edge_hole(TracerTally& tally, const TracerOutcome& o, const TracerRay& ray) {
+  if (o.judgement.edge_hole && o.level == Level::bug && has_zero_component(ray.ray.direction))
+    ++tally.levels["zero_direction_edge_hole_bugs"];
+}
 
 // One judged ray counted: its kind, and verdicts.md's levels, β and notes.
 void count_outcome(TracerTally& tally, const TracerOutcome& o) {
@@ -518,6 +646,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       f.index = m * kRaysPerMesh + i, f.tracer = ti, f.all = all, f.kind = k, f.outcome = outcome;
       f.seen = {"", s.mesh, *s.rays[i], all, nullptr, nullptr};
       f.detail = work.details[i], f.log2_translate = work.log2_translate, f.mesh_triangles = s.mesh->triangle_count();
+      if (s.oracle) f.expect = expect_json(*s.oracle, *s.rays[i]);  // here, where the mesh's oracle is built
       result.findings.push_back(std::move(f));
     };
     BuiltScene built = t.build(*s.mesh);
@@ -561,6 +690,8 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       out.kind = out.judgement.kind, out.reason = out.judgement.detail, out.range = range;
       add_backward_error(out, *s.oracle, rays[k], *s.nearest[i], t.precision, o.verdicts, false);
       count_outcome(near, out);
+      note_evidence(near, out, *s.mesh, rays[k], *s.nearest[i]);
+      count_zero_direction_edge_hole(near, out, rays[k]);
       near.edge_rays += out.judgement.edge_ray, near.edge_holes += out.judgement.edge_hole;
       if (out.judgement.ulp) near.ulps.add(*out.judgement.ulp);
       if (is_disagreement(out.kind)) finding(i, false, out.kind, out);
@@ -598,6 +729,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       out.kind = out.judgement.kind, out.reason = out.judgement.detail, out.range = range;
       add_backward_error(out, *s.oracle, rays[k], *s.complete[i], t.precision, o.verdicts, true);
       count_outcome(any, out);
+      count_zero_direction_edge_hole(any, out, rays[k]);
       any.edge_rays += out.judgement.edge_ray, any.edge_holes += out.judgement.edge_hole;
       any.edge_double_hits += out.judgement.edge_double;
       if (is_disagreement(out.kind)) finding(i, true, out.kind, out);
@@ -607,16 +739,24 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
 
 std::string family_key(TracerFamily f, bool all) { return std::string(to_string(f)) + (all ? "-any" : ""); }
 
-std::string finding_line(TracerFamily family, const PendingFinding& f, const TracerCampaignOptions& o) {
+std::string finding_line(TracerFamily family, const PendingFinding& f, const TracerCampaignOptions& o, bool shrink) {
   const Tracer& t = *o.tracers[f.tracer];
   MeshCase c = f.seen;
   // One finding per ray, mode and tracer: the tracer's name keeps the ids unique.
   c.id = family_key(family, f.all) + "/" + std::to_string(o.seed) + "/" + std::to_string(f.index) + "/" + t.name;
-  if (o.shrink) c = shrink_mesh_case(t, c, f.kind, 300, o.verdicts, f.outcome.level);
+  // Rounding-level findings are written as found, with their witness (run_tracer_campaign).
+  // Past the shrinking quota a finding keeps only the triangles its ray touches or was reported
+  // and their neighbours (one probe): a 65,536-triangle mesh is no finding to open.
+  c.expect = f.expect;
+  if (o.shrink) c = shrink_mesh_case(t, c, f.kind, shrink ? 300 : 1, o.verdicts, f.outcome.level, false, &f.outcome);
   const bool shrunk = c.mesh != f.seen.mesh;
   const TracerOutcome now = shrunk ? judge_tracer_on_case(t, c, o.verdicts) : f.outcome;
-  MeshOracle oracle(c.mesh);
-  c.expect = expect_json(oracle, c.ray);
+  if (shrunk || f.expect.is_null()) {
+    MeshOracle oracle(c.mesh);
+    c.expect = expect_json(oracle, c.ray);
+  } else {
+    c.expect = f.expect;
+  }
   c.found = {{"tracer", t.name},
              {"kind", std::string(to_string(f.kind))},
              {"family", std::string(to_string(family))},
@@ -628,7 +768,13 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
              {"seed", o.seed},
              {"index", f.index},
              {"triangles_found_in", f.mesh_triangles}};
-  add_verdict_fields(c.found, now.kind == f.kind ? now : f.outcome);
+  // The verdict as found on the whole mesh, unless the shrunk case keeps its level (then with the
+  // shrunk case's own witness); a bug-level verdict carries no witness, so no vertex index of the
+  // whole mesh is written.
+  const bool same_verdict = now.kind == f.kind && now.level == f.outcome.level;
+  add_verdict_fields(c.found, same_verdict || f.outcome.level == Level::rounding ? now : f.outcome);
+  if (!same_verdict && now.kind == f.kind && f.outcome.level == Level::bug)
+    c.found["level_of_shrunk_case"] = std::string(to_string(now.level));
   if (!now.reason.empty()) c.found["reason"] = now.reason;
   if (!f.outcome.reason.empty() && now.reason.empty()) c.found["reason"] = f.outcome.reason;
   return json_text(mesh_case_to_json(c)) + "\n";
@@ -682,6 +828,7 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
         }
       });
       std::vector<const PendingFinding*> chosen;
+      std::vector<bool> shrink;  // per chosen finding
       std::uint64_t rays = 0;
       for (MeshResult& r : results) {
         for (const auto& [key, tally] : r.tallies) {
@@ -692,7 +839,16 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
           std::uint64_t& written =
               cp.findings_in[family_key(family, f.all) + "\t" + o.tracers[f.tracer]->name + "\t" +
                              std::string(to_string(f.kind)) + "\t" + std::string(to_string(f.outcome.level))];
-          if (written < o.max_findings) ++written, chosen.push_back(&f);
+          if (written >= o.max_findings) continue;
+          ++written, chosen.push_back(&f);
+          // Shrinking (a rebuild and a judgement a probe) is spent on the first max_findings
+          // bug-level findings of each family, tracer and mode, as before levels; the rest are
+          // written as found.
+          std::uint64_t& shrunk =
+              cp.findings_in["shrunk\t" + family_key(family, f.all) + "\t" + o.tracers[f.tracer]->name];
+          const bool bug = f.outcome.level == Level::bug;
+          shrink.push_back(bug && shrunk < o.max_findings);
+          shrunk += bug;
         }
       }
       for (std::uint64_t m = start; m < end; ++m)
@@ -701,7 +857,7 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
       std::atomic<std::size_t> next_finding{0};
       run_workers(threads, [&](int) {
         for (std::size_t k; (k = next_finding.fetch_add(1)) < chosen.size();)
-          lines[k] = finding_line(family, *chosen[k], o);
+          lines[k] = finding_line(family, *chosen[k], o, shrink[k]);
       });
       for (const std::string& line : lines) out << line, cp.findings_hash.add(line);
       out.flush();
@@ -731,6 +887,8 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
                          {"tracers", tracers},
                          {"count", o.count},
                          {"seed", o.seed},
+                         {"tolerance_ulps", o.verdicts.tolerance_ulps},
+                         {"ranges", ranges_of(o)},
                          {"version", RAYPROOF_VERSION}},
                         o.shard,
                         o.shards};

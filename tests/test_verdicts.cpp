@@ -6,9 +6,11 @@
 
 #include <fstream>
 #include <random>
+#include <set>
 
 #include "cli_run.h"
 #include "rayproof/fuzz/tracer_campaign.h"
+#include "rayproof/fuzz/tracer_families.h"
 #include "rayproof/verify/backward_error.h"
 #include "rayproof/verify/mesh_truth.h"
 #include "test_dir.h"
@@ -284,6 +286,112 @@ TEST(Verdicts, RoundedTAtTminIsDecidedExactly) {
   // And at tmax likewise.
   const TracerRay ending{{Vec3(0, 0, 0), Vec3(0, 0, 3)}, 0, third};
   EXPECT_TRUE(oracle.truth(ending, false).contacts.empty());
+}
+
+// Two distinct crossings whose exact t round to the same double: a shared edge at t = 1/3 and
+// a third triangle just beyond it. Grouped by exact t, the edge is still a one-hit point, and
+// reporting both of its triangles is still a double hit.
+TEST(JudgeLacks, CrossingsGroupedByExactTNotRoundedT) {
+  // Triangles 0 and 1 share the edge x = 0 of the plane z = 1 (consistently wound); the ray from
+  // the origin along (0, 0, 3) at (0, −7) crosses it at t = 1/3. Triangle 2 is tilted to
+  // z = 1 + 2^-52·(y + 8)/16: met at z = 1 + 2^-56, t = 1/3 + 2^-56/3 — a different point whose t
+  // rounds to the same double as 1/3.
+  MeshOracle oracle(mesh_of({0, -8, 1, 0, 8, 1, -4, 0, 1, 4, 0, 1, -8, -8, 1, 8, -8, 1, 0, 8, 1 + 0x1p-52},
+                            {0, 1, 2, 1, 0, 3, 4, 5, 6}));
+  const TracerRay r{{Vec3(0, -7, 0), Vec3(0, 0, 3)}, 0, INFINITY};
+  const MeshTruth truth = oracle.truth(r, true);
+  ASSERT_EQ(truth.points.size(), 2u);
+  EXPECT_TRUE(truth.points[0].one_hit_rule);
+  EXPECT_EQ(truth.points[0].triangles.size(), 2u);
+  EXPECT_EQ(truth.points[0].t, truth.points[1].t);  // one rounded t, two exact ones
+  AllHitsAnswer all;
+  all.triangles = {0, 1, 2};
+  EXPECT_EQ(oracle.judge_all_hits(r, truth, all).kind, TraceKind::double_hit);
+  all.triangles = {0, 2};
+  EXPECT_EQ(oracle.judge_all_hits(r, truth, all).kind, TraceKind::right);
+}
+
+// An any-hit index equal to the triangle count, and a nearest t beyond a finite tmax, are tracer
+// errors (not a false hit, not right).
+TEST(JudgeLacks, IndexAtTheCountAndTBeyondTmaxAreTracerErrors) {
+  MeshOracle oracle(square());
+  const TracerRay r{{Vec3(0.25, 0.5, 1), Vec3(0, 0, -1)}, 0, 4};
+  AllHitsAnswer all;
+  all.triangles = {1, 2};
+  EXPECT_EQ(oracle.judge_all_hits(r, oracle.truth(r, true), all).kind, TraceKind::tracer_error);
+  const MeshTruth truth = oracle.truth(r, false);
+  EXPECT_EQ(oracle.judge_nearest(r, truth, TraceAnswer{1, 4.5}, Precision::f64).kind, TraceKind::tracer_error);
+  EXPECT_EQ(oracle.judge_nearest(r, truth, TraceAnswer{1, 1}, Precision::f64).kind, TraceKind::right);
+  EXPECT_EQ(oracle.judge_nearest(r, truth, TraceAnswer{2, 1}, Precision::f64).kind, TraceKind::tracer_error);
+}
+
+// Every exactly aimed ray meets what its detail names: "edge 1/4" the point a quarter (or three
+// quarters, from the neighbour's side) along an edge, "edge 1/2" its middle, "vertex" a vertex.
+TEST(JudgeLacks, FamilyRaysMeetWhatTheirDetailNames) {
+  using Q = mpq_class;
+  int checked = 0;
+  for (fuzz::TracerFamily f : {fuzz::TracerFamily::shared_edges, fuzz::TracerFamily::needles}) {
+    for (std::uint64_t m = 0; m < 12; ++m) {
+      const fuzz::MeshWork w = fuzz::generate_mesh_work(f, 1, m, fuzz::kRaysPerMesh);
+      MeshOracle oracle(w.mesh);
+      for (std::size_t i = 0; i < w.rays.size(); ++i) {
+        const std::string& detail = w.details[i];
+        if (detail.find("full precision") != std::string::npos) continue;
+        const bool edge = detail.find("edge ") != std::string::npos, vertex = detail.find("vertex") != std::string::npos;
+        if (!edge && !vertex) continue;
+        const Ray& ray = w.rays[i].ray;
+        std::set<Q> fractions;  // where along each zero edge the ray crosses
+        int vertices = 0;
+        for (const MeshContact& c : oracle.truth(w.rays[i], true).contacts) {
+          if (!c.crossing || !c.boundary) continue;
+          const Triangle tri = w.mesh->triangle(c.triangle);
+          const TriangleSides s = triangle_sides(ray, tri);
+          const int zeros = (s.edge[0] == 0) + (s.edge[1] == 0) + (s.edge[2] == 0);
+          vertices += zeros == 2;
+          if (zeros != 1) continue;
+          const int k = s.edge[0] == 0 ? 0 : s.edge[1] == 0 ? 1 : 2;
+          // The crossing point p = o + t·d, t = n·(v0 − o) / n·d, exactly; its fraction along v_k → v_k+1.
+          auto q = [](const Vec3& v) { return std::array<Q, 3>{Q(v.x()), Q(v.y()), Q(v.z())}; };
+          const auto o = q(ray.origin), d = q(ray.direction), a = q(tri.v[0]), b = q(tri.v[1]), cc = q(tri.v[2]);
+          std::array<Q, 3> e1, e2, n, ao, p, from, along;
+          for (int j = 0; j < 3; ++j) e1[j] = b[j] - a[j], e2[j] = cc[j] - a[j], ao[j] = a[j] - o[j];
+          for (int j = 0; j < 3; ++j)
+            n[j] = e1[(j + 1) % 3] * e2[(j + 2) % 3] - e1[(j + 2) % 3] * e2[(j + 1) % 3];
+          const Q t = (n[0] * ao[0] + n[1] * ao[1] + n[2] * ao[2]) / (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]);
+          const auto vk = q(tri.v[k]), vn = q(tri.v[(k + 1) % 3]);
+          Q dot = 0, len = 0;
+          for (int j = 0; j < 3; ++j) {
+            p[j] = o[j] + t * d[j], from[j] = p[j] - vk[j], along[j] = vn[j] - vk[j];
+            dot += from[j] * along[j], len += along[j] * along[j];
+          }
+          fractions.insert(dot / len);
+        }
+        if (vertex) {
+          EXPECT_GT(vertices, 0) << to_string(f) << " " << detail;
+        } else {
+          const Q want = detail.find("1/2") != std::string::npos ? Q(1, 2) : Q(1, 4);
+          EXPECT_TRUE(fractions.contains(want) || fractions.contains(1 - want)) << to_string(f) << " " << detail;
+        }
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 200);
+}
+
+// A resumed campaign with other --tracers (or another tolerance) is refused: its checkpoint
+// describes another campaign.
+TEST(JudgeLacks, ResumeWithOtherTracersIsRefused) {
+  const std::string dir = test_dir();
+  const std::string common = "fuzz --families shared-edges --count 640 --threads 1 --no-shrink -o " + dir + "/f.jsonl ";
+  EXPECT_NE(run_cli(common + "--tracers bvh-watertight --crash-after-batches 0").status, 0);
+  const auto other = run_cli(common + "--tracers bvh-moller-trumbore --resume");
+  EXPECT_NE(other.status, 0);
+  EXPECT_NE(other.err.find("checkpoint"), std::string::npos) << other.err;
+  const auto tolerance = run_cli(common + "--tracers bvh-watertight --tolerance-ulps 4 --resume");
+  EXPECT_NE(tolerance.status, 0);
+  const auto same = run_cli(common + "--tracers bvh-watertight --resume");
+  EXPECT_EQ(same.status, 0) << same.err;
 }
 
 // Through the CLI: a closed tracer's range-end hits are notes, not false hits; --tracer-range

@@ -103,7 +103,7 @@ json beta_json(const BackwardError& b) {
 
 std::string beta_bucket(const BackwardError& b) {
   if (!b.beta) return "none";
-  if (!b.witness) return "unproved";  // estimated, but the exact judge refused every witness
+  if (!b.witness && !b.estimated) return "unproved";  // the exact judge refused every witness tried
   if (*b.beta <= 0x1p-20) return "2^-20";
   int k = -20;
   while (k < 60 && std::ldexp(1.0, k) < *b.beta) ++k;
@@ -168,6 +168,46 @@ LineContact line_contact(const ExactVec& o, const ExactVec& d, const std::array<
   c.t = num / den;
   c.front = sd < 0;
   return c;
+}
+
+// A filter in front of line_contact: interval arithmetic in double, each operation's result
+// widened outward by one ulp (round to nearest errs by at most half an ulp, so the exact value
+// stays inside), each rational input enclosed by the doubles on either side of its truncation.
+// It answers only "certainly a miss": an edge function whose whole interval has the sign
+// opposite to n·d's whole interval (line_contact's own miss condition, proved).
+struct Interval {
+  double lo, hi;
+  static Interval of(const Q& x) {
+    const double d = x.get_d();  // truncated toward zero: x lies within one ulp of it
+    return {std::nextafter(d, -INFINITY), std::nextafter(d, INFINITY)};
+  }
+  friend Interval operator-(Interval a, Interval b) {
+    return {std::nextafter(a.lo - b.hi, -INFINITY), std::nextafter(a.hi - b.lo, INFINITY)};
+  }
+  friend Interval operator+(Interval a, Interval b) {
+    return {std::nextafter(a.lo + b.lo, -INFINITY), std::nextafter(a.hi + b.hi, INFINITY)};
+  }
+  friend Interval operator*(Interval a, Interval b) {
+    const double p[] = {a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi};
+    return {std::nextafter(std::min({p[0], p[1], p[2], p[3]}), -INFINITY),
+            std::nextafter(std::max({p[0], p[1], p[2], p[3]}), INFINITY)};
+  }
+  int sign() const { return lo > 0 ? 1 : hi < 0 ? -1 : 0; }  // 0: not certain (or NaN)
+};
+using IVec = std::array<Interval, 3>;
+IVec interval_vec(const ExactVec& v) { return {Interval::of(v[0]), Interval::of(v[1]), Interval::of(v[2])}; }
+IVec isub(const IVec& a, const IVec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+IVec icross(const IVec& a, const IVec& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+Interval idot(const IVec& a, const IVec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+bool certainly_misses(const IVec& o, const IVec& d, const std::array<IVec, 3>& v) {
+  const int sd = idot(icross(isub(v[1], v[0]), isub(v[2], v[0])), d).sign();
+  if (sd == 0) return false;
+  const IVec rel[3] = {isub(v[0], o), isub(v[1], o), isub(v[2], o)};
+  for (int k = 0; k < 3; ++k)
+    if (idot(d, icross(rel[k], rel[(k + 1) % 3])).sign() == -sd) return true;
+  return false;
 }
 
 // A point p lying in the triangle's plane: inside the closed triangle?
@@ -235,8 +275,7 @@ ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witne
   // t ≤ T = (M + dv + |o'_k|) / |d'_k|, and the double ray r0 at that t lies within
   // dev_o + T·dev_d of p. Margin: twice dv + dev_o + T·dev_d (each computed upward to within a few
   // roundings, which the factor 2 covers).
-  Ray r0{Vec3(w.origin[0].get_d(), w.origin[1].get_d(), w.origin[2].get_d()),
-         Vec3(w.direction[0].get_d(), w.direction[1].get_d(), w.direction[2].get_d())};
+  const Ray& r0 = r.ray;  // the ray as judged: the witness lies within its move of it
   double dev_o = 0, dev_d = 0, dv = 0;
   for (int k = 0; k < 3; ++k) {
     dev_o = std::max(dev_o, round_up(abs(w.origin[k] - exact_of(r0.origin[k]))));
@@ -258,10 +297,20 @@ ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witne
     for (std::uint32_t t = 0; t < mesh.triangle_count(); ++t) candidates.insert(t);
 
   ExactTruth truth;
+  const IVec io = interval_vec(w.origin), id = interval_vec(w.direction);
   const Q tmin = exact_of(r.tmin), tmax = std::isinf(r.tmax) ? Q(0) : exact_of(r.tmax);
   for (std::uint32_t t : candidates) {
     if (t >= mesh.triangle_count()) continue;
-    const LineContact c = line_contact(w.origin, w.direction, in.triangle(t));
+    const auto c0 = mesh.corners(t);
+    if (oracle.degenerate(t) && !w.vertices.contains(c0[0]) && !w.vertices.contains(c0[1]) &&
+        !w.vertices.contains(c0[2])) {  // collinear as given and not moved: optional, t unknown
+      truth.unknown.insert(t);
+      continue;
+    }
+    const auto corners = in.triangle(t);
+    if (certainly_misses(io, id, {interval_vec(corners[0]), interval_vec(corners[1]), interval_vec(corners[2])}))
+      continue;
+    const LineContact c = line_contact(w.origin, w.direction, corners);
     if (c.kind == LineContact::in_plane || c.kind == LineContact::degenerate) {
       truth.unknown.insert(t);
       continue;
@@ -505,7 +554,8 @@ std::optional<bool> witness_holds(const MeshOracle& oracle, const TracerRay& r, 
 }
 
 BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const MeshTruth& truth,
-                             const TraceJudgement& j, const MeshAnswer& a, Precision p, RangeRule range) {
+                             const TraceJudgement& j, const MeshAnswer& a, Precision p, RangeRule range,
+                             double check_up_to) {
   BackwardError out;
   const TriangleMesh& mesh = oracle.mesh();
   // A double hit on a manifold edge or a closed fan's centre: every ray near it crosses the same
@@ -575,15 +625,9 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     if (!(tp > 0)) return;
     Witness w = unmoved(r, scale);
     move_ray_through(w, r, q, tp);
-    // A reported triangle that the moved ray meets beyond the first required crossing (or out
-    // of range) is moved along d into place as well.
-    if (place_subject && !move_into_place(oracle, r, w, to_place, range, u, !a.all)) return;
     candidates.push_back(std::move(w));
   };
-  if (place_subject) {  // the subject moved along d alone
-    Witness w = unmoved(r, scale);
-    if (move_into_place(oracle, r, w, to_place, range, u, !a.all)) candidates.push_back(std::move(w));
-  }
+  if (place_subject) candidates.push_back(unmoved(r, scale));  // the subject moved along d alone (below)
   // The ray onto the nearest point of each edge, and onto each vertex: where a crossing stops
   // being required (an open edge, a vertex that is no closed fan's centre: either answer is right
   // there), joins a reported neighbour's (a shared edge or fan centre: the one-hit rule), or
@@ -610,10 +654,24 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // surface there, none — unless a try slips past a silhouette (a fold grazed) after all.
   const bool closed_around = only_open && !any_open;
   if (candidates.empty()) return closed_around ? out : (out.refused = true, out);
+  auto by_ulps = [](const Witness& x, const Witness& y) { return x.ulps < y.ulps; };
   for (Witness& w : candidates) w.ulps = witness_ulps(oracle, r, w, u);
-  std::sort(candidates.begin(), candidates.end(), [](const Witness& x, const Witness& y) { return x.ulps < y.ulps; });
+  std::sort(candidates.begin(), candidates.end(), by_ulps);
+  // The few smallest tries go on (each check is a rational truth over the triangles near the
+  // ray); a reported triangle that the moved ray meets beyond the first required crossing, or out
+  // of range, is then moved along d into place as well, which only adds to the try's ε.
+  constexpr std::size_t kTries = 4;
+  if (candidates.size() > kTries) candidates.resize(kTries);
+  if (place_subject) {
+    std::erase_if(candidates, [&](Witness& w) { return !move_into_place(oracle, r, w, to_place, range, u, !a.all); });
+    if (candidates.empty()) return out.refused = true, out;
+    for (Witness& w : candidates) w.ulps = witness_ulps(oracle, r, w, u);
+    std::sort(candidates.begin(), candidates.end(), by_ulps);
+  }
   out.beta = candidates.front().ulps;
+  if (out.beta > check_up_to) return out.estimated = true, out;  // a bug, whichever try would pass
   for (Witness& w : candidates) {
+    if (w.ulps > check_up_to) break;
     if (witness_holds(oracle, r, w, range, a, p) == true) {
       out.beta = w.ulps;
       out.witness = std::move(w);

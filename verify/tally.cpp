@@ -205,8 +205,16 @@ constexpr const char* kTracerKinds[] = {
 std::string kind_key(std::string_view kind) { return kind == "tracer_error" ? "tracer_errors" : std::string(kind); }
 // The kinds whose disagreements verdicts.md splits into bugs and rounding-level ones, and the notes.
 constexpr const char* kLevelledKinds[] = {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit"};
-constexpr const char* kNotes[] = {"ties", "at_range_end", "at_tmin", "at_tmax", "edge_hole_bugs", "witness_refused"};
+constexpr const char* kNotes[] = {"ties",
+                                  "at_range_end",
+                                  "at_tmin",
+                                  "at_tmax",
+                                  "edge_hole_bugs",
+                                  "witness_refused",
+                                  "zero_direction_hole_bugs",
+                                  "zero_direction_edge_hole_bugs"};
 bool is_level_key(const std::string& k) {
+  if (k.rfind("det_hole:", 0) == 0 || k.rfind("det_right:", 0) == 0) return true;  // |det| histograms
   for (const char* n : kNotes)
     if (k == n) return true;
   for (const char* kind : kLevelledKinds)
@@ -238,7 +246,17 @@ std::uint64_t TracerTally::level(std::string_view key) const {
   return it == levels.end() ? 0 : it->second;
 }
 
+void TracerTally::note_max(const std::string& key, double x) {
+  const auto [it, fresh] = extremes.try_emplace(key, x);
+  if (!fresh && x > it->second) it->second = x;
+}
+void TracerTally::note_min(const std::string& key, double x) {
+  const auto [it, fresh] = extremes.try_emplace(key, x);
+  if (!fresh && x < it->second) it->second = x;
+}
+
 void TracerTally::merge(const TracerTally& o) {
+  for (const auto& [k, x] : o.extremes) k.ends_with("_max") ? note_max(k, x) : note_min(k, x);
   if (cases && o.cases && tolerance_ulps != o.tolerance_ulps)
     throw std::runtime_error("tallies judged with different --tolerance-ulps cannot be merged");
   if (!cases || !tolerance_ulps) tolerance_ulps = o.tolerance_ulps;
@@ -265,10 +283,13 @@ json TracerTally::to_json() const {
     for (const char* k : kLevelledKinds)
       for (const char* l : {"_bugs", "_rounding"}) j[std::string(k) + l] = level(std::string(k) + l);
     for (const char* k : kNotes) j[k] = level(k);
+    for (const auto& [k, n] : levels)
+      if (k.rfind("det_", 0) == 0) j[k] = n;
     j["tolerance_ulps"] = *tolerance_ulps;
     j["beta"] = beta;
   }
   if (!range.empty()) j["range"] = range;
+  if (!extremes.empty()) j["extremes"] = extremes;
   return j;
 }
 
@@ -279,7 +300,8 @@ TracerTally TracerTally::from_json(const json& j) {
   for (auto it = j.begin(); it != j.end(); ++it) {
     const std::string& k = it.key();
     if (k == "cases" || k == "bits" || k == "ns_per_ray" || k == "ulp" || k == "seconds" || k == "timed_rays" ||
-        k.rfind("edge_", 0) == 0 || k == "tolerance_ulps" || k == "beta" || k == "range" || is_level_key(k))
+        k.rfind("edge_", 0) == 0 || k == "tolerance_ulps" || k == "beta" || k == "range" || k == "extremes" ||
+        is_level_key(k))
       continue;
     const std::uint64_t n = read_count(it.value(), printable_prefix(k, 40));
     if (n > t.cases - std::min(t.cases, total)) throw FieldError(k, "the kinds count more rays than cases");
@@ -321,6 +343,11 @@ TracerTally TracerTally::from_json(const json& j) {
       for (auto it = j.at("beta").begin(); it != j.at("beta").end(); ++it)
         t.beta[it.key()] = read_count(it.value(), "beta." + printable_prefix(it.key(), 20));
     }
+  }
+  if (j.contains("extremes")) {
+    if (!j.at("extremes").is_object()) throw FieldError("extremes", "expected an object of numbers");
+    for (auto it = j.at("extremes").begin(); it != j.at("extremes").end(); ++it)
+      t.extremes[it.key()] = read_number(it.value(), "extremes." + printable_prefix(it.key(), 20));
   }
   if (j.contains("range")) {
     if (!j.at("range").is_string() || !range_rule_from_string(j.at("range").get<std::string>()))

@@ -66,6 +66,10 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& options);
 // line: "one hit per shared edge and vertex: holds / fails (N holes, M double hits in K edge rays)".
 void print_tracer_report(const TracerCampaignReport& report, TableFormat format, std::ostream& out);
 std::string one_hit_rule_line(const TracerCampaignReport& report, const std::string& tracer);
+// What the bug-level findings point at, each line with its numbers: an absolute determinant
+// epsilon, an unscaled tmin, 1/0 or 0·∞ in a slab test, a triangle test that is not watertight,
+// a closed test's double hits.
+std::vector<std::string> tracer_diagnosis(const TracerCampaignReport& report, const std::string& tracer);
 
 // ---- one mesh case, judged: shared by the campaign, shrinking and `check`.
 struct TracerOutcome {
@@ -81,7 +85,8 @@ struct TracerOutcome {
 // The case as the tracer sees it (float: rounded; nullopt: not representable) ...
 std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c);
 // ... and judged there: the tracer builds over the mesh and answers the ray in the case's mode.
-TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const VerdictSettings& settings = {});
+TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const VerdictSettings& settings = {},
+                                   bool with_backward_error = true);
 // β and level of an outcome already judged (the table's kinds; errors, crashes: bugs, no β).
 void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const TracerRay& ray, const MeshTruth& truth,
                         Precision p, const VerdictSettings& settings, bool all);
@@ -95,7 +100,9 @@ json expect_json(MeshOracle& oracle, const TracerRay& ray);
 json reported_json(const TracerOutcome& o, bool all);
 // Fewer triangles (and only the vertices they use) on which the tracer still gives `kind`;
 // `budget` caps the rebuilds. The case itself when nothing smaller shows it.
+// With `level`, the shrunk case keeps that level too.
 MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget = 300,
-                          const VerdictSettings& settings = {}, std::optional<Level> level = std::nullopt);
+                          const VerdictSettings& settings = {}, std::optional<Level> level = std::nullopt,
+                          bool levels_each_probe = false, const TracerOutcome* found = nullptr);
 
 }  // namespace rayproof::fuzz

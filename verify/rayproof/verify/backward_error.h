@@ -30,6 +30,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -75,7 +76,8 @@ struct MeshAnswer {
 struct BackwardError {
   std::optional<double> beta;      // ulps (ε of the witness); nullopt: none
   std::optional<Witness> witness;  // accepted by the exact judge
-  bool refused = false;            // β estimated, but no witness passed the exact check
+  bool refused = false;            // no witness within the checked range passed the exact check
+  bool estimated = false;          // β is the smallest try's ε, not checked (beyond check_up_to)
 };
 
 enum class Level { bug, rounding };
@@ -86,8 +88,9 @@ inline Level level_of(const BackwardError& b, double tolerance_ulps) {
 }
 // "none", or ε to two significant digits.
 json beta_json(const BackwardError& b);
-// The β histogram's bucket: "2^k" for 2^(k-1) < β ≤ 2^k (k from −20: "2^-20" holds all below),
-// "none", or "unproved" (an estimate whose every witness the exact judge refused: a bug).
+// The β histogram's bucket: "2^k" for 2^(k-1) < β ≤ 2^k (k from −20: "2^-20" holds all below;
+// an estimate beyond the checked range too), "none", or "unproved" (every witness within the
+// checked range refused by the exact judge: a bug).
 std::string beta_bucket(const BackwardError& b);
 
 // S of verdicts.md §3 for this ray, answer and truth.
@@ -101,8 +104,12 @@ std::optional<bool> witness_holds(const MeshOracle& oracle, const TracerRay& ray
                                   const MeshAnswer& a, Precision p);
 
 // β of a disagreement judged by MeshOracle (judge_nearest / judge_all_hits: `j`, on `truth`).
+// Witnesses are checked only up to `check_up_to` ulps (a campaign passes its tolerance K: beyond
+// it the disagreement is a bug whatever the check says, so β is the smallest try's ε, an
+// estimate without a witness).
 BackwardError backward_error(const MeshOracle& oracle, const TracerRay& ray, const MeshTruth& truth,
-                             const TraceJudgement& j, const MeshAnswer& a, Precision p, RangeRule range);
+                             const TraceJudgement& j, const MeshAnswer& a, Precision p, RangeRule range,
+                             double check_up_to = std::numeric_limits<double>::infinity());
 
 // The default tolerance K (verdicts.md §3; its derivation in README, "Bug or rounding?").
 inline constexpr double kDefaultToleranceUlps = 16;

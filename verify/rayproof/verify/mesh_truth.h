@@ -130,6 +130,7 @@ class MeshOracle {
   // A vertex whose triangles form one closed, consistently wound fan around it.
   bool closed_fan_centre(std::uint32_t v) const;
   const std::vector<std::uint32_t>& triangles_around(std::uint32_t v) const { return around_vertex_[v]; }
+  bool degenerate(std::uint32_t t) const { return degenerate_[t]; }  // exactly collinear, as given
   // Where the ray touches the triangle at exactly parameter t0 (closed triangle, exact), or none.
   bool touches_at(const Ray& ray, std::uint32_t triangle, double t0) const;
   // The largest |coordinate| of the mesh.

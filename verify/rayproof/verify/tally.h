@@ -92,6 +92,13 @@ struct TracerTally {
   std::optional<double> tolerance_ulps;       // K this tally was judged with (absent: before verdicts.md)
   std::string range;                          // the tracer's range: "open" or "closed"
   std::uint64_t level(std::string_view key) const;
+  // Evidence for the diagnosis lines (tracer_diagnosis): over bug-level holes the largest |det|
+  // (|n·d| of the first required triangle, n = (v₁ − v₀) × (v₂ − v₀)) and the largest t*, over
+  // right answers with a crossing the smallest of each; and the bug-level holes whose ray has a
+  // direction component ±0. `levels` counts the last ("zero_direction_hole_bugs").
+  std::map<std::string, double> extremes;  // "hole_det_max", "right_det_min", "hole_t_max", "right_t_min"
+  void note_max(const std::string& key, double x);
+  void note_min(const std::string& key, double x);
   UlpHistogram ulps;   // right answers' t error, in the tracer's precision
   double seconds = 0;  // inside the tracer's calls (round trips included for external code)
   std::uint64_t timed_rays = 0;
