@@ -67,6 +67,11 @@ void add_audit_command(CLI::App& app, int& exit_code) {
   cmd->callback([opts, &exit_code] {
     load_externals(opts->ext);
     load_tracers(opts->tracer_flags, opts->ext.case_timeout);
+    // Audits count wrong pixels; they do not split bugs from rounding yet (verdicts.md, README).
+    if (opts->tracer_flags.fail_on != "none")
+      throw std::runtime_error(
+          "--fail-on: audit does not split bugs from rounding-level disagreements yet; "
+          "use fuzz or check on the tracer");
     const Scene scene = load_scene(opts->scene);
     for (const std::string& w : scene.warnings) std::cerr << "rayproof audit: warning: " << printable(w) << "\n";
     if (std::filesystem::exists(opts->dir) && !std::filesystem::is_directory(opts->dir))

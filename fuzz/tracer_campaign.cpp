@@ -357,11 +357,14 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const 
   return out;
 }
 
-json expect_json(MeshOracle& oracle, const TracerRay& ray) {
-  const MeshTruth truth = oracle.truth(ray, true);
-  const auto t = truth.first_required() ? std::optional(truth.first_required()->t) : truth.t_star();
-  return {{"touched", truth.touched()}, {"nearest", truth.nearest()}, {"t", t ? json(hex_double(*t)) : json(nullptr)}};
+json expect_json(const MeshTruth& complete) {
+  const auto t = complete.first_required() ? std::optional(complete.first_required()->t) : complete.t_star();
+  return {{"touched", complete.touched()},
+          {"nearest", complete.nearest()},
+          {"t", t ? json(hex_double(*t)) : json(nullptr)}};
 }
+
+json expect_json(MeshOracle& oracle, const TracerRay& ray) { return expect_json(oracle.truth(ray, true)); }
 
 json reported_json(const TracerOutcome& o, bool all) {
   if (all) return {{"triangles", o.all.triangles}};
@@ -646,7 +649,8 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       f.index = m * kRaysPerMesh + i, f.tracer = ti, f.all = all, f.kind = k, f.outcome = outcome;
       f.seen = {"", s.mesh, *s.rays[i], all, nullptr, nullptr};
       f.detail = work.details[i], f.log2_translate = work.log2_translate, f.mesh_triangles = s.mesh->triangle_count();
-      if (s.oracle) f.expect = expect_json(*s.oracle, *s.rays[i]);  // here, where the mesh's oracle is built
+      // Here, where the mesh's oracle is built (any-hit mode has the complete truth at hand).
+      if (s.oracle) f.expect = s.complete[i] ? expect_json(*s.complete[i]) : expect_json(*s.oracle, *s.rays[i]);
       result.findings.push_back(std::move(f));
     };
     BuiltScene built = t.build(*s.mesh);

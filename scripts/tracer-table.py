@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """README's tracer tables from a tracer campaign summary (rayproof fuzz --tracer... --summary FILE).
 
-Per family and tracer, nearest mode then any-hit mode, the disagreements as
-"hole/false/not-nearest" and "hole/false/double/missed" per 100,000 rays judged; then each
+Per family and tracer, nearest mode then any-hit mode, the bug-level disagreements as
+"hole/false/not-nearest" and "hole/false/double/missed" per 100,000 rays judged, the
+rounding-level ones beside them as "(r ...)" with ties and range-end notes; then each
 tracer's one-hit-rule line and ns per ray per family. With FINDINGS, one shrunk finding per
 tracer (the smallest) as a one-line JSON.
 Usage: scripts/tracer-table.py SUMMARY.json [FINDINGS.jsonl]
@@ -31,8 +32,20 @@ def main(path, findings=None):
                 if judged <= 0:
                     cells.append("n/a")
                     continue
-                parts = [f"{r.get(k, 0)}" for k in kinds]
-                extra = ""
+                # Bugs first; rounding-level disagreements beside them (verdicts.md §4), where
+                # the summary has levels.
+                if "tolerance_ulps" in r:
+                    parts = [f"{r.get(k + '_bugs', 0)}" for k in kinds]
+                    rounding = [f"{r.get(k + '_rounding', 0)}" for k in kinds if k != "double_hit"]
+                    notes = []
+                    if r.get("ties"):
+                        notes.append(f"{r['ties']} ties")
+                    if r.get("at_range_end"):
+                        notes.append(f"{r['at_range_end']} at range end")
+                    extra = " (r " + "/".join(rounding) + (", " + ", ".join(notes) if notes else "") + ")"
+                else:
+                    parts = [f"{r.get(k, 0)}" for k in kinds]
+                    extra = ""
                 if r.get("tracer_errors"):
                     extra += f" +{r['tracer_errors']} err"
                 if r.get("not_representable"):
@@ -42,6 +55,8 @@ def main(path, findings=None):
     print()
     for x in tracers:
         print(f"- `{x}`: {s['one_hit_rule'][x]}")
+        for line in s.get("diagnosis", {}).get(x, []):
+            print(f"  - diagnosis: {line}")
     print()
     print("| ns per ray (nearest) | " + " | ".join(f"`{x}`" for x in tracers) + " |")
     print("|---|" + "---:|" * len(tracers))

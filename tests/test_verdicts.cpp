@@ -337,7 +337,8 @@ TEST(JudgeLacks, FamilyRaysMeetWhatTheirDetailNames) {
       for (std::size_t i = 0; i < w.rays.size(); ++i) {
         const std::string& detail = w.details[i];
         if (detail.find("full precision") != std::string::npos) continue;
-        const bool edge = detail.find("edge ") != std::string::npos, vertex = detail.find("vertex") != std::string::npos;
+        const bool edge = detail.find("edge ") != std::string::npos,
+                   vertex = detail.find("vertex") != std::string::npos;
         if (!edge && !vertex) continue;
         const Ray& ray = w.rays[i].ray;
         std::set<Q> fractions;  // where along each zero edge the ray crosses
@@ -355,8 +356,7 @@ TEST(JudgeLacks, FamilyRaysMeetWhatTheirDetailNames) {
           const auto o = q(ray.origin), d = q(ray.direction), a = q(tri.v[0]), b = q(tri.v[1]), cc = q(tri.v[2]);
           std::array<Q, 3> e1, e2, n, ao, p, from, along;
           for (int j = 0; j < 3; ++j) e1[j] = b[j] - a[j], e2[j] = cc[j] - a[j], ao[j] = a[j] - o[j];
-          for (int j = 0; j < 3; ++j)
-            n[j] = e1[(j + 1) % 3] * e2[(j + 2) % 3] - e1[(j + 2) % 3] * e2[(j + 1) % 3];
+          for (int j = 0; j < 3; ++j) n[j] = e1[(j + 1) % 3] * e2[(j + 2) % 3] - e1[(j + 2) % 3] * e2[(j + 1) % 3];
           const Q t = (n[0] * ao[0] + n[1] * ao[1] + n[2] * ao[2]) / (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]);
           const auto vk = q(tri.v[k]), vn = q(tri.v[(k + 1) % 3]);
           Q dot = 0, len = 0;

@@ -95,7 +95,7 @@ double unit_roundoff(Precision p) { return p == Precision::f32 ? 0x1p-24 : 0x1p-
 std::string_view to_string(Level l) { return l == Level::rounding ? "rounding" : "bug"; }
 
 json beta_json(const BackwardError& b) {
-  if (!b.beta) return "none";
+  if (!b.beta) return b.refused ? "unproved" : "none";  // unproved: nothing to try (README's extensions)
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.2g", *b.beta);
   return std::stod(buf);
@@ -524,6 +524,23 @@ bool MeshOracle::touches_at(const Ray& ray, std::uint32_t triangle, double t0) c
   return in_plane_point_inside(p, v);
 }
 
+RangeEnd MeshOracle::range_end_touched(const TracerRay& r, std::uint32_t triangle) const {
+  if (triangle >= mesh_->triangle_count()) return RangeEnd::none;
+  const ExactVec o = exact_vec(r.ray.origin), d = exact_vec(r.ray.direction);
+  const Triangle tri = mesh_->triangle(triangle);
+  const std::array<ExactVec, 3> v = {exact_vec(tri.v[0]), exact_vec(tri.v[1]), exact_vec(tri.v[2])};
+  const LineContact c = line_contact(o, d, v);
+  if (c.kind == LineContact::crossing) {
+    if (c.t == exact_of(r.tmin)) return RangeEnd::tmin;
+    if (std::isfinite(r.tmax) && c.t == exact_of(r.tmax)) return RangeEnd::tmax;
+    return RangeEnd::none;
+  }
+  if (c.kind != LineContact::in_plane) return RangeEnd::none;
+  if (touches_at(r.ray, triangle, r.tmin)) return RangeEnd::tmin;
+  if (std::isfinite(r.tmax) && touches_at(r.ray, triangle, r.tmax)) return RangeEnd::tmax;
+  return RangeEnd::none;
+}
+
 // ------------------------------------------------------------------------------ β
 double involved_scale(const MeshOracle& oracle, const TracerRay& r, const MeshTruth& truth, const MeshAnswer& a,
                       std::optional<std::uint32_t> subject) {
@@ -661,10 +678,17 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // ray); a reported triangle that the moved ray meets beyond the first required crossing, or out
   // of range, is then moved along d into place as well, which only adds to the try's ε.
   constexpr std::size_t kTries = 4;
+  if (place_subject) {  // first the tries whose moved ray meets the reported triangle at all (one rational test)
+    std::stable_partition(candidates.begin(), candidates.end(), [&](const Witness& w) {
+      const MovedInput moved{mesh, w};
+      return line_contact(w.origin, w.direction, moved.triangle(*subject)).kind == LineContact::crossing;
+    });
+  }
   if (candidates.size() > kTries) candidates.resize(kTries);
   if (place_subject) {
+    const double smallest = candidates.front().ulps;
     std::erase_if(candidates, [&](Witness& w) { return !move_into_place(oracle, r, w, to_place, range, u, !a.all); });
-    if (candidates.empty()) return out.refused = true, out;
+    if (candidates.empty()) return out.beta = smallest, out.refused = true, out;  // unproved, never "none"
     for (Witness& w : candidates) w.ulps = witness_ulps(oracle, r, w, u);
     std::sort(candidates.begin(), candidates.end(), by_ulps);
   }

@@ -343,8 +343,9 @@ TraceJudgement MeshOracle::judge_nearest(const TracerRay& r, const MeshTruth& tr
     // Closed range (verdicts.md §1): a contact at exactly tmin or tmax is in range. At tmin
     // nothing lies before it; at tmax every crossing in range lies before it.
     if (rules.range == RangeRule::closed) {
-      if (touches_at(r.ray, a.triangle, r.tmin)) return j.at_range_end = RangeEnd::tmin, done(TraceKind::right);
-      if (std::isfinite(r.tmax) && touches_at(r.ray, a.triangle, r.tmax)) {
+      const RangeEnd end = range_end_touched(r, a.triangle);
+      if (end == RangeEnd::tmin) return j.at_range_end = RangeEnd::tmin, done(TraceKind::right);
+      if (end == RangeEnd::tmax) {
         if (req) return done(TraceKind::not_nearest);
         return j.at_range_end = RangeEnd::tmax, done(TraceKind::right);
       }
@@ -412,12 +413,8 @@ TraceJudgement MeshOracle::judge_all_hits(const TracerRay& r, const MeshTruth& t
   for (std::uint32_t t : reported) {
     if (truth.contact_of(t)) continue;
     if (rules.range == RangeRule::closed) {  // a contact at a closed range's end: in range, optional
-      if (touches_at(r.ray, t, r.tmin)) {
-        j.at_range_end = RangeEnd::tmin;
-        continue;
-      }
-      if (std::isfinite(r.tmax) && touches_at(r.ray, t, r.tmax)) {
-        j.at_range_end = RangeEnd::tmax;
+      if (const RangeEnd end = range_end_touched(r, t); end != RangeEnd::none) {
+        j.at_range_end = end;
         continue;
       }
     }

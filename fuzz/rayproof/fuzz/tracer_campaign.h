@@ -96,6 +96,7 @@ bool has_backward_error(TraceKind k);
 void add_verdict_fields(json& found, const TracerOutcome& o);
 // What the oracle expects of a case: {"touched", "nearest", "t"} (t: t* rounded, or null).
 json expect_json(MeshOracle& oracle, const TracerRay& ray);
+json expect_json(const MeshTruth& complete);  // from a truth(ray, true) at hand
 // The answer as the findings and check lines show it.
 json reported_json(const TracerOutcome& o, bool all);
 // Fewer triangles (and only the vertices they use) on which the tracer still gives `kind`;

@@ -133,6 +133,9 @@ class MeshOracle {
   bool degenerate(std::uint32_t t) const { return degenerate_[t]; }  // exactly collinear, as given
   // Where the ray touches the triangle at exactly parameter t0 (closed triangle, exact), or none.
   bool touches_at(const Ray& ray, std::uint32_t triangle, double t0) const;
+  // Which end of the range (tmin, else a finite tmax) the triangle touches exactly, if either:
+  // one rational contact for both ends.
+  RangeEnd range_end_touched(const TracerRay& ray, std::uint32_t triangle) const;
   // The largest |coordinate| of the mesh.
   double magnitude() const { return magnitude_; }
   // Calls visit(triangle) for every triangle whose box, grown by `margin` on each side, the ray
