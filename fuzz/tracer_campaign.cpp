@@ -131,9 +131,10 @@ std::vector<std::string> tracer_diagnosis(const TracerCampaignReport& r, const s
     // Per family (nearest mode): bug-level holes set apart from the right answers by one number.
     const std::uint64_t holes = t.level("hole_bugs");
     if (holes == 0) continue;
-    auto at = [&](const char* key, double fallback) {
-      const auto it = t.extremes.find(key);
-      return it == t.extremes.end() ? fallback : it->second;
+    const auto& extremes = t.extremes;  // (clang's lambdas cannot capture a structured binding)
+    auto at = [&extremes](const char* key, double fallback) {
+      const auto it = extremes.find(key);
+      return it == extremes.end() ? fallback : it->second;
     };
     const double hole_t = at("hole_t_max", -1), right_t = at("right_t_min", INFINITY);
     const std::string n = k.family + ": " + std::to_string(holes) + " bug-level holes";
