@@ -677,7 +677,9 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // The few smallest tries go on (each check is a rational truth over the triangles near the
   // ray); a reported triangle that the moved ray meets beyond the first required crossing, or out
   // of range, is then moved along d into place as well, which only adds to the try's ε.
-  constexpr std::size_t kTries = 4;
+  // Six tries where each needs the reported triangle moved into place first, eight otherwise
+  // (a hole's escape may be the fifth-nearest vertex, the fan centre a reported neighbour owns).
+  const std::size_t kTries = place_subject ? 6 : 8;
   if (place_subject) {  // first the tries whose moved ray meets the reported triangle at all (one rational test)
     std::stable_partition(candidates.begin(), candidates.end(), [&](const Witness& w) {
       const MovedInput moved{mesh, w};
