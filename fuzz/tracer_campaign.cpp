@@ -148,7 +148,7 @@ std::vector<std::string> tracer_diagnosis(const TracerCampaignReport& r, const s
       const std::uint64_t holes_above = holes - std::min(holes, holes_below);
       const std::uint64_t rays_above = holes + right_total - std::min(holes + right_total, rays_below);
       if (holes_below > 0 && holes_below * 10 >= holes * 9 && holes_below * 2 >= rays_below &&
-          holes_above * 100 <= rays_above) {
+          holes_above * 100 <= rays_above && rays_above >= holes_below) {  // right answers above to contrast
         lines.push_back(n + ": " + std::to_string(holes_below) + " where |det| < 2^" + std::to_string(b + 1) + " (of " +
                         std::to_string(rays_below) + " rays there), " + std::to_string(holes_above) + " above (of " +
                         std::to_string(rays_above) +

@@ -122,6 +122,8 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
     if (is_forked_copy()) ::_exit(0);
   };
   std::vector<std::uint32_t> buffer(64);
+  std::vector<double> kept_vertices;  // the built scene's mesh, alive until its release
+  std::vector<std::uint32_t> kept_indices;
   char byte;
   while (::read(kRequestFd, &byte, 1) == 1) {
     Header probe;
@@ -135,8 +137,13 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
     switch (h->op) {
       case Op::build: {
         if (scene && scene_of && scene_of->release) scene_of->release(scene), leave_if_copy();
-        const rayproof_mesh mesh{reinterpret_cast<const double*>(data), static_cast<std::uint32_t>(h->vertex_count),
-                                 reinterpret_cast<const std::uint32_t*>(data + 24 * h->vertex_count),
+        // ABI 2 (tracer.md): the mesh's arrays stay valid and unchanged until release(), so they
+        // are copied out of the shared file (unmapped after each request, then reused for rays).
+        const auto* v = reinterpret_cast<const double*>(data);
+        const auto* ix = reinterpret_cast<const std::uint32_t*>(data + 24 * h->vertex_count);
+        kept_vertices.assign(v, v + 3 * h->vertex_count);
+        kept_indices.assign(ix, ix + 3 * h->triangle_count);
+        const rayproof_mesh mesh{kept_vertices.data(), static_cast<std::uint32_t>(h->vertex_count), kept_indices.data(),
                                  static_cast<std::uint32_t>(h->triangle_count)};
         scene = t.build(&mesh);
         leave_if_copy();

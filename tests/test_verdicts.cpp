@@ -394,6 +394,39 @@ TEST(JudgeLacks, ResumeWithOtherTracersIsRefused) {
   EXPECT_EQ(same.status, 0) << same.err;
 }
 
+// A library built against ABI 1 (no `range` in its rows) loads through the fallback, both rows
+// read at their own stride, judged `open`; --tracer-range declares it closed.
+TEST(VerdictsCli, AbiOneTracersLoadAsOpen) {
+  const std::string lib = ABI1_TRACER;
+  const auto listed = run_cli("variants --tracer " + lib);
+  ASSERT_EQ(listed.status, 0) << listed.err;
+  EXPECT_NE(listed.out.find("abi-one-first\tmesh\tdouble\ttest: an ABI 1 library"), std::string::npos) << listed.out;
+  EXPECT_NE(listed.out.find("abi-one-second\tmesh\tdouble\ttest: its second row"), std::string::npos);
+  EXPECT_NE(listed.out.find("its second row ["), std::string::npos);
+  const auto second = listed.out.substr(listed.out.find("abi-one-second"));
+  EXPECT_NE(second.find("(range: open)"), std::string::npos) << second;
+  const auto closed = run_cli("variants --tracer " + lib + " --tracer-range abi-one-second=closed");
+  ASSERT_EQ(closed.status, 0) << closed.err;
+  EXPECT_NE(closed.out.substr(closed.out.find("abi-one-second")).find("(range: closed)"), std::string::npos);
+  const std::string dir = test_dir();
+  const auto run = run_cli("fuzz --tracer " + lib + " --tracers abi-one-second --families shared-edges,spawned " +
+                           "--count 128 -o " + dir + "/f.jsonl --summary " + dir + "/s.json");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const json s = json::parse(std::ifstream(dir + "/s.json"));
+  EXPECT_EQ(s.at("tallies").at("spawned\tabi-one-second").at("range"), "open");
+  EXPECT_EQ(s.at("tallies").at("spawned\tabi-one-second").at("cases"), 128);
+  // It keeps pointers into the mesh (tracer.md: valid until release): no crash, every ray judged.
+  for (const char* family : {"shared-edges\tabi-one-second", "spawned\tabi-one-second"}) {
+    EXPECT_EQ(s.at("tallies").at(family).at("crash"), 0) << family;
+    EXPECT_EQ(s.at("tallies").at(family).at("right").get<int>() + s.at("tallies").at(family).at("hole").get<int>() +
+                  s.at("tallies").at(family).at("false_hit").get<int>() +
+                  s.at("tallies").at(family).at("not_nearest").get<int>() +
+                  s.at("tallies").at(family).at("in_plane").get<int>(),
+              128)
+        << family;
+  }
+}
+
 // Through the CLI: a closed tracer's range-end hits are notes, not false hits; --tracer-range
 // overrides; the strict reading counts ties as not_nearest and every disagreement a bug; levels
 // add up to their kinds; --fail-on bug exits 1 exactly when a bug was found.
