@@ -138,4 +138,14 @@ mutate "merge-in-name-order" cmd/cmd_merge.cpp \
   "if (k.tracer.empty()) k.pair_rank = order.of(k.family, k.shape);" ""
 mutate "audit-acne-never-counted" studies/scene_audit.cpp \
   "acne = acne || neighbour.blocked;" ""
+# Verdicts (verdicts.md): the witness's claimed size, the one-hit rule's winding, the closed
+# range, precision ties.
+mutate "witness-size-not-checked" verify/backward_error.cpp \
+  "if (witness_ulps(oracle, r, w, unit_roundoff(p)) > w.ulps) return false;" ""
+mutate "one-hit-winding-ignored" verify/mesh_truth.cpp \
+  "return runs_a_to_b(it->second[0]) != runs_a_to_b(it->second[1]);" "return true;"
+mutate "closed-range-ignored-in-nearest-mode" verify/mesh_truth.cpp \
+  "    if (rules.range == RangeRule::closed) {" "    if (false) {"
+mutate "precision-ties-never" verify/mesh_truth.cpp \
+  "if (!rules.ties || std::isnan(first.t)) return false;" "return false;"
 cmake --build "$build" -j2 > /dev/null 2>&1  # leave the build matching the sources
