@@ -117,7 +117,7 @@ void judge_mesh_case(const std::string& path, long line, const MeshCase& c, Chec
       continue;
     }
     fuzz::VerdictSettings settings{run.tolerance_ulps, std::nullopt};
-    if (c.found.is_object() && c.found.contains("range") && c.found.at("range").is_string())  // replayed as found
+    if (c.found.is_object() && c.found.contains("range"))  // replayed as found (checked when read)
       settings.range = range_rule_from_string(c.found.at("range").get<std::string>());
     const fuzz::TracerOutcome o = fuzz::judge_tracer_on_case(*t, *seen, settings);
     nlohmann::ordered_json entry = fuzz::reported_json(o, c.all);
@@ -241,6 +241,14 @@ void check_file(const std::string& path, CheckRun& run, std::ostream& out, Progr
         if (!run.ids.empty()) {  // --id: only those cases (nothing per case without it)
           if (!run.ids.count(c.id)) return;
           run.ids_seen.insert(c.id);
+        }
+        // found.range (verdicts.md): a finding replays under the range it was found with.
+        if (c.found.is_object() && c.found.contains("range") &&
+            !(c.found.at("range").is_string() && range_rule_from_string(c.found.at("range").get<std::string>()))) {
+          ++run.unreadable;
+          std::cerr << "rayproof: "
+                    << CaseError{path, line, "found.range", "expected \"open\" or \"closed\""}.to_string() << "\n";
+          return;
         }
         ++run.cases, ++in_file;
         judge_mesh_case(path, line, c, run, out);

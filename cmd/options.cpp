@@ -142,7 +142,15 @@ void add_tracer_flags(CLI::App* cmd, TracerFlags& flags) {
   cmd->add_option("--tolerance-ulps", flags.tolerance_ulps,
                   "K: a disagreement whose backward error is at most K ulps (with a witness) is rounding-level, "
                   "not a bug (default 16; 0: the strict reading)")
-      ->check(CLI::Range(0.0, 1e15));
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            char* end = nullptr;
+            const double k = std::strtod(text.c_str(), &end);
+            return text.empty() || *end != '\0' || !(k >= 0 && k <= 1e15)  // refuses nan, inf, negatives
+                       ? "expected a number of ulps from 0 to 1e15, got '" + text + "'"
+                       : std::string();
+          },
+          "K"));
   cmd->add_option("--fail-on", flags.fail_on,
                   "bug|rounding|none: exit 1 when a tracer shows a bug-level disagreement (or a crash), any "
                   "disagreement, or never (default)")

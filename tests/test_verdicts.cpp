@@ -490,6 +490,22 @@ TEST(VerdictsCli, RangesTolerancesAndFailOn) {
   const auto some = run_cli("fuzz --tracers bvh-certified-triangle --count 256 --families fans --fail-on bug -o " +
                             dir + "/cert-fans.jsonl");
   EXPECT_EQ(some.status, 1) << some.err;  // ... but its closed test reports every triangle of a fan in any-hit mode
+  // Bad input: a tolerance that is no number of ulps, a finding's range that is no range.
+  for (const char* k : {"nan", "inf", "-1", "x"})
+    EXPECT_EQ(
+        run_cli("fuzz --tracers cgal-aabb --count 8 --tolerance-ulps " + std::string(k) + " -o " + dir + "/x.jsonl")
+            .status,
+        2)
+        << k;
+  {
+    std::ofstream f(dir + "/bad-range.jsonl");
+    f << R"({"id":"x","mesh":{"vertices":[[0,0,0],[1,0,0],[0,1,0]],"triangles":[[0,1,2]]},)"
+      << R"("ray":{"origin":[0.2,0.2,1],"direction":[0,0,-1]},"found":{"range":"sideways"}})"
+      << "\n";
+  }
+  const auto bad_range = run_cli("check " + dir + "/bad-range.jsonl --tracers bvh-watertight");
+  EXPECT_EQ(bad_range.status, 1);
+  EXPECT_NE(bad_range.err.find("bad-range.jsonl:1: field 'found.range'"), std::string::npos) << bad_range.err;
   const auto bad = run_cli("fuzz --tracers cgal-aabb --tracer-range nope=closed --count 8 -o " + dir + "/x.jsonl");
   EXPECT_EQ(bad.status, 2);
   EXPECT_NE(bad.err.find("no tracer is named 'nope'"), std::string::npos) << bad.err;
