@@ -155,7 +155,7 @@ int run_tracer_fuzz(const FuzzOptions& opts) {
   for (const auto& [key, t] : report.tallies) {
     if (opts.tracers.fail_on == "none") break;
     for (const char* k : {"tracer_errors", "crash", "timeout"}) failing += t.count(k);
-    for (const char* k : {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit"})
+    for (const char* k : kLevelledTraceKinds)
       failing += opts.tracers.fail_on == "rounding" ? t.count(k) : t.level(std::string(k) + "_bugs");
   }
   if (failing == 0) return 0;

@@ -353,7 +353,6 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const 
     out.kind = out.judgement.kind;
     if (with_backward_error) add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
   }
-  out.kind = out.judgement.kind;
   out.reason = out.judgement.detail;
   return out;
 }
@@ -569,10 +568,10 @@ void note_evidence(TracerTally& tally, const TracerOutcome& o, const TriangleMes
   if (o.kind == TraceKind::hole && o.level == Level::bug) ++tally.levels["det_hole:" + std::to_string(k)];
   if (o.kind == TraceKind::right) ++tally.levels["det_right:" + std::to_string(k)];
   if (o.kind == TraceKind::hole && o.level == Level::bug) {
-    tally.note_max("hole_det_max", det), tally.note_max("hole_t_max", p->t);
+    tally.note_max("hole_t_max", p->t);
     if (has_zero_component(ray.ray.direction)) ++tally.levels["zero_direction_hole_bugs"];
   } else if (o.kind == TraceKind::right) {
-    tally.note_min("right_det_min", det), tally.note_min("right_t_min", p->t);
+    tally.note_min("right_t_min", p->t);
   }
 }
 

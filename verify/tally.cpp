@@ -203,8 +203,7 @@ constexpr const char* kTracerKinds[] = {
     "right",    "hole",        "false_hit",     "not_nearest", "double_hit", "missed_in_any_hit",
     "in_plane", "unsupported", "tracer_errors", "crash",       "timeout"};
 std::string kind_key(std::string_view kind) { return kind == "tracer_error" ? "tracer_errors" : std::string(kind); }
-// The kinds whose disagreements verdicts.md splits into bugs and rounding-level ones, and the notes.
-constexpr const char* kLevelledKinds[] = {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit"};
+// The notes beside the levelled kinds (tally.h, kLevelledTraceKinds).
 constexpr const char* kNotes[] = {"ties",
                                   "at_range_end",
                                   "at_tmin",
@@ -217,7 +216,7 @@ bool is_level_key(const std::string& k) {
   if (k.rfind("det_hole:", 0) == 0 || k.rfind("det_right:", 0) == 0) return true;  // |det| histograms
   for (const char* n : kNotes)
     if (k == n) return true;
-  for (const char* kind : kLevelledKinds)
+  for (const char* kind : kLevelledTraceKinds)
     if (k == std::string(kind) + "_bugs" || k == std::string(kind) + "_rounding") return true;
   return false;
 }
@@ -280,7 +279,7 @@ json TracerTally::to_json() const {
   j["ulp"] = ulps.to_json();
   j["seconds"] = seconds, j["timed_rays"] = timed_rays;
   if (tolerance_ulps) {
-    for (const char* k : kLevelledKinds)
+    for (const char* k : kLevelledTraceKinds)
       for (const char* l : {"_bugs", "_rounding"}) j[std::string(k) + l] = level(std::string(k) + l);
     for (const char* k : kNotes) j[k] = level(k);
     for (const auto& [k, n] : levels)
@@ -333,7 +332,7 @@ TracerTally TracerTally::from_json(const json& j) {
         const std::uint64_t n = read_count(it.value(), it.key());
         if (n) t.levels[it.key()] = n;
       }
-    for (const char* k : kLevelledKinds) {
+    for (const char* k : kLevelledTraceKinds) {
       const std::string name(k);
       if (t.level(name + "_bugs") + t.level(name + "_rounding") != t.count(name))
         throw FieldError(name + "_bugs", name + "_bugs and " + name + "_rounding do not add up to " + name);

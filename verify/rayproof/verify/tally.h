@@ -80,6 +80,11 @@ struct Tally {
 // per kind of TraceKind (verify/mesh_truth.h), the t error over right answers, the one-hit rule's
 // evidence (rays meeting a shared edge or fan centre, and the holes and double hits there), and
 // the time the tracer took, so ns per ray comes out of the same object in every report.
+// The kinds of disagreement verdicts.md splits into bugs and rounding-level ones (KIND_bugs,
+// KIND_rounding): the one list the tally, the tables and --fail-on read.
+inline constexpr const char* kLevelledTraceKinds[] = {"hole", "false_hit", "not_nearest", "double_hit",
+                                                      "missed_in_any_hit"};
+
 struct TracerTally {
   std::map<std::string, std::uint64_t> kinds;  // to_string(TraceKind) → count (every ray once)
   std::uint64_t cases = 0;
@@ -92,11 +97,10 @@ struct TracerTally {
   std::optional<double> tolerance_ulps;       // K this tally was judged with (absent: before verdicts.md)
   std::string range;                          // the tracer's range: "open" or "closed"
   std::uint64_t level(std::string_view key) const;
-  // Evidence for the diagnosis lines (tracer_diagnosis): over bug-level holes the largest |det|
-  // (|n·d| of the first required triangle, n = (v₁ − v₀) × (v₂ − v₀)) and the largest t*, over
-  // right answers with a crossing the smallest of each; and the bug-level holes whose ray has a
-  // direction component ±0. `levels` counts the last ("zero_direction_hole_bugs").
-  std::map<std::string, double> extremes;  // "hole_det_max", "right_det_min", "hole_t_max", "right_t_min"
+  // Evidence for the diagnosis lines (tracer_diagnosis): the largest t* over bug-level holes and
+  // the smallest over right answers with a crossing. (`levels` holds the rest: |det| by powers
+  // of two, "det_hole:K" and "det_right:K", and "zero_direction_hole_bugs".)
+  std::map<std::string, double> extremes;  // "hole_t_max", "right_t_min"
   void note_max(const std::string& key, double x);
   void note_min(const std::string& key, double x);
   UlpHistogram ulps;   // right answers' t error, in the tracer's precision
