@@ -12,6 +12,7 @@
 #include "rayproof/peers/external.h"
 #include "rayproof/core/mesh_case.h"
 #include "rayproof/fuzz/tracer_campaign.h"
+#include "rayproof/verify/backward_error.h"
 #include "rayproof/verify/compare.h"
 #include "rayproof/verify/mesh_truth.h"
 #include "rayproof/verify/report.h"
@@ -152,6 +153,30 @@ void judge_mesh_case(const std::string& path, long line, const MeshCase& c, Chec
     }
 }
 
+// verdicts.md for each variant's answer on one case: the level and β of a disagreement (counted
+// in the variant's tally, and by --fail-on), the β of a t that is not correctly rounded, each
+// with its witness in the check line's entry.
+void add_levels(const Case& c, const Verdict& exact, const std::vector<VariantOutcome>& outcomes, CheckRun& run,
+                nlohmann::ordered_json& line) {
+  for (const VariantOutcome& o : outcomes) {
+    Tally& tally = run.summary[std::string(o.variant->name)].second;
+    tally.tolerance_ulps = run.tolerance_ulps;
+    const auto v = outcome_verdict(c, o, run.rule, run.tolerance_ulps, true);
+    if (!v) continue;
+    nlohmann::ordered_json& entry = line["variants"][std::string(o.variant->name)];
+    if (v->at_range_end) {
+      ++tally.at_range_end;
+      entry["at_range_end"] = true;
+      continue;
+    }
+    add_verdict_fields(entry, *v, to_string(o.variant->range));
+    if (v->of_t) continue;
+    const DisagreementKind kind{o.own_exact ? o.own_exact->cls : exact.cls, o.answer.cls};
+    tally.add_level(kind, v->level == Level::bug, beta_bucket(v->beta));
+    if (run.fail_on == "rounding" || (run.fail_on == "bug" && v->level == Level::bug)) ++run.failing;
+  }
+}
+
 // A chunk of cases read but not yet judged: judged together, so each variant (external code
 // behind a process boundary above all) is asked once per chunk instead of once per case.
 struct PendingCase {
@@ -202,7 +227,9 @@ void judge_chunk(const std::string& path, std::vector<PendingCase>& pending, Che
       run.disagreements.push_back(std::move(d));
     }
     add_to_summary(run.summary, exact[i], outcomes[i]);
-    out << json_text(check_line(c.id, exact[i], outcomes[i])) << "\n";
+    nlohmann::ordered_json line = check_line(c.id, exact[i], outcomes[i]);
+    add_levels(c, exact[i], outcomes[i], run, line);
+    out << json_text(line) << "\n";
     if (c.expect && run.rule == HitRule::nearest_contact) {
       const std::string why = expectation_mismatch(*c.expect, exact[i]);
       if (!why.empty()) {
@@ -335,7 +362,8 @@ int run_check(const CheckOptions& opts) {
       ++answer_problems, std::cerr << "rayproof: " << problem << "\n";
   if (run.unopened > 0) return 2;
   if (run.failing > 0)
-    std::cerr << "rayproof check: --fail-on " << run.fail_on << ": " << run.failing << " tracer outcomes fail\n";
+    std::cerr << "rayproof check: --fail-on " << run.fail_on << ": " << run.failing
+              << " variant and tracer outcomes fail\n";
   return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0 || run.stopped > 0 || run.failing > 0) ? 1
                                                                                                                    : 0;
 }

@@ -106,6 +106,7 @@ fuzz::CampaignOptions campaign_options(const FuzzOptions& opts) {
   o.max_findings = opts.max_findings == FuzzOptions::kModeDefault ? 1000 : opts.max_findings, o.batch = opts.batch;
   o.threads = thread_count(opts.threads);
   o.rule = parse_rule(opts.rule);
+  o.tolerance_ulps = opts.tracers.tolerance_ulps;
   o.output = opts.output, o.resume = opts.resume, o.shrink = !opts.no_shrink, o.keep_checkpoint = opts.keep_checkpoint;
   o.crash_after_batches = opts.crash_after;
   o.checkpoint_seconds = opts.checkpoint_every;
@@ -163,7 +164,7 @@ int run_tracer_fuzz(const FuzzOptions& opts) {
   return 1;
 }
 
-void run_fuzz(const FuzzOptions& opts) {
+int run_fuzz(const FuzzOptions& opts) {
   fuzz::CampaignOptions o = campaign_options(opts);
   std::unique_ptr<AtomicFile> summary;  // before the work: a path that cannot be written fails now
   if (!opts.summary.empty()) summary = std::make_unique<AtomicFile>(opts.summary);
@@ -216,6 +217,15 @@ void run_fuzz(const FuzzOptions& opts) {
     summary->stream() << json_text(report.to_json(), 2) << "\n";
     summary->commit();
   }
+  // --fail-on (verdicts.md): bug-level disagreements and failures of external code, or every
+  // disagreement; by default a variant campaign exits 0 whatever it found.
+  std::uint64_t failing = 0;
+  for (const auto& [key, t] : report.tallies)
+    if (opts.tracers.fail_on != "none")
+      failing += t.failures() + (opts.tracers.fail_on == "rounding" ? t.disagreements() : t.bug_count());
+  if (failing == 0) return 0;
+  std::cerr << "rayproof fuzz: --fail-on " << opts.tracers.fail_on << ": " << failing << " variant outcomes fail\n";
+  return 1;
 }
 
 }  // namespace
@@ -270,8 +280,7 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
       exit_code = run_tracer_fuzz(*opts);
       return;
     }
-    run_fuzz(*opts);
-    exit_code = 0;
+    exit_code = run_fuzz(*opts);
   });
 }
 

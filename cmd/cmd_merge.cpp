@@ -171,7 +171,11 @@ int run_merge(const MergeOptions& o) {
     if (k.tracer.empty()) k.pair_rank = order.of(k.family, k.shape);
     return k;
   };
-  std::map<FindingKey, std::string> findings;  // deduplicated, in campaign order
+  // Deduplicated, in campaign order; each with whether found.level is "rounding".
+  std::map<FindingKey, std::pair<std::string, bool>> findings;
+  auto rounding_level = [](const json& found) {
+    return found.is_object() && found.contains("level") && found.at("level") == "rounding";
+  };
   long bad = 0;
   for (const std::string& path : o.findings) {
     std::ifstream in(path, std::ios::binary);
@@ -185,12 +189,13 @@ int run_merge(const MergeOptions& o) {
           const json j = parse_json_text(text);
           if (is_mesh_case(j)) {
             const MeshCase c = read_mesh_case(j);
-            findings.emplace(of_campaign(mesh_key_of(c.id, path, line), path, line), text);
+            findings.emplace(of_campaign(mesh_key_of(c.id, path, line), path, line),
+                             std::pair{text, rounding_level(c.found)});
             continue;
           }
         }
         const Case c = parse_case(text);
-        findings.emplace(of_campaign(key_of(c, path, line), path, line), text);
+        findings.emplace(of_campaign(key_of(c, path, line), path, line), std::pair{text, rounding_level(c.found)});
       } catch (const json::parse_error& e) {
         ++bad;
         std::cerr << "rayproof: " << CaseError{path, line, "", std::string("malformed JSON: ") + e.what()}.to_string()
@@ -204,8 +209,8 @@ int run_merge(const MergeOptions& o) {
   merged.findings_written = merged_tracers.findings_written = findings.size();
   if (out) {  // bug-level findings before rounding-level ones (verdicts.md §4), each in campaign order
     for (const bool rounding : {false, true})
-      for (const auto& [k, text] : findings)
-        if ((text.find("\"level\":\"rounding\"") != std::string::npos) == rounding) out->stream() << text << "\n";
+      for (const auto& [k, finding] : findings)
+        if (finding.second == rounding) out->stream() << finding.first << "\n";
     out->commit();
   }
   if (tracers)

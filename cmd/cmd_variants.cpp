@@ -27,7 +27,7 @@ void add_variants_command(CLI::App& app, int& exit_code) {
       if (v.origin != "built-in")
         std::cout << " [" << v.origin << ", " << to_string(v.precision)
                   << (v.fixed_rule ? ", " + std::string(to_string(*v.fixed_rule)) : std::string()) << "]";
-      std::cout << "\n";
+      std::cout << " (range: " << to_string(v.range) << ")\n";  // verdicts.md §1
     }
     for (const BatchedVariant& b : batched_variants())
       if (listed(b.shape))

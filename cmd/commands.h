@@ -67,7 +67,8 @@ void load_externals(const ExternalFlags& flags);
 struct TracerFlags {
   std::vector<std::string> plugins, execs, names;
   std::string precision = "double";
-  std::vector<std::string> ranges;  // --tracer-range NAME=open|closed
+  std::vector<std::string> ranges;          // --tracer-range NAME=open|closed
+  std::vector<std::string> variant_ranges;  // --variant-range NAME=open|closed
   double tolerance_ulps = kDefaultToleranceUlps;
   std::string fail_on = "none";  // --fail-on bug|rounding|none
   bool given() const { return !plugins.empty() || !execs.empty() || !names.empty(); }

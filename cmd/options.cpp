@@ -139,6 +139,9 @@ void add_tracer_flags(CLI::App* cmd, TracerFlags& flags) {
       ->check(CLI::IsMember({"double", "float"}));
   cmd->add_option("--tracer-range", flags.ranges,
                   "NAME=open|closed: declares or overrides a tracer's range (docs/spec/verdicts.md); repeatable");
+  cmd->add_option("--variant-range", flags.variant_ranges,
+                  "NAME=open|closed: declares a variant's range, closed admitting t = 0 (docs/spec/verdicts.md); "
+                  "repeatable");
   cmd->add_option("--tolerance-ulps", flags.tolerance_ulps,
                   "K: a disagreement whose backward error is at most K ulps (with a witness) is rounding-level, "
                   "not a bug (default 16; 0: the strict reading)")
@@ -185,6 +188,14 @@ void load_tracers(const TracerFlags& flags, double case_timeout) {
     if (!range) throw std::runtime_error("--tracer-range " + printable(text) + ": expected NAME=open or NAME=closed");
     if (!set_tracer_range(name, *range))
       throw std::runtime_error("--tracer-range " + printable(text) + ": no tracer is named '" + printable(name) +
+                               "' (see rayproof variants)");
+  }
+  for (const std::string& text : flags.variant_ranges) {  // after load_externals: plugins' variants too
+    const auto [name, value] = peers::split_assignment("--variant-range", text);
+    const auto range = range_rule_from_string(value);
+    if (!range) throw std::runtime_error("--variant-range " + printable(text) + ": expected NAME=open or NAME=closed");
+    if (!set_variant_range(name, *range))
+      throw std::runtime_error("--variant-range " + printable(text) + ": no variant is named '" + printable(name) +
                                "' (see rayproof variants)");
   }
 }

@@ -139,6 +139,18 @@ CampaignReport CampaignReport::from_json(const json& j) {
   return r;
 }
 
+namespace {
+// The judged variants whose range is closed (--variant-range): they change the verdicts.
+json closed_ranges(const CampaignOptions& o) {
+  json closed = json::array();
+  for (const Variant& x : all_variants())
+    if (x.range == RangeRule::closed &&
+        std::any_of(o.shapes.begin(), o.shapes.end(), [&](ShapeKind k) { return x.handles(k); }))
+      closed.push_back(std::string(x.name));
+  return closed;
+}
+}  // namespace
+
 json campaign_identity(const CampaignOptions& o) {
   json f = json::array(), c = json::array(), s = json::array(), v = json::array();
   for (Family x : o.families) f.push_back(std::string(to_string(x)));
@@ -153,6 +165,8 @@ json campaign_identity(const CampaignOptions& o) {
           {"count", o.count},
           {"seed", o.seed},
           {"rule", std::string(to_string(o.rule))},
+          {"tolerance_ulps", o.tolerance_ulps},
+          {"ranges", closed_ranges(o)},
           {"version", RAYPROOF_VERSION}};
 }
 
@@ -183,6 +197,8 @@ json fingerprint(const CampaignOptions& o) {
           {"shard", o.shard},
           {"shards", o.shards},
           {"rule", std::string(to_string(o.rule))},
+          {"tolerance_ulps", o.tolerance_ulps},
+          {"closed_ranges", closed_ranges(o)},
           {"shrink", o.shrink},
           {"max_findings", o.max_findings},
           {"max_shrunk", o.max_shrunk},
@@ -195,8 +211,8 @@ struct Checkpoint {
   size_t pair = 0;
   std::uint64_t next = 0;  // first case index not yet done in `pair`
   bool pair_started = false;
-  std::uint64_t findings_in_pair = 0;
-  std::map<std::string, std::uint64_t> shrunk_in_pair;  // by finding kind
+  std::uint64_t findings_in_pair = 0, rounding_findings_in_pair = 0;  // bug-level (and failures), rounding-level
+  std::map<std::string, std::uint64_t> shrunk_in_pair;                // by finding kind
   std::uintmax_t findings_bytes = 0;
   FindingsHash findings_hash;  // of those bytes
   CampaignReport report;
@@ -208,6 +224,7 @@ void save(const std::string& path, const CampaignOptions& o, const Checkpoint& c
                     {"next", c.next},
                     {"pair_started", c.pair_started},
                     {"findings_in_pair", c.findings_in_pair},
+                    {"rounding_findings_in_pair", c.rounding_findings_in_pair},
                     {"shrunk_in_pair", c.shrunk_in_pair},
                     {"findings_bytes", c.findings_bytes},
                     {"findings_hash", c.findings_hash.value},
@@ -219,6 +236,7 @@ Checkpoint load(const std::string& path, const CampaignOptions& o) {
     Checkpoint c;
     c.pair = j.at("pair"), c.next = j.at("next"), c.pair_started = j.at("pair_started");
     c.findings_in_pair = j.at("findings_in_pair"), c.findings_bytes = j.at("findings_bytes");
+    c.rounding_findings_in_pair = j.at("rounding_findings_in_pair");
     c.shrunk_in_pair = j.at("shrunk_in_pair").get<std::map<std::string, std::uint64_t>>();
     c.findings_hash.value = j.at("findings_hash");
     c.report = CampaignReport::from_json(j.at("report"));
@@ -257,8 +275,9 @@ struct Finding {
   GeneratedCase generated;
   const Variant* first_disagreeing;  // or the first that failed on it (plugin.md: crash, timeout, ...)
   AnswerFailure failure = AnswerFailure::none;
-  std::string kind;    // "VARIANT exact->reported" or "VARIANT failure": what max_shrunk counts
-  bool shrink = true;  // false: written as found (beyond max_shrunk)
+  std::string kind;          // "VARIANT exact->reported" or "VARIANT failure": what max_shrunk counts
+  bool shrink = true;        // false: written as found (beyond max_shrunk)
+  Level level = Level::bug;  // of the first disagreeing variant's answer (failures: bug)
 };
 
 // What hole counting needs of one case of a grazing-triangle batch.
@@ -322,6 +341,14 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
     std::vector<const Variant*> first;  // by case in the chunk: the first variant that disagreed or failed
     std::vector<AnswerFailure> failure;
     std::vector<HitClass> reported;  // by case: the first disagreeing variant's class
+    std::vector<Level> level;        // by case: the first disagreeing variant's level
+    // The chunk's disagreements, each given its level (verdicts.md) once every variant answered.
+    struct Disagreeing {
+      size_t k, vi;
+      VariantOutcome outcome;
+    };
+    std::vector<Disagreeing> disagreeing;
+    for (Tally& t : me.tallies) t.tolerance_ulps = o.tolerance_ulps;
     for (std::uint64_t chunk = lo; chunk < hi; chunk += chunk_size) {
       const size_t n = static_cast<size_t>(std::min<std::uint64_t>(chunk_size, hi - chunk));
       cases.clear(), queries.clear(), exact.clear();
@@ -331,7 +358,12 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         exact.push_back(me.oracle.judge(cases.back().ray, cases.back().shape, o.rule));
       }
       me.float_view.clear(), first.assign(n, nullptr), failure.assign(n, AnswerFailure::none),
-          reported.assign(n, HitClass::miss);
+          reported.assign(n, HitClass::miss), level.assign(n, Level::bug), disagreeing.clear();
+      auto disagrees = [&](size_t k, size_t vi, const Answer& a) {
+        VariantOutcome d = judge_answer(exact[k], a);
+        d.variant = variants[vi];
+        disagreeing.push_back({k, vi, std::move(d)});
+      };
       for (size_t k = 0; k < n && pairs_of_triangles; ++k) {
         EdgeEvidence& edge = judged.edges[chunk + k - b.start];
         edge.shared_edge = cases[k].shared_edge, edge.exact = exact[k], edge.variant_hit.resize(variants.size());
@@ -356,7 +388,9 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         if (direct) {
           for (size_t k = 0; k < n; ++k) {
             const Hit h = v.kernel(cases[k].ray, cases[k].shape, o.rule);
-            note(k, vi, h.cls, AnswerFailure::none, tally.add_answer(exact[k], h) != Agreement::agrees);
+            const bool wrong = tally.add_answer(exact[k], h) != Agreement::agrees;
+            if (wrong) disagrees(k, vi, h);
+            note(k, vi, h.cls, AnswerFailure::none, wrong);
           }
           continue;
         }
@@ -367,8 +401,9 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           for (size_t k = 0; k < n; ++k) {
             const Answer& h = me.answers[k];
             if (h.failed()) tally.add(exact[k].cls, VariantOutcome{&v, h});
-            note(k, vi, h.cls, h.failure,
-                 h.failed() ? failure_is_finding(h.failure) : tally.add_answer(exact[k], h) != Agreement::agrees);
+            const bool wrong = !h.failed() && tally.add_answer(exact[k], h) != Agreement::agrees;
+            if (wrong) disagrees(k, vi, h);
+            note(k, vi, h.cls, h.failure, h.failed() ? failure_is_finding(h.failure) : wrong);
           }
           continue;
         }
@@ -376,6 +411,7 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
         for (size_t k = 0; k < n; ++k) {
           const VariantOutcome& r = outcomes[k];
           tally.add(exact[k].cls, r);
+          if (!r.answer.failed() && r.agreement != Agreement::agrees) disagreeing.push_back({k, vi, r});
           note(k, vi, r.answer.cls, r.answer.failure,
                r.answer.failed() ? failure_is_finding(r.answer.failure) : r.agreement != Agreement::agrees);
           if (pairs_of_triangles) {
@@ -387,13 +423,52 @@ Judged judge_batch(const Batch& b, const std::vector<const Variant*>& variants, 
           }
         }
       }
+      // Levels: β checked up to K (beyond it a disagreement is a bug whatever a witness says).
+      // Variants of one precision, rule and range that report the same class on a case share a
+      // verdict (they saw the same numbers): judged once (disagreeing is in variant order, so a
+      // case's earlier verdicts are looked up among the few kept for it).
+      struct Shared {
+        size_t k;
+        Precision precision;
+        HitRule rule;
+        RangeRule range;
+        HitClass reported;
+        std::optional<OutcomeVerdict> verdict;
+      };
+      std::vector<Shared> shared;
+      for (const Disagreeing& d : disagreeing) {
+        const Variant& var = *variants[d.vi];
+        const Shared key{d.k, var.precision, var.rule_for(o.rule), var.range, d.outcome.answer.cls, std::nullopt};
+        auto same = std::find_if(shared.begin(), shared.end(), [&](const Shared& x) {
+          return x.k == key.k && x.precision == key.precision && x.rule == key.rule && x.range == key.range &&
+                 x.reported == key.reported;
+        });
+        if (same == shared.end()) {
+          shared.push_back(key);
+          // K = 0, the strict reading: every disagreement a bug, no β asked (none is "within" 0).
+          shared.back().verdict =
+              o.tolerance_ulps == 0
+                  ? std::optional<OutcomeVerdict>(OutcomeVerdict{})
+                  : outcome_verdict(cases[d.k], d.outcome, o.rule, o.tolerance_ulps, false, o.tolerance_ulps, false);
+          same = shared.end() - 1;
+        }
+        const std::optional<OutcomeVerdict>& v = same->verdict;
+        if (!v) continue;
+        Tally& tally = me.tallies[d.vi];
+        if (v->at_range_end)
+          ++tally.at_range_end;
+        else
+          tally.add_level({d.outcome.own_exact ? d.outcome.own_exact->cls : exact[d.k].cls, d.outcome.answer.cls},
+                          v->level == Level::bug, o.tolerance_ulps == 0 ? "unchecked" : beta_bucket(v->beta));
+        if (first[d.k] == variants[d.vi] && failure[d.k] == AnswerFailure::none) level[d.k] = v->level;
+      }
       for (size_t k = 0; k < n; ++k) {
         if (!first[k]) continue;
         std::string kind = std::string(first[k]->name) + " ";
         kind += failure[k] != AnswerFailure::none
                     ? std::string(to_string(failure[k]))
                     : std::string(to_string(exact[k].cls)) + "->" + std::string(to_string(reported[k]));
-        me.findings.push_back({chunk + k, std::move(cases[k]), first[k], failure[k], std::move(kind)});
+        me.findings.push_back({chunk + k, std::move(cases[k]), first[k], failure[k], std::move(kind), true, level[k]});
       }
     }
   });
@@ -424,9 +499,12 @@ void count_shared_edge_holes(const Batch& b, const Judged& judged, const std::ve
 }
 
 // The disagreeing variants' answers on a (shrunk) finding, for its "found" object.
-json disagreeing_answers(const std::vector<const Variant*>& variants, Oracle& oracle, const Case& c, HitRule rule) {
+json disagreeing_answers(const std::vector<const Variant*>& variants, Oracle& oracle, const Case& c, HitRule rule,
+                         double tolerance_ulps) {
   const Verdict exact = oracle.judge(c.ray, c.shape, rule);
   json out = json::object();
+  // Variants of one precision, rule and range reporting one class share a verdict (judge_batch).
+  std::map<std::tuple<Precision, HitRule, RangeRule, HitClass>, std::optional<OutcomeVerdict>> shared;
   for (const Variant* v : variants) {
     if (!v->handles(kind_of(c.shape))) continue;
     const VariantOutcome o = compare_variant(oracle, *v, exact, c, rule);
@@ -436,9 +514,18 @@ json disagreeing_answers(const std::vector<const Variant*>& variants, Oracle& or
       continue;
     }
     if (o.agreement == Agreement::agrees) continue;
-    out[std::string(v->name)] = {{"class", std::string(to_string(o.answer.cls))},
-                                 {"t", o.answer.has_t() ? json(hex_double(o.answer.t)) : json(nullptr)},
-                                 {"ulp", o.ulp ? json(*o.ulp) : json(nullptr)}};
+    json& entry = out[std::string(v->name)];
+    entry = {{"class", std::string(to_string(o.answer.cls))},
+             {"t", o.answer.has_t() ? json(hex_double(o.answer.t)) : json(nullptr)},
+             {"ulp", o.ulp ? json(*o.ulp) : json(nullptr)}};
+    const auto key = std::make_tuple(v->precision, v->rule_for(rule), v->range, o.answer.cls);
+    if (!shared.contains(key)) shared[key] = outcome_verdict(c, o, rule, tolerance_ulps, false, tolerance_ulps);
+    if (const std::optional<OutcomeVerdict>& verdict = shared.at(key)) {
+      if (verdict->at_range_end)
+        entry["at_range_end"] = true;
+      else
+        add_verdict_fields(entry, *verdict, to_string(v->range));
+    }
   }
   return out;
 }
@@ -476,7 +563,12 @@ std::string finding_line(const Batch& b, const Finding& f, const std::vector<con
       {"index", f.index},
       {"detail", f.generated.detail},
       {"rule", std::string(to_string(o.rule))},
-      {"disagreeing", disagreeing_answers(variants, oracle, c, o.rule)}};
+      {"disagreeing", disagreeing_answers(variants, oracle, c, o.rule, o.tolerance_ulps)}};
+  // The finding's level: its variant's on the written (shrunk) case, as found where it is gone.
+  const json& own = c.found["disagreeing"].contains(std::string(f.first_disagreeing->name))
+                        ? c.found["disagreeing"][std::string(f.first_disagreeing->name)]
+                        : json::object();
+  c.found["level"] = own.contains("level") ? own["level"] : json(std::string(to_string(f.level)));
   // Asked again, external code may answer otherwise (a plugin error that comes and goes): the
   // finding still names the variant it was found for, never an empty disagreeing.
   if (c.found["disagreeing"].empty())
@@ -557,8 +649,8 @@ CampaignReport run_campaign(const CampaignOptions& o) {
   std::vector<Worker> workers(std::max(1, o.threads));
   long batches_done = 0;
   Stopwatch since_checkpoint;  // (checkpoint_seconds; open_findings_file cuts findings back to it on resume)
-  for (; cp.pair < pairs.size();
-       ++cp.pair, cp.pair_started = false, cp.findings_in_pair = 0, cp.shrunk_in_pair.clear()) {
+  for (; cp.pair < pairs.size(); ++cp.pair, cp.pair_started = false, cp.findings_in_pair = 0,
+                                            cp.rounding_findings_in_pair = 0, cp.shrunk_in_pair.clear()) {
     const auto [family, construction, shape] = pairs[cp.pair];
     std::vector<const Variant*> variants = variants_for(shape);
     std::erase_if(variants, [&](const Variant* v) {
@@ -575,11 +667,20 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       count_shared_edge_holes(b, judged, variants, cp.report);
       // The cap keeps the file short, but never drops the finding that stopped external code (a
       // crash, a hang, a protocol error): it is that variant's last word and its replay.
-      const std::uint64_t room = o.max_findings > cp.findings_in_pair ? o.max_findings - cp.findings_in_pair : 0;
-      if (judged.findings.size() > room) {
-        std::vector<Finding> kept(judged.findings.begin(), judged.findings.begin() + static_cast<std::ptrdiff_t>(room));
-        for (std::size_t i = room; i < judged.findings.size(); ++i)
-          if (stops_variant(judged.findings[i].failure)) kept.push_back(judged.findings[i]);
+      // Bugs and rounding-level findings each have --max-findings (verdicts.md §4: rounding
+      // never crowds out a bug).
+      {
+        std::uint64_t room[2] = {o.max_findings - std::min(o.max_findings, cp.findings_in_pair),
+                                 o.max_findings - std::min(o.max_findings, cp.rounding_findings_in_pair)};
+        std::vector<Finding> kept;
+        for (Finding& f : judged.findings) {
+          std::uint64_t& left = room[f.level == Level::rounding];
+          if (left > 0 || stops_variant(f.failure)) {
+            left -= left > 0;
+            (f.level == Level::rounding ? cp.rounding_findings_in_pair : cp.findings_in_pair) += 1;
+            kept.push_back(std::move(f));
+          }
+        }
         judged.findings = std::move(kept);
       }
       // Shrink the first max_shrunk of each kind in this family and shape (in index order, so
@@ -601,7 +702,6 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       }
       out.flush();
       if (!out) throw std::runtime_error(o.output + ": write failed");
-      cp.findings_in_pair += judged.findings.size();
       cp.report.findings_written += judged.findings.size();
       if (o.crash_after_batches >= 0 && ++batches_done > o.crash_after_batches) std::_Exit(3);  // testing hook
       cp.report.cases[pair_key] += b.size();
@@ -616,10 +716,20 @@ CampaignReport run_campaign(const CampaignOptions& o) {
       if (o.progress) o.progress(family, shape, b.end - lo, hi - lo);
     }
   }
-  if (o.keep_checkpoint)
+  // Bugs first (verdicts.md §4), whether or not the checkpoint is kept: a kept one then describes
+  // the rewritten file (same bytes, another order).
+  out.close();
+  rewrite_bugs_first(o.output);
+  if (o.keep_checkpoint) {
+    cp.findings_hash = FindingsHash{};
+    std::ifstream again(o.output, std::ios::binary);
+    std::stringstream bytes;
+    bytes << again.rdbuf();
+    cp.findings_hash.add(bytes.str());
     save(checkpoint_path, o, cp);
-  else
+  } else {
     std::filesystem::remove(checkpoint_path);  // complete: nothing to resume
+  }
   cp.report.shard_of = {campaign_identity(o), o.shard, o.shards};
   return cp.report;
 }

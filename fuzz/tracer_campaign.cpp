@@ -784,21 +784,6 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
   return json_text(mesh_case_to_json(c)) + "\n";
 }
 
-// The findings file rewritten (atomically) with bug-level findings before rounding-level ones,
-// each group in the order found (verdicts.md §4).
-void bugs_first(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return;  // a device or FIFO: written as it came
-  std::ifstream in(path);
-  std::string line, bugs, rounding;
-  while (std::getline(in, line))
-    (line.find("\"level\":\"rounding\"") != std::string::npos ? rounding : bugs) += line + "\n";
-  if (rounding.empty()) return;
-  AtomicFile file(path);
-  file.stream() << bugs << rounding;
-  file.commit();
-}
-
 }  // namespace
 
 TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
@@ -880,7 +865,7 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
     save(checkpoint_path, o, cp);
   } else {
     out.close();
-    bugs_first(o.output);
+    rewrite_bugs_first(o.output);
     std::filesystem::remove(checkpoint_path);
   }
   json families = json::array(), tracers = json::array();

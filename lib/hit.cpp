@@ -50,4 +50,12 @@ std::optional<HitRule> hit_rule_from_string(std::string_view s) {
   return std::nullopt;
 }
 
+std::string_view to_string(RangeRule r) { return r == RangeRule::closed ? "closed" : "open"; }
+
+std::optional<RangeRule> range_rule_from_string(std::string_view text) {
+  if (text == "open") return RangeRule::open;
+  if (text == "closed") return RangeRule::closed;
+  return std::nullopt;
+}
+
 }  // namespace rayproof

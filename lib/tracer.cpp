@@ -196,14 +196,6 @@ const Tracer* find_tracer(std::string_view name) {
   return nullptr;
 }
 
-std::string_view to_string(RangeRule r) { return r == RangeRule::closed ? "closed" : "open"; }
-
-std::optional<RangeRule> range_rule_from_string(std::string_view text) {
-  if (text == "open") return RangeRule::open;
-  if (text == "closed") return RangeRule::closed;
-  return std::nullopt;
-}
-
 bool set_tracer_range(std::string_view name, RangeRule range) {
   std::lock_guard lock(registry_mutex());
   if (const auto it = builtin().find(name); it != builtin().end()) return it->second.range = range, true;

@@ -459,6 +459,12 @@ const Variant* find_variant(std::string_view name) {
   return nullptr;
 }
 
+bool set_variant_range(std::string_view name, RangeRule range) {
+  for (Variant& v : registry())
+    if (v.name == name) return v.range = range, true;
+  return false;
+}
+
 std::vector<const Variant*> variants_for(ShapeKind shape) {
   std::vector<const Variant*> out;
   for (const Variant& v : registry())

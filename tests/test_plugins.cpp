@@ -463,8 +463,11 @@ TEST(Diagnosis, EachBundledExamplesKnownDefectIsNamed) {
        "(tca < 0)"},
       {"--plugin " + dir + "/glsl_sphere.so", "glsl-sphere", "sphere", "near-origin,exit-entry",
        "the float rounding of the origin"},
+      // Its `t > EPSILON` (1e-7) drops contacts within a few float ulps of the origin at these
+      // scales: rounding-level (verdicts.md), not diagnosed; its bug-level misses are the
+      // determinant's `|a| < EPSILON` on the small triangles of exit-entry.
       {"--plugin " + dir + "/wikipedia_moller_trumbore.so", "wikipedia-mt", "triangle", "near-origin,exit-entry",
-       "(t_min, an epsilon) of about ", 1e-7},  // t > EPSILON
+       "an absolute epsilon on the determinant"},
       {"--plugin " + dir + "/minmax_slab_box.so", "minmax-slab", "box", "near-origin,exit-entry",
        "t >= 0 where t > 0 is meant"},
       {"--exec py-sphere=" + std::string(RAYPROOF_SOURCE_DIR) + "/examples/exec/textbook_sphere.py", "py-sphere",

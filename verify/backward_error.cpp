@@ -7,6 +7,9 @@
 namespace rayproof {
 
 // ------------------------------------------------------------------------------ exact numbers
+ExactVec exact_vec(const Vec3& v) { return {exact_of(v.x()), exact_of(v.y()), exact_of(v.z())}; }
+json exact_vec_json(const ExactVec& v) { return json::array({hex_exact(v[0]), hex_exact(v[1]), hex_exact(v[2])}); }
+
 mpq_class exact_of(double x) {
   mpq_class q(x);  // GMP converts a finite double exactly
   return q;
@@ -95,7 +98,8 @@ double unit_roundoff(Precision p) { return p == Precision::f32 ? 0x1p-24 : 0x1p-
 std::string_view to_string(Level l) { return l == Level::rounding ? "rounding" : "bug"; }
 
 json beta_json(const BackwardError& b) {
-  if (!b.beta) return b.refused ? "unproved" : "none";  // unproved: nothing to try (README's extensions)
+  // unproved: nothing to try, or every witness within the checked range refused (README's extensions)
+  if (!b.beta || (b.refused && !b.checked)) return b.refused ? "unproved" : "none";
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.2g", *b.beta);
   return std::stod(buf);
@@ -103,7 +107,7 @@ json beta_json(const BackwardError& b) {
 
 std::string beta_bucket(const BackwardError& b) {
   if (!b.beta) return "none";
-  if (!b.witness && !b.estimated) return "unproved";  // the exact judge refused every witness tried
+  if (!b.checked && !b.estimated) return "unproved";  // the exact judge refused every witness tried
   if (*b.beta <= 0x1p-20) return "2^-20";
   int k = -20;
   while (k < 60 && std::ldexp(1.0, k) < *b.beta) ++k;
@@ -113,7 +117,6 @@ std::string beta_bucket(const BackwardError& b) {
 namespace {
 using Q = mpq_class;
 
-ExactVec exact_vec(const Vec3& v) { return {exact_of(v.x()), exact_of(v.y()), exact_of(v.z())}; }
 ExactVec sub(const ExactVec& a, const ExactVec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 ExactVec cross(const ExactVec& a, const ExactVec& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
@@ -121,7 +124,6 @@ ExactVec cross(const ExactVec& a, const ExactVec& b) {
 Q dot(const ExactVec& a, const ExactVec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 bool is_zero(const ExactVec& a) { return a[0] == 0 && a[1] == 0 && a[2] == 0; }
 
-json exact_vec_json(const ExactVec& v) { return json::array({hex_exact(v[0]), hex_exact(v[1]), hex_exact(v[2])}); }
 ExactVec read_exact_vec(const json& j, const std::string& field) {
   if (!j.is_array() || j.size() != 3) throw FieldError(field, "expected [x, y, z]");
   ExactVec v;
@@ -480,12 +482,30 @@ bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, c
 
 // ------------------------------------------------------------------------------ the witness
 json Witness::to_json() const {
+  json out = {{"ulps", ulps},
+              {"scale", hex_double(scale)},
+              {"ray", {{"origin", exact_vec_json(origin)}, {"direction", exact_vec_json(direction)}}}};
+  if (shape) {  // the case format's fields (shape_to_json's walk), each number exact
+    json j = {{"type", std::string(to_string(*shape))}};
+    int next = 0;
+    for (const ShapeField& f : shape_fields(*shape)) {
+      json& field = j[std::string(f.name)];
+      if (f.vectors == 0) {
+        field = hex_exact(shape_numbers[next++]);
+        continue;
+      }
+      json vecs = json::array();
+      for (int i = 0; i < f.vectors; ++i, next += 3)
+        vecs.push_back(exact_vec_json({shape_numbers[next], shape_numbers[next + 1], shape_numbers[next + 2]}));
+      field = f.nested() ? vecs : vecs[0];
+    }
+    out["shape"] = std::move(j);
+    return out;
+  }
   json v = json::object();
   for (const auto& [i, p] : vertices) v[std::to_string(i)] = exact_vec_json(p);
-  return {{"ulps", ulps},
-          {"scale", hex_double(scale)},
-          {"ray", {{"origin", exact_vec_json(origin)}, {"direction", exact_vec_json(direction)}}},
-          {"vertices", v}};
+  out["vertices"] = std::move(v);
+  return out;
 }
 
 Witness Witness::from_json(const json& j) {
@@ -496,6 +516,31 @@ Witness Witness::from_json(const json& j) {
   const json& ray = require_object(j.at("ray"), "witness.ray");
   w.origin = read_exact_vec(ray.at("origin"), "witness.ray.origin");
   w.direction = read_exact_vec(ray.at("direction"), "witness.ray.direction");
+  if (j.contains("shape")) {
+    const json& sh = require_object(j.at("shape"), "witness.shape");
+    const auto kind = sh.contains("type") && sh.at("type").is_string()
+                          ? shape_kind_from_string(sh.at("type").get<std::string>())
+                          : std::nullopt;
+    if (!kind) throw FieldError("witness.shape.type", "expected sphere, plane, triangle or box");
+    w.shape = *kind;
+    int next = 0;
+    for (const ShapeField& f : shape_fields(*kind)) {
+      const std::string field = "witness.shape." + std::string(f.name);
+      if (!sh.contains(std::string(f.name))) throw FieldError(field, "missing");
+      const json& x = sh.at(std::string(f.name));
+      if (f.vectors == 0) {
+        const json one = json::array({x, x, x});  // read as a vector's component: one parser
+        w.shape_numbers[next++] = read_exact_vec(one, field)[0];
+        continue;
+      }
+      if (f.nested() && (!x.is_array() || x.size() != static_cast<std::size_t>(f.vectors)))
+        throw FieldError(field, "expected " + std::to_string(f.vectors) + " vectors");
+      for (int i = 0; i < f.vectors; ++i, next += 3) {
+        const ExactVec v = read_exact_vec(f.nested() ? x[i] : x, field);
+        for (int k = 0; k < 3; ++k) w.shape_numbers[next + k] = v[k];
+      }
+    }
+  }
   if (j.contains("vertices")) {
     const json& v = require_object(j.at("vertices"), "witness.vertices");
     for (auto it = v.begin(); it != v.end(); ++it) {
@@ -701,6 +746,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     if (witness_holds(oracle, r, w, range, a, p) == true) {
       out.beta = w.ulps;
       out.witness = std::move(w);
+      out.checked = true;
       return out;
     }
   }

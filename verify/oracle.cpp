@@ -37,6 +37,22 @@ template <class NT>
 [[gnu::always_inline]] inline V<NT> lift(const Vec3& v) {
   return {NT(v.x()), NT(v.y()), NT(v.z())};
 }
+// Rational inputs (a witness's moved query, exact_verdict) and intervals enclosing them
+// (interval_class): the policies' terms read them alike.
+template <class NT>
+inline V<NT> lift(const ExactVec& v) {
+  return {NT(v[0]), NT(v[1]), NT(v[2])};
+}
+using IntervalVec = std::array<Interval, 3>;
+template <class NT>
+inline V<NT> lift(const IntervalVec& v) {
+  return {NT(v[0]), NT(v[1]), NT(v[2])};
+}
+using ExpansionVec = std::array<Expansion, 3>;
+template <class NT>
+inline V<NT> lift(const ExpansionVec& v) {
+  return {NT(v[0]), NT(v[1]), NT(v[2])};
+}
 template <class NT>
 [[gnu::always_inline]] inline V<NT> operator-(const V<NT>& a, const V<NT>& b) {
   return {NT(a.x - b.x), NT(a.y - b.y), NT(a.z - b.z)};
@@ -60,6 +76,19 @@ template <class NT>
 }
 [[gnu::always_inline]] inline double largest(const V<double>& v) { return std::max(std::max(v.x, v.y), v.z); }
 
+// The sign of an input number, exactly (the box's d = 0 axes): doubles and rationals; an
+// interval or expansion whose sign is uncertain throws Uncertain_input (filtered_class's fallback).
+struct UncertainInput {};
+inline int input_sign(double x) { return (x > 0) - (x < 0); }
+inline int input_sign(const mpq_class& x) { return sgn(x); }
+// (Differences of doubles arrive as gmpxx expressions or doubles: both convert.)
+template <class T, class U>
+inline int input_sign(const __gmp_expr<T, U>& x) {
+  return sgn(mpq_class(x));
+}
+int input_sign(const Interval& x);
+int input_sign(const Expansion& x);
+
 // The sign of x, or nullopt when an interval straddles zero.
 std::optional<int> sign_of(const Interval& x) {
   const auto s = CGAL::sign(x);
@@ -70,6 +99,14 @@ std::optional<int> sign_of(const Exact& x) { return sgn(x); }
 std::optional<int> sign_of(const Expansion& x) {
   if (!x.valid()) return std::nullopt;  // a product left the range where expansions are exact
   return x.sign();
+}
+int input_sign(const Interval& x) {
+  if (const auto s = sign_of(x)) return *s;
+  throw UncertainInput{};
+}
+int input_sign(const Expansion& x) {
+  if (const auto s = sign_of(x)) return *s;
+  throw UncertainInput{};
 }
 
 // What a classification decided, before the rule and before t is rounded: the class, the side,
@@ -138,8 +175,8 @@ struct SpherePolicy : NoSpecialCase {
   };
   static constexpr bool kExpansionTerms = true;
 
-  template <class NT>
-  static Terms<NT> terms(const Ray& ray, const Sphere& s) {
+  template <class NT, class RayT, class SphereT>
+  static Terms<NT> terms(const RayT& ray, const SphereT& s) {
     const V<NT> f = lift<NT>(ray.origin) - lift<NT>(s.center);
     const V<NT> d = lift<NT>(ray.direction);
     Terms<NT> t;
@@ -289,8 +326,8 @@ struct PlanePolicy : NoSpecialCase {
   };
   static constexpr bool kExpansionTerms = true;
 
-  template <class NT>
-  static Terms<NT> terms(const Ray& ray, const Plane& p) {
+  template <class NT, class RayT, class PlaneT>
+  static Terms<NT> terms(const RayT& ray, const PlaneT& p) {
     const V<NT> n = lift<NT>(p.normal);
     return {NT(NT(p.offset) - dot(n, lift<NT>(ray.origin))), dot(n, lift<NT>(ray.direction))};
   }
@@ -368,8 +405,8 @@ struct TrianglePolicy {
     num = dot(n, v[0] - o);
   }
 
-  template <class NT>
-  static Terms<NT> terms(const Ray& ray, const Triangle& tri) {
+  template <class NT, class RayT, class TriangleT>
+  static Terms<NT> terms(const RayT& ray, const TriangleT& tri) {
     const V<NT> o = lift<NT>(ray.origin), d = lift<NT>(ray.direction);
     const V<NT> v[3] = {lift<NT>(tri.v[0]), lift<NT>(tri.v[1]), lift<NT>(tri.v[2])};
     Terms<NT> t;
@@ -511,9 +548,26 @@ struct TrianglePolicy {
 // A ray in the triangle's plane, in exact rationals: tangent without t when it runs into the
 // closed triangle from an origin on it; tangent at the first edge crossing when it comes from
 // outside; otherwise a miss. Worked in the 2D projection that drops n's largest axis.
+// The coplanar case in rationals over exact inputs: its class and exact t (absent: no t).
+struct CoplanarContact {
+  HitClass cls = HitClass::miss;
+  std::optional<Exact> t;
+};
+CoplanarContact coplanar_contact(const V<Exact>& o, const V<Exact>& d, const V<Exact> (&v)[3]);
+
 Verdict coplanar_triangle(const Ray& ray, const Triangle& tri, RoundingStats& rounding) {
-  const V<Exact> o = lift<Exact>(ray.origin), d = lift<Exact>(ray.direction);
   const V<Exact> v[3] = {lift<Exact>(tri.v[0]), lift<Exact>(tri.v[1]), lift<Exact>(tri.v[2])};
+  const CoplanarContact c = coplanar_contact(lift<Exact>(ray.origin), lift<Exact>(ray.direction), v);
+  Verdict verdict;
+  verdict.cls = c.cls;
+  if (c.t) {
+    verdict.exact_t = std::make_shared<const ExactParameter>(ExactParameter{*c.t, 0, 1, 0});
+    verdict.t = round_to_nearest(*verdict.exact_t, rounding);
+  }
+  return verdict;
+}
+
+CoplanarContact coplanar_contact(const V<Exact>& o, const V<Exact>& d, const V<Exact> (&v)[3]) {
   const V<Exact> n = cross(v[1] - v[0], v[2] - v[0]);
   int drop = 0;
   for (int i = 1; i < 3; ++i)
@@ -530,7 +584,7 @@ Verdict coplanar_triangle(const Ray& ray, const Triangle& tri, RoundingStats& ro
     if (side < 0) inside_closed = false;
     if (side == 0 && orient * sgn(cross2(e, d)) < 0) moves_inside = false;
   }
-  Verdict verdict;
+  CoplanarContact verdict;
   if (inside_closed) {
     if (moves_inside) verdict.cls = HitClass::tangent;  // meets it for every small t > 0: no t
     return verdict;
@@ -546,8 +600,7 @@ Verdict coplanar_triangle(const Ray& ray, const Triangle& tri, RoundingStats& ro
   }
   if (!first) return verdict;
   verdict.cls = HitClass::tangent;
-  verdict.exact_t = std::make_shared<const ExactParameter>(ExactParameter{*first, 0, 1, 0});
-  verdict.t = round_to_nearest(*verdict.exact_t, rounding);
+  verdict.t = *first;
   return verdict;
 }
 
@@ -573,21 +626,23 @@ struct BoxPolicy : NoSpecialCase {
   };
   static constexpr bool kExpansionTerms = true;
 
-  template <class NT>
-  static Terms<NT> terms(const Ray& ray, const Box& b) {
+  template <class NT, class RayT, class BoxT>
+  static Terms<NT> terms(const RayT& ray, const BoxT& b) {
     Terms<NT> t;
     for (int i = 0; i < 3; ++i) {
-      const double o = ray.origin[i], d = ray.direction[i];
-      if (d == 0) {  // exact comparisons of input doubles
-        t.outside = t.outside || o < b.min[i] || o > b.max[i];
-        t.on_a_face = t.on_a_face || o == b.min[i] || o == b.max[i];
+      const auto &o = ray.origin[i], &d = ray.direction[i];
+      const int sd = input_sign(d);
+      if (sd == 0) {  // exact comparisons of the inputs
+        const int below = input_sign(o - b.min[i]), above = input_sign(o - b.max[i]);
+        t.outside = t.outside || below < 0 || above > 0;
+        t.on_a_face = t.on_a_face || below == 0 || above == 0;
         continue;
       }
       // (plane − o)/d = (s·(plane − o))/|d| with s = sign(d): negation is exact in every number type.
       const NT lo = NT(b.min[i]) - NT(o), hi = NT(b.max[i]) - NT(o);
-      t.near[t.axes] = d > 0 ? lo : -hi;
-      t.far[t.axes] = d > 0 ? hi : -lo;
-      t.den[t.axes] = NT(std::abs(d));
+      t.near[t.axes] = sd > 0 ? lo : -hi;
+      t.far[t.axes] = sd > 0 ? hi : -lo;
+      t.den[t.axes] = sd > 0 ? NT(d) : NT(-d);
       ++t.axes;
     }
     return t;
@@ -1447,6 +1502,157 @@ std::string OracleStats::describe() const {
          ", rationals " + std::to_string(class_exact) + "); t rounded " + std::to_string(rounding.rounded) +
          " (expansions " + std::to_string(rounding.expansion) + ", rationals " + std::to_string(rounding.rational) +
          ", exact midpoint test " + std::to_string(rounding.exact_fallbacks) + ")";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rational queries: the policies' terms in GMP rationals alone (every sign certain), no stages.
+namespace {
+struct ExactRay {
+  ExactVec origin, direction;
+};
+struct ExactSphere {
+  ExactVec center;
+  Exact radius;
+};
+struct ExactPlane {
+  ExactVec normal;
+  Exact offset;
+};
+struct ExactTriangle {
+  std::array<ExactVec, 3> v;
+};
+struct ExactBox {
+  ExactVec min, max;
+};
+
+template <class P, class S>
+std::optional<ExactVerdict> exact_verdict_with(const ExactRay& ray, const S& shape, HitRule rule) {
+  const auto terms = P::template terms<Exact>(ray, shape);
+  const auto d = P::decide(terms);
+  if (!d) return std::nullopt;
+  if (P::special_case_needed(*d)) {
+    if constexpr (std::is_same_v<P, TrianglePolicy>) {  // a ray in the triangle's plane
+      const V<Exact> v[3] = {lift<Exact>(shape.v[0]), lift<Exact>(shape.v[1]), lift<Exact>(shape.v[2])};
+      const CoplanarContact c = coplanar_contact(lift<Exact>(ray.origin), lift<Exact>(ray.direction), v);
+      ExactVerdict out{c.cls, std::nullopt, false};
+      if (c.t) out.t = ExactParameter{*c.t, 0, 1, 0};
+      if (!kept_by_rule(out.cls, out.front, rule)) return ExactVerdict{};
+      return out;
+    }
+    return std::nullopt;
+  }
+  if (!kept_by_rule(d->cls, d->front, rule)) return ExactVerdict{};
+  ExactVerdict v{d->cls, std::nullopt, d->front};
+  if (d->source) v.t = P::parameter(terms, *d->source);
+  return v;
+}
+
+bool is_zero(const ExactVec& v) { return v[0] == 0 && v[1] == 0 && v[2] == 0; }
+ExactVec exact_vec_at(const std::array<Exact, kMaxShapeNumbers>& x, int at) { return {x[at], x[at + 1], x[at + 2]}; }
+
+// The same shapes over any number type: intervals, then expansions (filtered_class).
+template <class NT>
+struct SomeRay {
+  std::array<NT, 3> origin, direction;
+};
+template <class NT>
+struct SomeSphere {
+  std::array<NT, 3> center;
+  NT radius;
+};
+template <class NT>
+struct SomePlane {
+  std::array<NT, 3> normal;
+  NT offset;
+};
+template <class NT>
+struct SomeTriangle {
+  std::array<std::array<NT, 3>, 3> v;
+};
+template <class NT>
+struct SomeBox {
+  std::array<NT, 3> min, max;
+};
+
+// The class of a split query in number type NT (its numbers x, enclosing or equal to the exact
+// ones), or nullopt where a sign is uncertain, the shape degenerate, or the ray in a triangle's plane.
+template <class NT>
+std::optional<HitClass> class_in(const std::array<NT, 6 + kMaxShapeNumbers>& x, ShapeKind kind, HitRule rule) {
+  auto vec = [&](int at) { return std::array<NT, 3>{x[at], x[at + 1], x[at + 2]}; };
+  auto nonzero = [](const NT& y) {
+    const auto s = sign_of(y);
+    return s && *s != 0;
+  };
+  auto decided = [&](const auto policy, const SomeRay<NT>& ray, const auto& shape) -> std::optional<HitClass> {
+    using P = decltype(policy);
+    const auto d = P::decide(P::template terms<NT>(ray, shape));
+    if (!d || P::special_case_needed(*d)) return std::nullopt;
+    return kept_by_rule(d->cls, d->front, rule) ? d->cls : HitClass::miss;
+  };
+  const SomeRay<NT> ray{vec(0), vec(3)};
+  if (!nonzero(x[3]) && !nonzero(x[4]) && !nonzero(x[5])) return std::nullopt;
+  switch (kind) {
+    case ShapeKind::sphere:
+      if (!nonzero(x[9])) return std::nullopt;
+      return decided(SpherePolicy{}, ray, SomeSphere<NT>{vec(6), x[9]});
+    case ShapeKind::plane:
+      if (!nonzero(x[6]) && !nonzero(x[7]) && !nonzero(x[8])) return std::nullopt;
+      return decided(PlanePolicy{}, ray, SomePlane<NT>{vec(6), x[9]});
+    case ShapeKind::triangle:  // (a degenerate one reads as coplanar: special, so undecided)
+      return decided(TrianglePolicy{}, ray, SomeTriangle<NT>{{vec(6), vec(9), vec(12)}});
+    case ShapeKind::box:
+      for (int i = 0; i < 3; ++i) {
+        const auto s = sign_of(NT(x[9 + i] - x[6 + i]));
+        if (!s || *s <= 0) return std::nullopt;
+      }
+      return decided(BoxPolicy{}, ray, SomeBox<NT>{vec(6), vec(9)});
+  }
+  return std::nullopt;
+}
+}  // namespace
+
+std::optional<HitClass> filtered_class(const SplitQuery& q, HitRule rule) {
+  for (std::size_t i = 0; i < q.hi.size(); ++i)
+    if (!std::isfinite(q.hi[i]) || !std::isfinite(q.lo[i])) return std::nullopt;
+  try {
+    CGAL::Protect_FPU_rounding<true> upward;
+    std::array<Interval, 6 + kMaxShapeNumbers> x;
+    for (std::size_t i = 0; i < x.size(); ++i) x[i] = Interval(q.hi[i]) + Interval(q.lo[i]);  // encloses hi + lo
+    if (const auto c = class_in(x, q.kind, rule)) return c;
+  } catch (const UncertainInput&) {  // a box's comparison of inputs the intervals cannot make
+  }
+  try {  // exact, unless a product under- or overflows (then the rationals decide)
+    std::array<Expansion, 6 + kMaxShapeNumbers> x;
+    for (std::size_t i = 0; i < x.size(); ++i) x[i] = Expansion(q.hi[i]) + Expansion(q.lo[i]);
+    return class_in(x, q.kind, rule);
+  } catch (const UncertainInput&) {}
+  return std::nullopt;
+}
+
+std::optional<ExactVerdict> exact_verdict(const ExactQuery& q, HitRule rule) {
+  if (is_zero(q.direction)) return std::nullopt;
+  const ExactRay ray{q.origin, q.direction};
+  const auto& x = q.numbers;
+  switch (q.kind) {
+    case ShapeKind::sphere:
+      if (x[3] == 0) return std::nullopt;
+      return exact_verdict_with<SpherePolicy>(ray, ExactSphere{exact_vec_at(x, 0), x[3]}, rule);
+    case ShapeKind::plane:
+      if (is_zero(exact_vec_at(x, 0))) return std::nullopt;
+      return exact_verdict_with<PlanePolicy>(ray, ExactPlane{exact_vec_at(x, 0), x[3]}, rule);
+    case ShapeKind::triangle: {
+      const ExactTriangle tri{{exact_vec_at(x, 0), exact_vec_at(x, 3), exact_vec_at(x, 6)}};
+      const V<Exact> v0 = lift<Exact>(tri.v[0]);
+      const V<Exact> n = cross(lift<Exact>(tri.v[1]) - v0, lift<Exact>(tri.v[2]) - v0);
+      if (n.x == 0 && n.y == 0 && n.z == 0) return std::nullopt;
+      return exact_verdict_with<TrianglePolicy>(ray, tri, rule);
+    }
+    case ShapeKind::box:
+      for (int i = 0; i < 3; ++i)
+        if (!(x[i] < x[3 + i])) return std::nullopt;
+      return exact_verdict_with<BoxPolicy>(ray, ExactBox{exact_vec_at(x, 0), exact_vec_at(x, 3)}, rule);
+  }
+  return std::nullopt;
 }
 
 }  // namespace rayproof

@@ -77,14 +77,19 @@ std::string notes_of(const Tally& t) {
   return notes;
 }
 
-std::vector<std::string> cells_of(const TallyRow& r) {
+// `levels`: the bugs and rounding-level columns (verdicts.md §4: bugs first), where a row has them.
+std::vector<std::string> cells_of(const TallyRow& r, bool levels) {
   const Tally& t = r.tally;
   std::vector<std::string> c;
   if (!r.family.empty()) c.push_back(r.family);
+  for (const std::string& x : {r.variant, std::string(to_string(r.shape)), std::to_string(t.cases)}) c.push_back(x);
+  if (levels) {
+    c.push_back(t.tolerance_ulps ? std::to_string(t.bug_count()) : "-");
+    c.push_back(t.tolerance_ulps ? std::to_string(t.rounding_count()) : "-");
+  }
   for (const std::string& x :
-       {r.variant, std::string(to_string(r.shape)), std::to_string(t.cases), std::to_string(t.agree),
-        std::to_string(t.wrong), std::to_string(t.cannot_tell), std::to_string(t.shared_edge_holes), bits_cell(t, 0.5),
-        bits_cell(t, 0.99), bits_cell(t, 1.0), notes_of(t)})
+       {std::to_string(t.agree), std::to_string(t.wrong), std::to_string(t.cannot_tell),
+        std::to_string(t.shared_edge_holes), bits_cell(t, 0.5), bits_cell(t, 0.99), bits_cell(t, 1.0), notes_of(t)})
     c.push_back(x);
   return c;
 }
@@ -153,12 +158,18 @@ void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostr
                                      "bits-p99",
                                      "bits-max",
                                      "commonest disagreements (exact->variant)"};
+  const bool levels =
+      std::any_of(rows.begin(), rows.end(), [](const TallyRow& r) { return r.tally.tolerance_ulps.has_value(); });
+  if (levels) header.insert(header.begin() + 3, {"bugs", "r:rounding"});
   if (with_family) header.insert(header.begin(), "family");
   lines.push_back(header);
-  for (const TallyRow& r : rows) lines.push_back(cells_of(r));
+  for (const TallyRow& r : rows) lines.push_back(cells_of(r, levels));
   write_text(lines, format == TableFormat::markdown, out);
-  const std::string legend =
-      "t error in bits, log2(ulps + 1), over the cases whose class agrees (0: correctly rounded)";
+  std::string legend = "t error in bits, log2(ulps + 1), over the cases whose class agrees (0: correctly rounded)";
+  if (levels)
+    legend +=
+        "; bugs: disagreements whose backward error exceeds --tolerance-ulps (or has no witness), "
+        "r:rounding: those within it, each with a witness the exact oracle accepted (verdicts.md)";
   out << (format == TableFormat::markdown ? "\n" + legend + ".\n" : legend + "\n");
 }
 

@@ -149,9 +149,36 @@ constexpr TallyCount kTallyCounts[] = {
 };
 }  // namespace
 
+void Tally::add_level(const DisagreementKind& kind, bool bug, const std::string& beta_bucket) {
+  ++(bug ? bugs : rounding)[kind];
+  ++beta[beta_bucket];
+}
+
+std::uint64_t Tally::bug_count() const {
+  std::uint64_t n = 0;
+  for (const auto& [k, x] : bugs) n += x;
+  return n;
+}
+std::uint64_t Tally::rounding_count() const {
+  std::uint64_t n = 0;
+  for (const auto& [k, x] : rounding) n += x;
+  return n;
+}
+
 void Tally::merge(const Tally& o) {
+  // A tally without levels (a fresh one) takes the other's K; two different K do not add up.
+  if (o.tolerance_ulps) {
+    if (tolerance_ulps && *tolerance_ulps != *o.tolerance_ulps)
+      throw std::runtime_error("tallies judged with different --tolerance-ulps (" + std::to_string(*tolerance_ulps) +
+                               " and " + std::to_string(*o.tolerance_ulps) + ") cannot be merged");
+    tolerance_ulps = o.tolerance_ulps;
+  }
   for (const TallyCount& c : kTallyCounts) this->*c.member += o.*c.member;
   for (const auto& [k, n] : o.confusion) confusion[k] += n;
+  for (const auto& [k, n] : o.bugs) bugs[k] += n;
+  for (const auto& [k, n] : o.rounding) rounding[k] += n;
+  for (const auto& [k, n] : o.beta) beta[k] += n;
+  at_range_end += o.at_range_end;
   ulps.merge(o.ulps);
   ulps_own.merge(o.ulps_own);
 }
@@ -163,6 +190,14 @@ json Tally::to_json() const {
   for (const TallyCount& c : kTallyCounts)
     if (c.written_when_zero || this->*c.member > 0) j[c.key] = this->*c.member;
   if (ulps_own.count() > 0) j["ulp_own"] = ulps_own.to_json();
+  if (tolerance_ulps) {  // verdicts.md §4
+    json b = json::object(), r = json::object();
+    for (const auto& [kind, n] : bugs) b[kind.to_string()] = n;
+    for (const auto& [kind, n] : rounding) r[kind.to_string()] = n;
+    j["tolerance_ulps"] = *tolerance_ulps;
+    j["bugs"] = bug_count(), j["rounding"] = rounding_count(), j["at_range_end"] = at_range_end;
+    j["disagreement_bugs"] = b, j["disagreement_rounding"] = r, j["beta"] = beta;
+  }
   return j;
 }
 
@@ -193,6 +228,34 @@ Tally Tally::from_json(const json& j) {
   }
   if (t.ulps.count() > t.agree || t.ulps_own.count() > t.agree)
     throw FieldError("ulp.count", "more t errors than agreeing cases");
+  if (j.contains("tolerance_ulps")) {  // levels (verdicts.md §4): each kind's within its count
+    t.tolerance_ulps = read_number(j.at("tolerance_ulps"), "tolerance_ulps");
+    if (!(*t.tolerance_ulps >= 0)) throw FieldError("tolerance_ulps", "expected a number of ulps >= 0");
+    for (const char* key : {"disagreement_bugs", "disagreement_rounding"}) {
+      const json& levels = require_object(j.at(key), key);
+      for (auto it = levels.begin(); it != levels.end(); ++it) {
+        const std::string field = std::string(key) + "." + printable_prefix(it.key(), 40);
+        const auto kind = DisagreementKind::from_string(it.key());
+        if (!kind) throw FieldError(field, "not exact->reported classes");
+        (std::string_view(key) == "disagreement_bugs" ? t.bugs : t.rounding)[*kind] = read_count(it.value(), field);
+      }
+    }
+    auto count_of = [](const std::map<DisagreementKind, std::uint64_t>& m, const DisagreementKind& k) {
+      const auto it = m.find(k);
+      return it == m.end() ? std::uint64_t{0} : it->second;
+    };
+    for (const auto& [kind, n] : t.bugs)  // (a kind absent from the disagreements counts 0)
+      if (n + count_of(t.rounding, kind) > count_of(t.confusion, kind))
+        throw FieldError("disagreement_bugs." + kind.to_string(), "more bugs and rounding-level than disagreements");
+    for (const auto& [kind, n] : t.rounding)
+      if (n + count_of(t.bugs, kind) > count_of(t.confusion, kind))
+        throw FieldError("disagreement_rounding." + kind.to_string(),
+                         "more bugs and rounding-level than disagreements");
+    t.at_range_end = read_count(j.at("at_range_end"), "at_range_end");
+    const json& beta = require_object(j.at("beta"), "beta");
+    for (auto it = beta.begin(); it != beta.end(); ++it)
+      t.beta[it.key()] = read_count(it.value(), "beta." + printable_prefix(it.key(), 20));
+  }
   return t;
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "rayproof/verify/backward_error.h"
 #include "rayproof/core/json_fields.h"
 #include "rayproof/core/variants.h"
 #include "rayproof/fuzz/generators.h"
@@ -31,11 +32,14 @@ struct CampaignOptions {
   unsigned shard = 0, shards = 1;
   int threads = 1;
   HitRule rule = HitRule::nearest_contact;
+  // verdicts.md: disagreements whose backward error is at most K ulps, with a witness, are
+  // rounding-level (tallied apart, findings written after the bugs, --max-findings each).
+  double tolerance_ulps = kDefaultToleranceUlps;
   std::string output;  // findings, JSON Lines; a checkpoint goes to output + ".checkpoint"
   bool resume = false;
   bool keep_checkpoint = false;  // a completed campaign removes its checkpoint unless asked to keep it
   bool shrink = true;
-  std::uint64_t max_findings = 1000;  // written per family × shape; all are still counted
+  std::uint64_t max_findings = 1000;  // written per family × shape and level; all are still counted
   // Findings shrunk per family × shape × kind (the first disagreeing variant and its exact->reported
   // classes, or its failure); the rest are written as found, counted in findings_unshrunk.
   // Shrinking costs ~2.7 ms a finding (a round trip each probe for external code): unbounded, it

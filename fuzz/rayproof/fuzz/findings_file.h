@@ -50,6 +50,26 @@ class FindingsLock {
   int fd_ = -1;
 };
 
+// The findings file rewritten (atomically) with bug-level findings before rounding-level ones
+// (found.level), each group in the order found (verdicts.md §4). A line that is not a finding
+// stays with the bugs.
+inline void rewrite_bugs_first(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return;  // a device or FIFO: written as it came
+  std::ifstream in(path);
+  std::string line, bugs, rounding;
+  while (std::getline(in, line)) {
+    const json j = json::parse(line, nullptr, false);
+    const bool is_rounding = j.is_object() && j.contains("found") && j["found"].is_object() &&
+                             j["found"].value("level", std::string()) == "rounding";
+    (is_rounding ? rounding : bugs) += line + "\n";
+  }
+  if (rounding.empty()) return;
+  AtomicFile file(path);
+  file.stream() << bugs << rounding;
+  file.commit();
+}
+
 // Whether the first `bytes` bytes of the file hash to `expected`.
 inline bool prefix_matches(const std::string& path, std::uintmax_t bytes, const FindingsHash& expected) {
   std::ifstream in(path, std::ios::binary);

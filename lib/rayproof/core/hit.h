@@ -33,4 +33,12 @@ enum class HitRule { nearest_contact, enter_only };
 std::string_view to_string(HitRule r);
 std::optional<HitRule> hit_rule_from_string(std::string_view s);
 
+// Which contact parameters a tracer's or variant's range admits (docs/spec/verdicts.md §1):
+// `open`, tmin < t < tmax (DXR's rule for triangles, the case format's: a variant's range is
+// t > 0), or `closed`, tmin ≤ t ≤ tmax (Embree's tnear/tfar, CGAL's Ray_3 and Segment_3, most
+// BVH libraries).
+enum class RangeRule { open, closed };
+std::string_view to_string(RangeRule r);
+std::optional<RangeRule> range_rule_from_string(std::string_view text);
+
 }  // namespace rayproof

@@ -96,13 +96,6 @@ struct BuiltScene {
   std::string reason;
 };
 
-// Which contact parameters a tracer's range admits (docs/spec/verdicts.md §1): `open`,
-// tmin < t < tmax (DXR's rule for triangles, the case format's), or `closed`, tmin ≤ t ≤ tmax
-// (Embree's tnear/tfar, CGAL's Ray_3 and Segment_3, most BVH libraries).
-enum class RangeRule { open, closed };
-std::string_view to_string(RangeRule r);
-std::optional<RangeRule> range_rule_from_string(std::string_view text);
-
 struct Tracer {
   std::string name;
   RangeRule range = RangeRule::open;  // declared by the tracer (ABI 2) or by --tracer-range

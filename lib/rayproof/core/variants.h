@@ -101,6 +101,9 @@ struct Variant {
   std::string_view origin = "built-in";     // where the code comes from: "built-in", a plugin path, "exec: CMD"
   bool all_shapes = false;  // an --exec command or answers file answers several shapes (`shape` is then nominal)
   unsigned shape_mask = 0;  // with all_shapes: bit k set for each ShapeKind it declared (0: every shape)
+  // t = 0 admitted (`closed`) or not (`open`, the case format's t > 0): verdicts.md §1, declared
+  // by --variant-range (built-ins compute t > 0: open).
+  RangeRule range = RangeRule::open;
 
   bool handles(ShapeKind k) const {
     return all_shapes ? shape_mask == 0 || (shape_mask >> static_cast<unsigned>(k) & 1u) : shape == k;
@@ -126,6 +129,9 @@ std::span<const Variant> all_variants();
 // command starts; `name`, `source` must outlive the process. Throws on a duplicate name.
 const Variant& register_variant(const Variant& v);
 const Variant* find_variant(std::string_view name);
+// --variant-range NAME=open|closed: declares a loaded variant's range; false when no variant has
+// that name. (Before any work starts: variants are shared read-only after.)
+bool set_variant_range(std::string_view name, RangeRule range);
 std::vector<const Variant*> variants_for(ShapeKind shape);
 // The variant the renderer uses for a shape unless told otherwise.
 const Variant& default_variant(ShapeKind shape);

@@ -38,18 +38,21 @@
 #include <vector>
 
 #include "rayproof/core/json_fields.h"
+#include "rayproof/core/query.h"
 #include "rayproof/core/tracer.h"
+#include "rayproof/verify/compare.h"
 #include "rayproof/verify/mesh_truth.h"
+#include "rayproof/verify/oracle.h"
 
 namespace rayproof {
-
-using ExactVec = std::array<mpq_class, 3>;
 
 // A dyadic rational as an exact hex float with as many digits as it needs ("0x1.0000000000000008p+3"),
 // and back (also plain JSON numbers). A non-dyadic rational has no such text: hex_exact throws.
 std::string hex_exact(const mpq_class& x);
 std::optional<mpq_class> parse_hex_exact(std::string_view text);
 mpq_class exact_of(double x);  // a finite double, exactly
+ExactVec exact_vec(const Vec3& v);
+json exact_vec_json(const ExactVec& v);  // [x, y, z] as hex_exact strings
 // The double at or above |x|·(sign): the smallest double ≥ x (for bounds reported upward).
 double round_up(const mpq_class& x);
 
@@ -61,7 +64,11 @@ struct Witness {
   double scale = 0;  // S
   ExactVec origin, direction;
   std::map<std::uint32_t, ExactVec> vertices;  // the moved mesh vertices, by index
-  // {"ulps", "scale", "ray": {"origin", "direction"}, "vertices": {"INDEX": [x, y, z]}}, exact.
+  // A variant's witness: the moved shape, whole (numbers in shape_numbers' order).
+  std::optional<ShapeKind> shape;
+  std::array<mpq_class, kMaxShapeNumbers> shape_numbers;
+  // {"ulps", "scale", "ray": {"origin", "direction"}, "vertices": {"INDEX": [x, y, z]}} for a mesh,
+  // {..., "shape": {"type", ...}} (the case format's fields) for a variant; exact.
   json to_json() const;
   static Witness from_json(const json& j);  // FieldError naming the field
 };
@@ -75,7 +82,8 @@ struct MeshAnswer {
 
 struct BackwardError {
   std::optional<double> beta;      // ulps (ε of the witness); nullopt: none
-  std::optional<Witness> witness;  // accepted by the exact judge
+  std::optional<Witness> witness;  // accepted by the exact judge (where the caller keeps it)
+  bool checked = false;            // a witness of ε = β passed the exact judge
   bool refused = false;            // no witness within the checked range passed the exact check
   bool estimated = false;          // β is the smallest try's ε, not checked (beyond check_up_to)
 };
@@ -84,7 +92,7 @@ enum class Level { bug, rounding };
 std::string_view to_string(Level l);
 // Rounding-level: β ≤ K with a witness the exact judge accepted; everything else is a bug.
 inline Level level_of(const BackwardError& b, double tolerance_ulps) {
-  return b.beta && b.witness && *b.beta <= tolerance_ulps ? Level::rounding : Level::bug;
+  return b.beta && b.checked && *b.beta <= tolerance_ulps ? Level::rounding : Level::bug;
 }
 // "none", or ε to two significant digits.
 json beta_json(const BackwardError& b);
@@ -110,6 +118,56 @@ std::optional<bool> witness_holds(const MeshOracle& oracle, const TracerRay& ray
 BackwardError backward_error(const MeshOracle& oracle, const TracerRay& ray, const MeshTruth& truth,
                              const TraceJudgement& j, const MeshAnswer& a, Precision p, RangeRule range,
                              double check_up_to = std::numeric_limits<double>::infinity());
+
+// ------------------------------------------------------------------------------ variants
+// β of a variant's answer (verdicts.md §3, "for a variant"), on the query as the variant saw it
+// (f32 code: rounded to float) under `rule`, S the largest magnitude of the ray's origin and the
+// shape's numbers. How it is found (README, "Bug or rounding?"): each shape has a few moves that
+// carry the input across the boundary where its exact class changes — the ray mirrored through
+// the nearest point of an edge, a vertex or a sphere's silhouette, the origin mirrored through
+// the surface, the direction through the plane's parallel, the radius through the ray's distance
+// — each a whole moved query, computed in long double (only its size matters) and made exact;
+// the exact class is then decided along the segment from the query to it (halving, then
+// bisection), so β is the boundary's ε on the best of those lines. A mirrored move crosses at
+// about half its length, where the nearest crossing of that kind lies: within 4× of the minimum
+// for these moves (README). Every β ≤ `check_up_to` comes with a witness exact_verdict accepted.
+// `keep_witness` false: the verdict alone (a campaign's tally), no witness kept or made exact.
+BackwardError class_backward_error(const Query& seen, HitRule rule, HitClass reported, Precision p,
+                                   double check_up_to = std::numeric_limits<double>::infinity(),
+                                   bool keep_witness = true);
+// β of a right class's t: the smallest of a few moves (the shape's surface to the reported contact,
+// or the origin along d) under which the exact contact parameter rounds to `t` in the code's
+// precision (the class still agreeing).
+BackwardError t_backward_error(const Query& seen, HitRule rule, HitClass reported, double t, Precision p);
+// Whether a variant's witness moves no more than it claims and makes the answer right exactly:
+// the class (and, with `t`, the contact parameter rounded to p) of the moved query agree.
+// Whether the ray's origin lies on the (closed) shape, exactly: a contact at t = 0.
+bool origin_on_shape(const Query& q);
+bool shape_witness_holds(const Query& seen, const Witness& w, HitRule rule, HitClass reported, std::optional<double> t,
+                         Precision p);
+
+// verdicts.md for one variant's outcome on query q (as the case gives it): β of its class where
+// it disagrees (`of_t` false), else of its t where that is not t correctly rounded in the code's
+// precision (`of_t`: check's "beta_t"); nullopt where the answer is right, failed or has no
+// query to judge (f32 code on a case float cannot hold). Judged on what the variant saw, under
+// its own rule; witnesses are checked up to `check_up_to` ulps (class) as backward_error's are.
+// A variant whose range is closed and that reports a contact at t = 0 where the origin lies on
+// the shape exactly is right (verdicts.md §1): `at_range_end`, no β.
+struct OutcomeVerdict {
+  BackwardError beta;
+  bool of_t = false;
+  bool at_range_end = false;
+  Level level = Level::bug;
+};
+std::optional<OutcomeVerdict> outcome_verdict(const Query& q, const VariantOutcome& o, HitRule rule,
+                                              double tolerance_ulps, bool with_t,
+                                              double check_up_to = std::numeric_limits<double>::infinity(),
+                                              bool keep_witness = true);
+// The verdict's fields for a check line's or a finding's entry: "level", "beta" (ulps or "none" /
+// "unproved"), "range", and "witness" for a rounding-level one ("beta_t", "level_t" and
+// "witness_t" for a t's).
+void add_verdict_fields(nlohmann::ordered_json& entry, const OutcomeVerdict& v, std::string_view range);
+void add_verdict_fields(json& entry, const OutcomeVerdict& v, std::string_view range);
 
 // The default tolerance K (verdicts.md §3; its derivation in README, "Bug or rounding?").
 inline constexpr double kDefaultToleranceUlps = 16;

@@ -93,6 +93,36 @@ TriangleSides triangle_sides(const Ray& ray, const Triangle& tri);
 // parallel to the ray), exactly: expansions first, else rationals.
 int compare_crossing_parameters(const Ray& ray, const Triangle& a, const Triangle& b);
 
+// A query over rational numbers: a witness's moved ray and shape (backward_error.h), whose
+// numbers are doubles moved by fractions of their ulps. Shape numbers in shape_numbers' order.
+using ExactVec = std::array<mpq_class, 3>;
+struct ExactQuery {
+  ExactVec origin, direction;
+  ShapeKind kind = ShapeKind::sphere;
+  std::array<mpq_class, kMaxShapeNumbers> numbers;
+};
+struct ExactVerdict {
+  HitClass cls = HitClass::miss;
+  std::optional<ExactParameter> t;  // absent for miss and t-less tangents
+  bool front = false;
+};
+// The exact verdict on a rational query under `rule`, from the shapes' one meaning (the same
+// policies Oracle::judge layers its stages over, here in GMP rationals alone; a ray in a
+// triangle's plane as Oracle::judge decides it); nullopt where the shape is degenerate (a zero
+// radius, normal or triangle area, a box corner not below the other on every axis).
+std::optional<ExactVerdict> exact_verdict(const ExactQuery& q, HitRule rule);
+
+// A query whose every number is a double-double value hi + lo, exactly (a witness's moved
+// numbers, made in long double), in the order origin, direction, shape_numbers.
+struct SplitQuery {
+  ShapeKind kind = ShapeKind::sphere;
+  std::array<double, 6 + kMaxShapeNumbers> hi{}, lo{};
+};
+// Its exact class under `rule` where intervals, then exact expansions decide it (Oracle::judge's
+// stages), else nullopt (exact_verdict decides: a ray in a triangle's plane, a product that
+// under- or overflows): a filter in front of exact_verdict for the many witnesses a campaign checks.
+std::optional<HitClass> filtered_class(const SplitQuery& q, HitRule rule);
+
 class Oracle {
  public:
   struct Options {

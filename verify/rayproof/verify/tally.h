@@ -63,6 +63,17 @@ struct Tally {
   UlpHistogram ulps;      // t error, where the class agrees and both t exist (a wrong class's t is no error of t)
   UlpHistogram ulps_own;  // the same in the variant's own precision (f32 code only)
 
+  // verdicts.md §4, where the run judged levels (tolerance_ulps set): per kind of disagreement the
+  // bug-level ones and the rounding-level ones (the rest, `at_range_end`: a closed range's answers
+  // at t = 0, are neither), and the β histogram ("2^k" buckets, "none", "unproved").
+  std::optional<double> tolerance_ulps;
+  std::map<DisagreementKind, std::uint64_t> bugs, rounding;
+  std::uint64_t at_range_end = 0;
+  std::map<std::string, std::uint64_t> beta;
+  void add_level(const DisagreementKind& kind, bool bug, const std::string& beta_bucket);
+  std::uint64_t bug_count() const;
+  std::uint64_t rounding_count() const;
+
   // `exact`: the case's verdict class (the outcome's own_exact, where it has one, wins).
   void add(HitClass exact, const VariantOutcome& outcome);
   // A built-in double variant's answer (it cannot fail and sees the case as given) judged and
