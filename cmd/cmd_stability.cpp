@@ -30,7 +30,7 @@ struct StabilityOutputs {
     for (const auto& [name, list] : cells) {
       AtomicFile& svg = *svgs.at(name);
       studies::write_stability_svg(
-          name + " (" + std::string(to_string(shape)) + ", rule " + rule + "): class disagreement rate", list, grid,
+          name + " (" + std::string(to_string(shape)) + ", rule " + rule + "): bug-level disagreement rate", list, grid,
           svg.stream());
       svg.commit();
       std::cerr << "rayproof stability: " << svg.path() << "\n";
@@ -46,6 +46,7 @@ void add_stability_command(CLI::App& app, int& exit_code) {
     std::string output, rule = "nearest";
     int lo = -200, hi = 200, step = 10, threads = 0;
     std::uint64_t cases = 200, seed = 1;
+    double tolerance_ulps = kDefaultToleranceUlps;
   };
   auto opts = std::make_shared<Options>();
   auto ext = std::make_shared<ExternalFlags>();
@@ -62,6 +63,7 @@ void add_stability_command(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 24));
   add_seed_flag(cmd, opts->seed);
   add_threads_flag(cmd, opts->threads);
+  add_tolerance_flag(cmd, opts->tolerance_ulps);
   cmd->add_option("-o,--output", opts->output, "directory for stability.csv and one SVG heatmap per variant")
       ->required();
   cmd->callback([opts, ext, &exit_code] {
@@ -73,7 +75,7 @@ void add_stability_command(CLI::App& app, int& exit_code) {
       if (std::none_of(shapes.begin(), shapes.end(), [v](ShapeKind k) { return v->handles(k); }))
         throw CLI::ValidationError("--variants", std::string(v->name) + " is a " + std::string(to_string(v->shape)) +
                                                      " variant; add --shapes " + std::string(to_string(v->shape)));
-    const studies::StabilityGrid grid{opts->lo, opts->hi, opts->step, opts->cases, opts->seed};
+    const studies::StabilityGrid grid{opts->lo, opts->hi, opts->step, opts->cases, opts->seed, opts->tolerance_ulps};
     const HitRule rule = parse_rule(opts->rule);
     for (ShapeKind shape : shapes) {
       const std::vector<const Variant*> variants = parse_variants(opts->variants, {shape});

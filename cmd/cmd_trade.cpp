@@ -20,6 +20,7 @@ void add_trade_command(CLI::App& app, int& exit_code) {
     int threads = 0;
     std::string output, plot, format = "markdown";
     ExternalFlags ext;
+    double tolerance_ulps = kDefaultToleranceUlps;
   };
   auto opts = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("trade", "Speed against accuracy: every variant timed and judged on the same cases");
@@ -33,9 +34,13 @@ void add_trade_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--threads", opts->threads, "threads for the oracle (timing is single-threaded)")
       ->check(CLI::Range(0, 256));
   cmd->add_option("-o,--output", opts->output,
-                  "CSV: variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max")
+                  "CSV: variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max,"
+                  "precision,bugs,bug_rate")
       ->required();
-  cmd->add_option("--plot", opts->plot, "SVG scatter plot: ns per test against disagreement rate");
+  cmd->add_option("--plot", opts->plot,
+                  "SVG scatter plot: ns per test against the rate of bug-level wrong answers (all disagreements "
+                  "beside them)");
+  add_tolerance_flag(cmd, opts->tolerance_ulps);
   cmd->add_option("--format", opts->format, "stdout table: markdown (default, paste-ready), table or json")
       ->check(CLI::IsMember({"table", "markdown", "json"}));
   cmd->callback([opts, &exit_code] {
@@ -55,8 +60,8 @@ void add_trade_command(CLI::App& app, int& exit_code) {
     AtomicFile csv(opts->output);  // before the work: a path that cannot be written fails now
     std::unique_ptr<AtomicFile> svg;
     if (!opts->plot.empty()) svg = std::make_unique<AtomicFile>(opts->plot);
-    const auto rows =
-        studies::measure_trade(contenders, shapes, families, opts->count, opts->seed, thread_count(opts->threads));
+    const auto rows = studies::measure_trade(contenders, shapes, families, opts->count, opts->seed,
+                                             thread_count(opts->threads), opts->tolerance_ulps);
     studies::write_trade_table(rows, *table_format_from_string(opts->format), std::cout);
     for (const studies::TradeRow& r : rows)  // external code that stopped: its row times nothing
       if (r.tally.crashes + r.tally.timeouts + r.tally.protocol_errors > 0) {

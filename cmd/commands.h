@@ -74,6 +74,8 @@ struct TracerFlags {
   bool given() const { return !plugins.empty() || !execs.empty() || !names.empty(); }
 };
 void add_tracer_flags(CLI::App* cmd, TracerFlags& flags);
+// --tolerance-ulps K (verdicts.md): nan, inf and negatives refused.
+void add_tolerance_flag(CLI::App* cmd, double& tolerance_ulps);
 // Registers the peer tracers (Embree where built, CGAL's AABB tree), loads the plugins and
 // registers the exec tracers; loading errors are std::runtime_error (exit code 2).
 void load_tracers(const TracerFlags& flags, double case_timeout);

@@ -127,6 +127,21 @@ void load_externals(const ExternalFlags& flags) {
   }
 }
 
+void add_tolerance_flag(CLI::App* cmd, double& tolerance_ulps) {
+  cmd->add_option("--tolerance-ulps", tolerance_ulps,
+                  "K: a disagreement whose backward error is at most K ulps (with a witness) is rounding-level, "
+                  "not a bug (default 16; 0: the strict reading)")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            char* end = nullptr;
+            const double k = std::strtod(text.c_str(), &end);
+            return text.empty() || *end != '\0' || !(k >= 0 && k <= 1e15)  // refuses nan, inf, negatives
+                       ? "expected a number of ulps from 0 to 1e15, got '" + text + "'"
+                       : std::string();
+          },
+          "K"));
+}
+
 void add_tracer_flags(CLI::App* cmd, TracerFlags& flags) {
   cmd->add_option("--tracer", flags.plugins,
                   "a shared library exporting rayproof_tracers (rayproof/tracer.h); repeatable");
@@ -142,18 +157,7 @@ void add_tracer_flags(CLI::App* cmd, TracerFlags& flags) {
   cmd->add_option("--variant-range", flags.variant_ranges,
                   "NAME=open|closed: declares a variant's range, closed admitting t = 0 (docs/spec/verdicts.md); "
                   "repeatable");
-  cmd->add_option("--tolerance-ulps", flags.tolerance_ulps,
-                  "K: a disagreement whose backward error is at most K ulps (with a witness) is rounding-level, "
-                  "not a bug (default 16; 0: the strict reading)")
-      ->check(CLI::Validator(
-          [](std::string& text) {
-            char* end = nullptr;
-            const double k = std::strtod(text.c_str(), &end);
-            return text.empty() || *end != '\0' || !(k >= 0 && k <= 1e15)  // refuses nan, inf, negatives
-                       ? "expected a number of ulps from 0 to 1e15, got '" + text + "'"
-                       : std::string();
-          },
-          "K"));
+  add_tolerance_flag(cmd, flags.tolerance_ulps);
   cmd->add_option("--fail-on", flags.fail_on,
                   "bug|rounding|none: exit 1 when a tracer shows a bug-level disagreement (or a crash), any "
                   "disagreement, or never (default)")

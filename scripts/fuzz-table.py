@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """README's fuzzing tables from a campaign summary (rayproof fuzz --summary FILE).
 
-Percent of cases wrong / cannot tell per variant and family (holes on grazing triangles), then
+Percent of cases wrong / cannot tell per variant and family (in parentheses: the percent of cases
+whose disagreement is bug-level, verdicts.md; holes on grazing triangles), then
 cases checked per second per core per shape and family.
 Usage: scripts/fuzz-table.py SUMMARY.json [THREADS]
 """
@@ -46,6 +47,8 @@ def rate_rows(tallies, families):
                 cells.append("-")
                 continue
             cell = f"{100 * t['wrong'] / t['cases']:.3f} / {100 * t['cannot_tell'] / t['cases']:.3f}"
+            if "bugs" in t:  # verdicts.md: the bug-level share of both, in percent of cases
+                cell += f" ({100 * t['bugs'] / t['cases']:.3f})"
             if f.startswith("grazing") and v in ("moller-trumbore", "watertight", "certified-triangle"):
                 cell += f" · {t['shared_edge_holes']} holes"
             cells.append(cell)

@@ -13,6 +13,10 @@
 namespace rayproof::studies {
 
 namespace {
+// A cell's rate of bug-level disagreements (verdicts.md): what its colour shows.
+double bug_rate(const StabilityCell& c) {
+  return c.tally.cases ? static_cast<double>(c.tally.bug_count()) / c.tally.cases : 0;
+}
 
 struct CellRng : fuzz::SplitMix64 {  // seeded per (seed, cell, case): independent of threads
   double sym() { return 2 * unit() - 1; }
@@ -90,7 +94,24 @@ std::map<std::string, std::vector<StabilityCell>> stability_study(ShapeKind shap
       }
       for (size_t vi = 0; vi < variants.size(); ++vi) {
         const std::vector<VariantOutcome> outcomes = judge_variant_all(oracle, *variants[vi], queries, exact, rule);
-        for (size_t k = 0; k < queries.size(); ++k) tallies[vi].add(exact[k].cls, outcomes[k]);
+        Tally& tally = tallies[vi];
+        tally.tolerance_ulps = grid.tolerance_ulps;
+        for (size_t k = 0; k < queries.size(); ++k) {
+          const VariantOutcome& o = outcomes[k];
+          tally.add(exact[k].cls, o);
+          if (o.answer.failed() || o.agreement == Agreement::agrees) continue;
+          // Its level (verdicts.md), as a campaign's tally gets it (K = 0: every one a bug).
+          const auto v = grid.tolerance_ulps == 0 ? std::optional<OutcomeVerdict>(OutcomeVerdict{})
+                                                  : outcome_verdict(queries[k], o, rule, grid.tolerance_ulps, false,
+                                                                    grid.tolerance_ulps, false);
+          if (!v) continue;
+          if (v->at_range_end) {
+            ++tally.at_range_end;
+            continue;
+          }
+          tally.add_level({o.own_exact ? o.own_exact->cls : exact[k].cls, o.answer.cls}, v->level == Level::bug,
+                          grid.tolerance_ulps == 0 ? "unchecked" : beta_bucket(v->beta));
+        }
       }
       for (size_t vi = 0; vi < variants.size(); ++vi)
         out[std::string(variants[vi]->name)][c] = {a, b, std::move(tallies[vi])};
@@ -100,13 +121,15 @@ std::map<std::string, std::vector<StabilityCell>> stability_study(ShapeKind shap
 }
 
 void write_stability_csv(const std::map<std::string, std::vector<StabilityCell>>& cells, std::ostream& out) {
-  out << "variant,log2_scale,log2_size,cases,disagreement_rate,ulp_p99\n";
+  out << "variant,log2_scale,log2_size,cases,disagreement_rate,ulp_p99,bugs,bug_rate\n";  // (levels appended)
   char buf[64];
   for (const auto& [name, list] : cells)
     for (const StabilityCell& c : list) {
       std::snprintf(buf, sizeof buf, "%.6g", c.tally.disagreement_rate());
       out << name << "," << c.log2_scale << "," << c.log2_size << "," << c.tally.cases << "," << buf << ","
-          << c.tally.ulps.quantile(0.99) << "\n";
+          << c.tally.ulps.quantile(0.99) << "," << c.tally.bug_count() << ",";
+      std::snprintf(buf, sizeof buf, "%.6g", bug_rate(c));
+      out << buf << "\n";
     }
 }
 
@@ -135,13 +158,12 @@ void write_stability_svg(const std::string& title, const std::vector<StabilityCe
   out << svg::text(left, 28, title, "font-size='15'") << "\n";
   for (const StabilityCell& c : cells) {
     const int col = (c.log2_scale - grid.lo) / grid.step, row = (c.log2_size - grid.lo) / grid.step;
-    const std::string tip =
-        markup::format("distance 2^%d, size 2^%d: %llu of %llu disagree, ULP p99 %llu", c.log2_scale, c.log2_size,
-                       (unsigned long long)c.tally.disagreements(), (unsigned long long)c.tally.cases,
-                       (unsigned long long)c.tally.ulps.quantile(0.99));
-    out << svg::rect(left + col * cell, top + (n - 1 - row) * cell, cell, cell, colour_of(c.tally.disagreement_rate()),
-                     tip)
-        << "\n";
+    const std::string tip = markup::format(
+        "distance 2^%d, size 2^%d: %llu of %llu disagree (%llu bug-level, %llu rounding-level), ULP p99 %llu",
+        c.log2_scale, c.log2_size, (unsigned long long)c.tally.disagreements(), (unsigned long long)c.tally.cases,
+        (unsigned long long)c.tally.bug_count(), (unsigned long long)c.tally.rounding_count(),
+        (unsigned long long)c.tally.ulps.quantile(0.99));
+    out << svg::rect(left + col * cell, top + (n - 1 - row) * cell, cell, cell, colour_of(bug_rate(c)), tip) << "\n";
   }
   const int label_every = std::max(1, n / 8);
   for (int i = 0; i < n; i += label_every) {
@@ -153,7 +175,7 @@ void write_stability_svg(const std::string& title, const std::vector<StabilityCe
       << markup::format("<text transform='translate(24 %.1f) rotate(-90)' text-anchor='middle'>", top + plot / 2)
       << "log2 of the size (sphere radius, triangle or box extent)</text>\n";
   const double lx = left + plot + 30;  // legend
-  out << svg::text(lx, top + 4, "disagreement rate") << "\n";
+  out << svg::text(lx, top + 4, "bug-level rate") << "\n";
   const char* labels[] = {"100%", "10%", "1%", "0.1%", "0.01%"};
   for (int i = 0; i < 5; ++i)
     out << svg::rect(lx, top + 14 + i * 22.0, 18, 18, ramp(1 - i / 4.0))

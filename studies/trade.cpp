@@ -109,7 +109,7 @@ void mark_pareto(std::vector<TradeRow>& rows) {
     r.pareto = r.measured();
     for (const TradeRow& o : rows) {
       if (&o == &r || o.shape != r.shape || o.family != r.family || !o.measured()) continue;
-      const double o_rate = o.tally.disagreement_rate(), r_rate = r.tally.disagreement_rate();
+      const double o_rate = o.bug_rate(), r_rate = r.bug_rate();
       const bool no_worse = o.ns_per_test <= r.ns_per_test && o_rate <= r_rate;
       const bool better = o.ns_per_test < r.ns_per_test || o_rate < r_rate;
       if (no_worse && better) r.pareto = false;
@@ -119,7 +119,7 @@ void mark_pareto(std::vector<TradeRow>& rows) {
 
 std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, const std::vector<ShapeKind>& shapes,
                                     const std::vector<Family>& families, std::uint64_t count, std::uint64_t seed,
-                                    int threads) {
+                                    int threads, double tolerance_ulps) {
   std::vector<TradeRow> rows;
   for (ShapeKind shape : shapes) {
     for (Family family : families) {
@@ -149,12 +149,21 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
         row.users_code = c.users_code;
         row.precision = c.precision;
         row.tally.not_representable = not_representable;
+        row.tally.tolerance_ulps = tolerance_ulps;
+        const Precision precision = c.precision == "float" ? Precision::f32 : Precision::f64;
         for (size_t i = 0; i < inputs.size(); ++i) {
           VariantOutcome o = judge_answer(judge[i], answers[i]);
           if (c.precision == "float" && judge[i].t && answers[i].has_t() && o.agreement == Agreement::agrees)
             o.ulp_own =
                 ulp_distance_f32(to_nearest_float(answers[i].t), exact_t_as_float(inputs[i], c.rule, *judge[i].t));
           row.tally.add(judge[i].cls, o);
+          if (answers[i].failed() || o.agreement == Agreement::agrees) continue;
+          // Its level (verdicts.md), on the inputs the contender saw (K = 0: every one a bug).
+          const BackwardError b = tolerance_ulps == 0 ? BackwardError{}
+                                                      : class_backward_error(inputs[i], c.rule, answers[i].cls,
+                                                                             precision, tolerance_ulps, false);
+          row.tally.add_level({judge[i].cls, answers[i].cls}, level_of(b, tolerance_ulps) == Level::bug,
+                              tolerance_ulps == 0 ? "unchecked" : beta_bucket(b));
         }
         rows.push_back(std::move(row));
       }
@@ -165,14 +174,19 @@ std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, co
 }
 
 void write_trade_csv(const std::vector<TradeRow>& rows, std::ostream& out) {
-  out << "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max,precision\n";
+  // (bugs and bug_rate appended: readers of the earlier columns keep working.)
+  out << "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max,precision,bugs,"
+         "bug_rate\n";
   char buf[64];
   for (const TradeRow& r : rows) {
     std::snprintf(buf, sizeof buf, "%.3f", r.ns_per_test);
     out << r.variant << "," << to_string(r.shape) << "," << to_string(r.family) << "," << r.tally.cases << "," << buf
         << "," << r.tally.disagreements() << ",";
     std::snprintf(buf, sizeof buf, "%.9g", r.tally.disagreement_rate());
-    out << buf << "," << r.t_error().quantile(0.99) << "," << r.t_error().max() << "," << r.precision << "\n";
+    out << buf << "," << r.t_error().quantile(0.99) << "," << r.t_error().max() << "," << r.precision << ","
+        << r.tally.bug_count() << ",";
+    std::snprintf(buf, sizeof buf, "%.9g", r.bug_rate());
+    out << buf << "\n";
   }
 }
 
@@ -187,6 +201,8 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
                    {"cases", r.tally.cases},
                    {"disagreements", r.tally.disagreements()},
                    {"disagreement_rate", r.tally.disagreement_rate()},
+                   {"bugs", r.tally.bug_count()},
+                   {"bug_rate", r.bug_rate()},
                    {"ulp_p99", r.t_error().quantile(0.99)},
                    {"ulp_max", r.t_error().max()},
                    {"bits", bits_json(r.t_error())},
@@ -196,28 +212,28 @@ void write_trade_table(const std::vector<TradeRow>& rows, TableFormat format, st
     return;
   }
   const bool md = format == TableFormat::markdown;
-  const char* row_format = md ? "| %s | %s | %s | %.2f | %.3g%% | %s | %llu | %llu | %s |\n"
-                              : "%-9s %-12s %-22s %9.2f %10.3g%% %9s %20llu %20llu  %s\n";
+  const char* row_format = md ? "| %s | %s | %s | %.2f | %.3g%% | %.3g%% | %s | %llu | %llu | %s |\n"
+                              : "%-9s %-12s %-22s %9.2f %10.3g%% %10.3g%% %9s %20llu %20llu  %s\n";
   if (md)
-    out << "| shape | family | variant | ns/test | disagreement rate | t error bits p99 | ULP p99 | ULP max | Pareto "
-           "|\n"
-        << "|---|---|---|---:|---:|---:|---:|---:|:---:|\n";
+    out << "| shape | family | variant | ns/test | bug rate | disagreement rate | t error bits p99 | ULP p99 | ULP max "
+           "| Pareto |\n"
+        << "|---|---|---|---:|---:|---:|---:|---:|---:|:---:|\n";
   else
-    out << markup::format("%-9s %-12s %-22s %9s %11s %9s %20s %20s  %s\n", "shape", "family", "variant", "ns/test",
-                          "disagree", "bits-p99", "ulp-p99", "ulp-max", "pareto");
+    out << markup::format("%-9s %-12s %-22s %9s %11s %11s %9s %20s %20s  %s\n", "shape", "family", "variant", "ns/test",
+                          "bugs", "disagree", "bits-p99", "ulp-p99", "ulp-max", "pareto");
   for (const TradeRow& r : rows) {
     const std::string bits =
         r.t_error().count() ? markup::format("%.1f", bits_of_error(r.t_error().quantile(0.99))) : "-";
     out << markup::format(row_format, std::string(to_string(r.shape)).c_str(), std::string(to_string(r.family)).c_str(),
-                          r.variant.c_str(), r.ns_per_test, 100 * r.tally.disagreement_rate(), bits.c_str(),
-                          static_cast<unsigned long long>(r.t_error().quantile(0.99)),
+                          r.variant.c_str(), r.ns_per_test, 100 * r.bug_rate(), 100 * r.tally.disagreement_rate(),
+                          bits.c_str(), static_cast<unsigned long long>(r.t_error().quantile(0.99)),
                           static_cast<unsigned long long>(r.t_error().max()), r.pareto ? "★" : "");
   }
-  out << (md ? "\n" : "")
-      << "Disagreement: the class differs from the exact one; t error (ULPs, bits = log2(ulps + 1)) "
+  out << (md ? "\n" : "") << "Bug: a disagreement whose backward error exceeds --tolerance-ulps (verdicts.md); "
+      << "disagreement: the class differs from the exact one; t error (ULPs, bits = log2(ulps + 1)) "
       << "over the cases whose class agrees, in the contender's own precision (float code: float ulps against the "
          "exact t "
-      << "rounded to float); ★ Pareto-optimal on its shape and family.\n";
+      << "rounded to float); ★ Pareto-optimal on its shape and family (speed against the bug rate).\n";
 }
 
 namespace {
@@ -235,7 +251,8 @@ struct TradeFrame {
     double x_lo = INFINITY, x_hi = 0, y_min_nonzero = 1;
     for (const TradeRow& r : rows) {
       x_lo = std::min(x_lo, r.ns_per_test), x_hi = std::max(x_hi, r.ns_per_test);
-      if (r.tally.disagreement_rate() > 0) y_min_nonzero = std::min(y_min_nonzero, r.tally.disagreement_rate());
+      for (const double rate : {r.bug_rate(), r.tally.disagreement_rate()})  // both series
+        if (rate > 0) y_min_nonzero = std::min(y_min_nonzero, rate);
     }
     if (rows.empty()) x_lo = 1, x_hi = 10;
     lx0 = std::floor(std::log10(std::max(x_lo, 1e-3))), lx1 = std::ceil(std::log10(std::max(x_hi, 1e-3)) + 1e-9);
@@ -267,7 +284,7 @@ struct TradeFrame {
         << svg::text((left + W - right) / 2, bottom_y() + 38, "ns per test (log)", "text-anchor='middle'")
         << markup::format("<text transform='translate(22 %.1f) rotate(-90)' text-anchor='middle'>",
                           (top + bottom_y()) / 2)
-        << "class disagreement rate (log)</text>\n";
+        << "bug-level wrong answers, rate (log)</text>\n";
   }
 };
 
@@ -339,18 +356,25 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
                 [](const TradeRow* a, const TradeRow* b) { return a->ns_per_test < b->ns_per_test; });
       std::string points;
       for (const TradeRow* r : front)
-        points += markup::format("%.1f,%.1f ", frame.x(r->ns_per_test), frame.y(r->tally.disagreement_rate()));
+        points += markup::format("%.1f,%.1f ", frame.x(r->ns_per_test), frame.y(r->bug_rate()));
       if (front.size() > 1)
         out << "<polyline points='" << points << "' fill='none' stroke='#888' stroke-width='1.2'><title>"
             << markup::escape("Pareto front, " + std::string(to_string(families[fi]))) << "</title></polyline>\n";
     }
     for (const TradeRow& r : panel) {
       const size_t vi = index_in(contenders, r.variant), fi = index_in(families, r.family);
-      const double x = frame.x(r.ns_per_test), y = frame.y(r.tally.disagreement_rate());
+      const double x = frame.x(r.ns_per_test), y = frame.y(r.bug_rate());
+      // The second series: every disagreement (rounding-level included), a small grey tick above
+      // the mark, joined to it, where it differs.
+      const double y_all = frame.y(r.tally.disagreement_rate());
+      if (y_all < y - 0.5)
+        out << svg::line(x, y, x, y_all, "stroke='#bbb' stroke-dasharray='2,2'")
+            << markup::format("<circle cx='%.1f' cy='%.1f' r='2.5' fill='#999'/>", x, y_all) << "\n";
       out << "<g><title>"
           << markup::escape(r.variant + (r.users_code ? " (your code)" : "") + " / " +
                             std::string(to_string(r.family)) +
-                            markup::format(": %g ns, rate %g", r.ns_per_test, r.tally.disagreement_rate()))
+                            markup::format(": %g ns, bug rate %g, all disagreements %g", r.ns_per_test, r.bug_rate(),
+                                           r.tally.disagreement_rate()))
           << "</title>" << trade_marker(x, y, fi, contender_colour(vi), r.precision);
       if (r.users_code)  // the user's own code: ringed (and named in bold in the legend), found at a glance
         out << markup::format("<circle cx='%.1f' cy='%.1f' r='10' fill='none' stroke='#000' stroke-width='2'/>", x, y);
@@ -378,6 +402,9 @@ void write_trade_svg(const std::vector<TradeRow>& rows, std::ostream& out) {
     }
     out << svg::line(lx + 20, ly, lx + 34, ly, "stroke='#888' stroke-width='1.2'")
         << svg::text(lx + 38, ly + 4, "Pareto front") << "\n";
+    ly += 16;
+    out << markup::format("<circle cx='%.1f' cy='%.1f' r='2.5' fill='#999'/>", lx + 27, ly)
+        << svg::text(lx + 38, ly + 4, "all disagreements") << "\n";
   }
   svg::end(out);
 }

@@ -430,7 +430,9 @@ TEST(TradeCli, CsvHasExactlyTheSpecifiedColumnsAndTheCertifiedVariantsNeverDisag
             0);
   const auto csv = lines_of(dir + "/trade.csv");
   ASSERT_FALSE(csv.empty());
-  EXPECT_EQ(csv[0], "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max,precision");
+  EXPECT_EQ(csv[0],
+            "variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max,precision,bugs,"
+            "bug_rate");
   // Every sphere and box variant (scalar and batched; Embree when built) on both families.
   std::set<std::string> cells, variants;
   for (size_t i = 1; i < csv.size(); ++i) {
@@ -460,7 +462,7 @@ TEST(StabilityCli, CsvAndOneHeatmapPerVariant) {
   ASSERT_EQ(run("stability --shape sphere --from -60 --to 60 --step 30 --cases 40 -o " + dir), 0);
   const auto csv = lines_of(dir + "/stability.csv");
   ASSERT_FALSE(csv.empty());
-  EXPECT_EQ(csv[0], "variant,log2_scale,log2_size,cases,disagreement_rate,ulp_p99");
+  EXPECT_EQ(csv[0], "variant,log2_scale,log2_size,cases,disagreement_rate,ulp_p99,bugs,bug_rate");
   // four sphere formulas, their four float twins and certified-sphere × 5 × 5 cells
   EXPECT_EQ(csv.size(), 1 + 9 * 25u);
   for (const char* v : {"textbook", "stable", "stable-fma", "hearn-baker", "stable-f32", "hearn-baker-f32"}) {
@@ -496,15 +498,28 @@ TEST(StabilityCli, CsvAndOneHeatmapPerVariant) {
 namespace rayproof::studies {
 namespace {
 
+// The accuracy axis is the bug-level rate (verdicts.md §4): rounding-level disagreements do not count.
 TEST(Trade, ParetoMarksExactlyTheUndominatedContenders) {
-  auto row = [](const char* name, double ns, std::uint64_t wrong, fuzz::Family family = fuzz::Family::random) {
+  auto row = [](const char* name, double ns, std::uint64_t bugs, fuzz::Family family = fuzz::Family::random,
+                std::uint64_t rounding = 0) {
     TradeRow r{name, ShapeKind::sphere, family, ns};
-    r.tally.cases = 100, r.tally.wrong = wrong, r.tally.agree = 100 - wrong;
+    r.tally.cases = 100, r.tally.wrong = bugs + rounding, r.tally.agree = 100 - bugs - rounding;
+    r.tally.tolerance_ulps = 16;
+    if (bugs) r.tally.bugs[{HitClass::miss, HitClass::enter}] = bugs;
+    if (rounding) r.tally.rounding[{HitClass::miss, HitClass::enter}] = rounding;
     return r;
   };
-  std::vector<TradeRow> rows = {row("fast-sloppy", 1, 50), row("balanced", 2, 10),
-                                row("dominated", 3, 20),   row("exact", 50, 0),
-                                row("tie", 2, 10),         row("other-family", 9, 90, fuzz::Family::tangent)};
+  std::vector<TradeRow> rows = {row("fast-sloppy", 1, 50),
+                                row("balanced", 2, 10),
+                                row("dominated", 3, 20),
+                                row("exact", 50, 0),
+                                row("tie", 2, 10),
+                                row("other-family", 9, 90, fuzz::Family::tangent),
+                                row("rounding-only", 40, 0, fuzz::Family::random, 60)};
+  mark_pareto(rows);
+  EXPECT_TRUE(rows[6].pareto);   // 60 disagreements, none a bug: as accurate as exact, and faster
+  EXPECT_FALSE(rows[3].pareto);  // so exact is dominated now
+  rows.pop_back();
   mark_pareto(rows);
   EXPECT_TRUE(rows[0].pareto);
   EXPECT_TRUE(rows[1].pareto);
@@ -743,8 +758,9 @@ TEST(TradeCli, BatchedRowsEqualTheScalarRows) {
     std::vector<std::string> c;
     std::stringstream ss(line);
     for (std::string x; std::getline(ss, x, ',');) c.push_back(x);
-    ASSERT_EQ(c.size(), 10u) << line;
-    judged[c[0] + "|" + c[1] + "|" + c[2]] = c[3] + "," + c[5] + "," + c[6] + "," + c[7] + "," + c[8] + "," + c[9];
+    ASSERT_EQ(c.size(), 12u) << line;
+    judged[c[0] + "|" + c[1] + "|" + c[2]] =
+        c[3] + "," + c[5] + "," + c[6] + "," + c[7] + "," + c[8] + "," + c[9] + "," + c[10];
   }
   for (const char* family : {"random", "tangent", "grazing"}) {
     for (auto [scalar, batch, shape] : {std::tuple{"stable", "stable-batch", "sphere"},

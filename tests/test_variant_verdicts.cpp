@@ -6,6 +6,7 @@
 #include <fstream>
 #include <map>
 #include <random>
+#include <sstream>
 
 #include "cli_run.h"
 #include "rayproof/core/casefile.h"
@@ -299,5 +300,59 @@ TEST(VariantVerdictsCli, CheckAndFuzzCarryVerdicts) {
   EXPECT_EQ(run_cli("check " + cases + " --fail-on bug -o " + dir + "/x.jsonl").status, 1);
 }
 
+}  // namespace
+}  // namespace rayproof
+
+namespace rayproof {
+namespace {
+// Rows of a CSV with a header, as maps from column to text.
+std::vector<std::map<std::string, std::string>> read_csv(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> header;
+  std::vector<std::map<std::string, std::string>> rows;
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
+    if (header.empty()) {
+      header = cells;
+      continue;
+    }
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// trade and stability count bug-level disagreements apart (verdicts.md §4): never more than the
+// disagreements, all of them under --tolerance-ulps 0, fewer somewhere under the default.
+TEST(VariantVerdictsCli, TradeAndStabilityCountBugsApart) {
+  using testing_support::run_cli;
+  const std::string dir = testing_support::test_dir();
+  const std::string trade =
+      "trade --shapes sphere,triangle --families tangent,grazing --count 1500 --variants "
+      "textbook,stable,moller-trumbore,watertight ";
+  ASSERT_EQ(run_cli(trade + "-o " + dir + "/t.csv").status, 0);
+  ASSERT_EQ(run_cli(trade + "--tolerance-ulps 0 -o " + dir + "/t0.csv").status, 0);
+  const std::string stability =
+      "stability --shapes sphere --variants textbook --from -40 --to 40 --step 40 --count 300 ";
+  ASSERT_EQ(run_cli(stability + "-o " + dir + "/s").status, 0);
+  ASSERT_EQ(run_cli(stability + "--tolerance-ulps 0 -o " + dir + "/s0").status, 0);
+  for (const auto& [file, strict_file] : {std::pair{"/t.csv", "/t0.csv"}, {"/s/stability.csv", "/s0/stability.csv"}}) {
+    const auto rows = read_csv(dir + file), strict = read_csv(dir + strict_file);
+    ASSERT_EQ(rows.size(), strict.size());
+    ASSERT_FALSE(rows.empty());
+    bool fewer = false;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const long bugs = std::stol(rows[i].at("bugs")), all = std::stol(strict[i].at("bugs"));
+      const double rate = std::stod(rows[i].at("disagreement_rate")), cases = std::stod(rows[i].at("cases"));
+      EXPECT_LE(bugs, all) << file << " row " << i;
+      EXPECT_EQ(all, std::lround(rate * cases)) << strict_file << " row " << i;  // K = 0: every one a bug
+      fewer = fewer || bugs < all;
+    }
+    EXPECT_TRUE(fewer) << file << ": no rounding-level disagreement anywhere";
+  }
+}
 }  // namespace
 }  // namespace rayproof

@@ -14,6 +14,7 @@
 #include "rayproof/core/variants.h"
 #include "rayproof/fuzz/generators.h"
 #include "rayproof/verify/report.h"
+#include "rayproof/verify/backward_error.h"
 #include "rayproof/verify/tally.h"
 
 namespace rayproof::studies {
@@ -67,6 +68,9 @@ struct TradeRow {
   // crash, timeout or protocol error leaves a time and a rate of nothing). Others stay out of
   // the plot and the Pareto front.
   bool measured() const { return tally.cases > 0 && tally.crashes + tally.timeouts + tally.protocol_errors == 0; }
+  // verdicts.md §4: the plot's accuracy axis is bug-level wrong answers (backward error beyond
+  // K, or none proved within it); the rate of all disagreements is the second series.
+  double bug_rate() const { return tally.cases ? static_cast<double>(tally.bug_count()) / tally.cases : 0; }
 };
 
 // Marks every row that no other row of its shape and family beats on both speed and accuracy
@@ -75,7 +79,7 @@ void mark_pareto(std::vector<TradeRow>& rows);
 
 std::vector<TradeRow> measure_trade(const std::vector<Contender>& contenders, const std::vector<ShapeKind>& shapes,
                                     const std::vector<Family>& families, std::uint64_t count, std::uint64_t seed,
-                                    int threads);
+                                    int threads, double tolerance_ulps = kDefaultToleranceUlps);
 
 // CSV with exactly: variant,shape,family,cases,ns_per_test,disagreements,disagreement_rate,ulp_p99,ulp_max
 void write_trade_csv(const std::vector<TradeRow>& rows, std::ostream& out);
