@@ -148,4 +148,15 @@ mutate "closed-range-ignored-in-nearest-mode" verify/mesh_truth.cpp \
   "    if (rules.range == RangeRule::closed) {" "    if (false) {"
 mutate "precision-ties-never" verify/mesh_truth.cpp \
   "if (!rules.ties || std::isnan(first.t)) return false;" "return false;"
+# Variants' verdicts: a witness's claimed size, the interval filter's enclosure of a
+# double-double input, t's rounding interval, the closed range's t = 0.
+mutate "variant-witness-size-not-checked" verify/variant_backward_error.cpp \
+  "if (exact_ulps(s, q) > w.ulps) return false;" ""
+mutate "interval-filter-drops-low-part" verify/oracle.cpp \
+  "x[i] = Interval(q.hi[i]) + Interval(q.lo[i]);" "x[i] = Interval(q.hi[i]);"
+mutate "t-rounding-interval-open-above" verify/variant_backward_error.cpp \
+  "compare(exact, Q((exact_of(below) + x) / 2)) > 0 && compare(exact, Q((x + exact_of(above)) / 2)) < 0" \
+  "compare(exact, Q((exact_of(below) + x) / 2)) > 0"
+mutate "variant-closed-range-ignored" verify/variant_backward_error.cpp \
+  "o.answer.t == 0 && origin_on_shape(*seen)" "false"
 cmake --build "$build" -j2 > /dev/null 2>&1  # leave the build matching the sources
