@@ -178,9 +178,12 @@ TEST(VariantVerdicts, NearTangentRootIsBackwardStable) {
   ASSERT_TRUE(b.beta && b.witness);
   EXPECT_LE(*b.beta, 16);
   EXPECT_TRUE(shape_witness_holds(q, *b.witness, HitRule::nearest_contact, h.cls, h.t, Precision::f64));
-  // The same witness does not make a t one ulp further right.
-  EXPECT_FALSE(
-      shape_witness_holds(q, *b.witness, HitRule::nearest_contact, h.cls, std::nextafter(h.t, 4.0), Precision::f64));
+  // The same witness does not make a t one ulp to either side right (t's rounding interval is
+  // closed on both sides).
+  for (const double towards : {0.0, 4.0})
+    EXPECT_FALSE(shape_witness_holds(q, *b.witness, HitRule::nearest_contact, h.cls, std::nextafter(h.t, towards),
+                                     Precision::f64))
+        << towards;
 }
 
 // Under a closed range, a contact reported at t = 0 from an origin on the shape is right.
