@@ -231,8 +231,10 @@ struct Candidates {
   // Segment [a, b] of a shape whose inside lies towards `inside`: the mirror through its
   // nearest point; for a reported edge hit also the ray through that point exactly.
   void edge(const L3& a, const L3& b, const L3& inside, bool exact_point) {
-    const auto [p, tp] = nearest_on_segment(a, b);
-    const L3 e = b - a;
+    // (Not a structured binding: clang cannot capture one in the lambda below.)
+    const std::pair<L3, LD> nearest = nearest_on_segment(a, b);
+    const L3 p = nearest.first, e = b - a;
+    const LD tp = nearest.second;
     L3 out = (p - inside) - e * (dot(p - inside, e) / dot(e, e));
     mirror_through(p, tp, unit(out));
     if (!exact_point) return;
