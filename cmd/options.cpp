@@ -186,22 +186,20 @@ void load_tracers(const TracerFlags& flags, double case_timeout) {
     const auto [name, command] = peers::split_assignment("--tracer-exec", text);
     peers::add_exec_tracer(name, command, options);
   }
-  for (const std::string& text : flags.ranges) {
-    const auto [name, value] = peers::split_assignment("--tracer-range", text);
-    const auto range = range_rule_from_string(value);
-    if (!range) throw std::runtime_error("--tracer-range " + printable(text) + ": expected NAME=open or NAME=closed");
-    if (!set_tracer_range(name, *range))
-      throw std::runtime_error("--tracer-range " + printable(text) + ": no tracer is named '" + printable(name) +
-                               "' (see rayproof variants)");
-  }
-  for (const std::string& text : flags.variant_ranges) {  // after load_externals: plugins' variants too
-    const auto [name, value] = peers::split_assignment("--variant-range", text);
-    const auto range = range_rule_from_string(value);
-    if (!range) throw std::runtime_error("--variant-range " + printable(text) + ": expected NAME=open or NAME=closed");
-    if (!set_variant_range(name, *range))
-      throw std::runtime_error("--variant-range " + printable(text) + ": no variant is named '" + printable(name) +
-                               "' (see rayproof variants)");
-  }
+  // --tracer-range and --variant-range (the latter after load_externals: plugins' variants too).
+  auto declare_ranges = [](const std::vector<std::string>& texts, const std::string& flag, const std::string& what,
+                           bool (*set)(std::string_view, RangeRule)) {
+    for (const std::string& text : texts) {
+      const auto [name, value] = peers::split_assignment(flag, text);
+      const auto range = range_rule_from_string(value);
+      if (!range) throw std::runtime_error(flag + " " + printable(text) + ": expected NAME=open or NAME=closed");
+      if (!set(name, *range))
+        throw std::runtime_error(flag + " " + printable(text) + ": no " + what + " is named '" + printable(name) +
+                                 "' (see rayproof variants)");
+    }
+  };
+  declare_ranges(flags.ranges, "--tracer-range", "tracer", &set_tracer_range);
+  declare_ranges(flags.variant_ranges, "--variant-range", "variant", &set_variant_range);
 }
 
 std::vector<std::string> split_list(const std::vector<std::string>& lists) {

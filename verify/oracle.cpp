@@ -38,7 +38,7 @@ template <class NT>
   return {NT(v.x()), NT(v.y()), NT(v.z())};
 }
 // Rational inputs (a witness's moved query, exact_verdict) and intervals enclosing them
-// (interval_class): the policies' terms read them alike.
+// (filtered_class): the policies' terms read them alike.
 template <class NT>
 inline V<NT> lift(const ExactVec& v) {
   return {NT(v[0]), NT(v[1]), NT(v[2])};

@@ -155,7 +155,7 @@ Moved along(const Setting& s, const Moved& m, LD lambda) {
   return r;
 }
 
-// The moved query's numbers as double-doubles (exactly its value), for interval_class.
+// The moved query's numbers as double-doubles (exactly its value), for filtered_class.
 SplitQuery split_of(const Setting& s, const Moved& m) {
   SplitQuery q;
   q.kind = s.kind;
