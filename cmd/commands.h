@@ -30,6 +30,7 @@ void add_trade_command(CLI::App& app, int& exit_code);
 void add_stability_command(CLI::App& app, int& exit_code);
 void add_merge_command(CLI::App& app, int& exit_code);
 void add_audit_command(CLI::App& app, int& exit_code);
+void add_offsets_command(CLI::App& app, int& exit_code);
 // The spawn study's table on stderr and its CSV (shared by `spawn` and `fuzz --families near-origin`).
 void run_spawn_report(const std::vector<const Variant*>& variants, const std::vector<int>& scales, std::uint64_t count,
                       std::uint64_t seed, int threads, const std::string& csv_path);

@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   rayproof::cli::add_stability_command(app, exit_code);
   rayproof::cli::add_merge_command(app, exit_code);
   rayproof::cli::add_audit_command(app, exit_code);
+  rayproof::cli::add_offsets_command(app, exit_code);
   // Exit codes: 0 done (fuzz: whatever it found); 1 check found bad lines or refuted
   // expectations (intersect: bad lines); 2 a usage or I/O error.
   try {

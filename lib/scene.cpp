@@ -228,6 +228,52 @@ Scene load_scene(const std::string& path) {
   return parse_scene(buf.str(), path == "-" ? name : path);
 }
 
+Scene scaled(const Scene& scene, int log2) {
+  auto by = [log2](const Vec3& v) { return Vec3(std::ldexp(v.x(), log2), std::ldexp(v.y(), log2), std::ldexp(v.z(), log2)); };
+  Scene out = scene;
+  out.warnings.clear();
+  out.camera.eye = by(scene.camera.eye);
+  for (PointLight& light : out.lights) light.position = by(light.position);
+  for (SceneObject& obj : out.objects) {
+    if (obj.mesh) {
+      auto mesh = std::make_shared<Mesh>();
+      mesh->vertex_count = obj.mesh->vertex_count;
+      for (size_t e = 0; e < obj.mesh->triangles.size(); ++e) {
+        Triangle tri = obj.mesh->triangles[e];
+        for (Vec3& v : tri.v) v = by(v);
+        if (degenerate_reason(tri)) {
+          ++mesh->degenerate_skipped;
+          continue;
+        }
+        mesh->triangles.push_back(tri);
+        mesh->corners.push_back(obj.mesh->corners[e]);
+      }
+      if (mesh->degenerate_skipped > 0)
+        out.warnings.push_back(obj.file + ": " + std::to_string(mesh->degenerate_skipped) +
+                               " triangles became degenerate when scaled and were dropped");
+      obj.mesh = std::move(mesh);
+      continue;
+    }
+    std::visit(
+        [&](auto& s) {
+          using S = std::decay_t<decltype(s)>;
+          if constexpr (std::is_same_v<S, Sphere>) {
+            s.center = by(s.center);
+            s.radius = std::ldexp(s.radius, log2);
+          } else if constexpr (std::is_same_v<S, Plane>) {
+            s.offset = std::ldexp(s.offset, log2);
+          } else if constexpr (std::is_same_v<S, Triangle>) {
+            for (Vec3& v : s.v) v = by(v);
+          } else {
+            s.min = by(s.min);
+            s.max = by(s.max);
+          }
+        },
+        obj.shape);
+  }
+  return out;
+}
+
 Scene translated(const Scene& scene, const Vec3& by) {
   Scene out = scene;
   out.warnings.clear();

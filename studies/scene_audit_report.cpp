@@ -149,22 +149,6 @@ std::string cases_jsonl(const VariantAudit& va, const std::string& stem, const s
   return out;
 }
 
-std::string base64(const std::string& bytes) {
-  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
-  for (size_t i = 0; i < bytes.size(); i += 3) {
-    const unsigned a = static_cast<unsigned char>(bytes[i]);
-    const unsigned b = i + 1 < bytes.size() ? static_cast<unsigned char>(bytes[i + 1]) : 0;
-    const unsigned c = i + 2 < bytes.size() ? static_cast<unsigned char>(bytes[i + 2]) : 0;
-    const unsigned n = a << 16 | b << 8 | c;
-    out += kAlphabet[n >> 18 & 63];
-    out += kAlphabet[n >> 12 & 63];
-    out += i + 1 < bytes.size() ? kAlphabet[n >> 6 & 63] : '=';
-    out += i + 2 < bytes.size() ? kAlphabet[n & 63] : '=';
-  }
-  return out;
-}
 
 // HTML text and attributes need the same escapes as SVG's.
 std::string fixed(double x, int digits) { return markup::format("%.*f", digits, x); }
@@ -255,7 +239,7 @@ int enlargement(const Image& img) { return std::max(1, 240 / std::max(1, img.wid
 std::string img_tag(const Image& img, const std::string& alt) {
   const int factor = enlargement(img);
   return "<img alt=\"" + markup::escape(alt) + "\" width=\"" + std::to_string(img.width * factor) + "\" height=\"" +
-         std::to_string(img.height * factor) + "\" src=\"data:image/png;base64," + base64(encode_png(img)) + "\">";
+         std::to_string(img.height * factor) + "\" src=\"data:image/png;base64," + markup::base64(encode_png(img)) + "\">";
 }
 
 // A diff image; where it has few marks (one wrong pixel in 76,800 is invisible at 1:1), each is

@@ -56,5 +56,9 @@ Scene load_scene(const std::string& path);
 // object, each coordinate rounded to double (a plane's offset becomes offset + n·by). Mesh
 // triangles that the rounding makes degenerate are dropped and counted in `warnings`.
 Scene translated(const Scene& scene, const Vec3& by);
+// The scene scaled by 2^log2 about the origin (offsets.md's "moved by 2^k"): camera eye, lights
+// and every object, exact in binary floating point unless a coordinate under- or overflows (a
+// mesh triangle that becomes degenerate is then dropped and counted in `warnings`).
+Scene scaled(const Scene& scene, int log2);
 
 }  // namespace rayproof

@@ -12,5 +12,7 @@ namespace rayproof::studies::markup {
 std::string format(const char* pattern, ...) __attribute__((format(printf, 1, 2)));
 // Text safe inside HTML or SVG elements and attributes (&, <, >, ', ").
 std::string escape(std::string_view text);
+// Bytes as base64 (RFC 4648), for images inlined in pages (data: URLs).
+std::string base64(const std::string& bytes);
 
 }  // namespace rayproof::studies::markup

@@ -1,0 +1,579 @@
+// Spawn offsets, proved: the derivations (offset_bounds.h; docs/spec/offsets.md).
+//
+// The model (Higham, "Accuracy and Stability of Numerical Algorithms", §2.2; pbrt-v4 §6.8): each
+// +, −, ×, / of the variant's precision rounds once, fl(x ∘ y) = (x ∘ y)(1 + δ), |δ| ≤ u (2^-53
+// double, 2^-24 float), while no product underflows. A float variant computes on the primitive and
+// ray rounded to float and is judged on them, as everywhere in rayproof (verify/compare.cpp).
+//
+// Step 1, a running error bound. Every quantity x of a formula is carried as (mag, err): |x| ≤ mag
+// for its exact value (the same formula in real arithmetic over the same inputs) and |x̃ − x| ≤ err
+// for the value the code computes. Inputs are exact (err 0). For a computed ã ± b̃ the magnitude is
+// at most mag_a + mag_b + err_a + err_b, so one rounding adds u times that; for ã·b̃,
+// |ãb̃ − ab| ≤ mag_a·err_b + mag_b·err_a + err_a·err_b before its rounding, which adds u·|ãb̃|.
+// Every bound is evaluated in double rounded upward (each result moved one double up), so the
+// numbers below are upper bounds of the real ones. The bounds are homogeneous of degree one in
+// each input that enters a formula linearly (a direction, an origin offset): evaluating them at the
+// largest magnitudes bounds every smaller input, and t·bound(d) = bound(t·d).
+//
+// Step 2, the hit point off the surface, a posteriori. Formulas that compute t = N/D (Möller–
+// Trumbore: N = e2·(s × e1), D = e1·(d × e2) with s = o − v0, and N/D the exact t on the
+// triangle's plane, N = n·s, D = −n·d for n = e1 × e2; the plane: N = off − n·o, D = n·d) round
+// the quotient k times: t̃ = (Ñ/D̃)(1 + θ), |θ| ≤ γ(k). Then, exactly,
+//     N − t̃·D = N − t̃(D̃ − δD) = N − Ñ(1 + θ) + t̃·δD = −δN − θ·Ñ + t̃·δD,
+// and Ñ = t̃·D̃/(1 + θ), so with g = γ(k)/(1 − γ(k)):
+//     |N − t̃·D| ≤ err_N + |t̃|·(err_D·(1 + g) + g·mag_D).                       (1)
+// No division by a small D: (1) holds for grazing rays too. The point the code computes,
+// p̃_i = fl(o_i + fl(t̃·d_i)) = o_i + t̃·d_i + r_i with |r_i| ≤ u·|t̃·d_i| + u·|p̃_i|/(1 − u), lies
+// off the plane by n̂·(p̃ − v0) = ±(N − t̃·D)/|n| + n̂·r, hence
+//     |n̂·(p̃ − v0)| ≤ (1)/|n| + Σ_i |n̂_i|·(u·W_i + u·P_i/(1 − u)),                  (2)
+// with W_i ≥ |t̃·d_i| (the travel from an origin of the scene's box to a point of the domain) and
+// P_i ≥ |p̃_i|. |t̃|·err_D is err_D evaluated at the travel W (homogeneity).
+//
+// Step 3, the re-intersection side. A new ray leaves an origin o′ that lies δ > 0 off the plane
+// on the side σ it leaves to (σ·N = δ|n| for Möller–Trumbore, σ·N = −δ|n| for the plane), in a
+// direction into that side (σ·D ≤ 0, respectively ≥ 0). A reported hit needs t̃ > 0, and then the
+// two terms of N − t̃·D have the same sign, |N − t̃·D| = δ|n| + t̃|D|. With (1), using
+// |D̃| ≤ |D| + err_D and g < 1 to drop the t̃|D| that remains on the left,
+//     δ·|n| ≤ err_N(o′) + (1 + g)·err_D(W′),                                        (3)
+// so no hit is reported once δ exceeds (3)/|n|: err_N at the spawned origins (near the primitive),
+// err_D at the travel W′ of a re-hit inside the domain. Both are linear in how far the origins
+// reach beyond the primitive's box: rehit_base + rehit_per_reach·reach.
+//
+// Boxes (slab, robust-slab): the hit face's coordinate. t̃ = fl(fl(plane − o)/d) (slab) or
+// fl(fl(plane − o)·fl(1/d)) (robust), so fl(t̃·d_i) = (plane − o_i)(1 + θ), |θ| ≤ γ(3) (slab),
+// γ(4) (robust entry) or K̃(1 + γ(5)) − 1 (robust exit, widened by K̃ = fl(1 + 2γ(3))), and
+// |p̃_i − plane| ≤ |θ|·W_i + u·P_i/(1 − u). A ray from an origin strictly beyond the face's plane
+// (exactly) going away from it, or along it, meets that axis' slab only at t < 0 or never: the
+// signs of plane − o, 1/d and their product are exact in floating point, ±0 directions give ±∞
+// of the right sign, and widening by K̃ keeps a sign. Any δ > 0 suffices: the re-hit bound is 0.
+//
+// Spheres and the watertight triangles (t from sheared edge functions) are not derived yet: they
+// get the witness side only, and their rules stay `unproved` unless a witness shows `unsafe`.
+#include "rayproof/verify/offset_bounds.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include "rayproof/core/fp.h"
+#include "rayproof/core/offset.h"
+// GCC, inlining Expansion's merge into the normal's cross product, takes c_[i] (read only for
+// i < n_) for uninitialized: a false positive.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include "rayproof/verify/expansion.h"
+#pragma GCC diagnostic pop
+
+namespace rayproof {
+namespace {
+
+double up(double x) { return next_up(x); }
+double down(double x) { return next_down(x); }
+
+double unit_roundoff(Precision p) { return p == Precision::f32 ? 0x1p-24 : kUnitRoundoff; }
+// γ(k) in the precision's unit roundoff, rounded up.
+double gamma_up(Precision p, int k) {
+  const double u = unit_roundoff(p);
+  return up(k * u / down(1 - k * u));
+}
+// A number as the variant sees it.
+double in_precision(Precision p, double x) { return p == Precision::f32 ? double(to_nearest_float(x)) : x; }
+Vec3 in_precision(Precision p, const Vec3& v) {
+  return {in_precision(p, v.x()), in_precision(p, v.y()), in_precision(p, v.z())};
+}
+
+// Step 1: a quantity's exact magnitude bound and the computed value's error bound.
+struct Bounded {
+  double mag = 0, err = 0;
+};
+using BVec = std::array<Bounded, 3>;
+
+struct RunningBound {
+  double u;
+  static Bounded input(double mag) { return {mag, 0}; }
+  // a − b of two exact inputs with |a − b| ≤ mag: one rounding.
+  Bounded difference(double mag) const { return {mag, up(u * mag)}; }
+  Bounded add(const Bounded& a, const Bounded& b) const {  // a + b or a − b: the same bound
+    const double mag = up(a.mag + b.mag), err = up(a.err + b.err);
+    return {mag, up(err + up(u * up(mag + err)))};
+  }
+  Bounded mul(const Bounded& a, const Bounded& b) const {
+    const double mag = up(a.mag * b.mag);
+    const double err = up(up(up(a.mag * b.err) + up(b.mag * a.err)) + up(a.err * b.err));
+    return {mag, up(err + up(u * up(mag + err)))};
+  }
+  // In the order variants.cpp writes them: cross component a_j b_k − a_k b_j, dot (x + y) + z.
+  BVec cross(const BVec& a, const BVec& b) const {
+    return {add(mul(a[1], b[2]), mul(a[2], b[1])), add(mul(a[2], b[0]), mul(a[0], b[2])),
+            add(mul(a[0], b[1]), mul(a[1], b[0]))};
+  }
+  Bounded dot(const BVec& a, const BVec& b) const { return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2])); }
+};
+BVec inputs(const Vec3& mags) {
+  return {RunningBound::input(mags[0]), RunningBound::input(mags[1]), RunningBound::input(mags[2])};
+}
+
+// The exact normal's length from below and its unit components from above. Expansion::estimate
+// is within a few ulps of the exact value; 2^-45 covers it with room.
+struct NormalBounds {
+  double length_lo = 0;
+  Vec3 unit_abs_hi = Vec3::Zero();
+};
+NormalBounds normal_bounds(const std::array<Expansion, 3>& n) {
+  NormalBounds b;
+  double sum = 0;
+  Vec3 est;
+  for (int i = 0; i < 3; ++i) {
+    if (!n[i].valid()) return b;  // outside the proved range: no bound
+    est[i] = std::abs(n[i].estimate());
+    sum += est[i] * est[i];
+  }
+  b.length_lo = down(std::sqrt(sum) * (1 - 0x1p-45));
+  if (!(b.length_lo > 0) || !std::isfinite(b.length_lo)) return NormalBounds{};
+  for (int i = 0; i < 3; ++i) b.unit_abs_hi[i] = std::min(1.0, up(up(est[i] * (1 + 0x1p-45)) / b.length_lo));
+  return b;
+}
+Expansion exact_difference(double a, double b) { return Expansion(a) - Expansion(b); }
+double upper_abs(const Expansion& e) { return up(std::abs(e.estimate()) * (1 + 0x1p-45)); }
+
+// Per axis, the largest |x_i − c_i| over x in the box.
+Vec3 reach_from(const Bounds& box, const Vec3& c) {
+  Vec3 r;
+  for (int i = 0; i < 3; ++i) r[i] = up(std::max(std::abs(box.lo[i] - c[i]), std::abs(box.hi[i] - c[i])));
+  return r;
+}
+// Per axis, the largest |x_i − y_i| for x in a, y in b.
+Vec3 travel(const Bounds& a, const Bounds& b) {
+  Vec3 r;
+  for (int i = 0; i < 3; ++i) r[i] = up(std::max(std::abs(a.hi[i] - b.lo[i]), std::abs(b.hi[i] - a.lo[i])));
+  return r;
+}
+Vec3 largest_abs(const Bounds& box) {
+  Vec3 r;
+  for (int i = 0; i < 3; ++i) r[i] = std::max(std::abs(box.lo[i]), std::abs(box.hi[i]));
+  return r;
+}
+Bounds widened(const Bounds& box, double by) {
+  Bounds b = box;
+  for (int i = 0; i < 3; ++i) {
+    b.lo[i] = down(b.lo[i] - by);
+    b.hi[i] = up(b.hi[i] + by);
+  }
+  return b;
+}
+Bounds in_precision(Precision p, const Bounds& box) {  // rounding is monotone: points stay inside
+  return {in_precision(p, box.lo), in_precision(p, box.hi)};
+}
+
+// (2)'s last term: the rounding of o + t·d itself.
+double point_rounding(Precision p, const Vec3& unit_abs_hi, const Vec3& travel, const Vec3& point_abs) {
+  const double u = unit_roundoff(p);
+  double sum = 0;
+  for (int i = 0; i < 3; ++i)
+    sum = up(sum + up(unit_abs_hi[i] * up(up(u * travel[i]) + up(u * point_abs[i] / down(1 - u)))));
+  return sum;
+}
+
+// A quotient t = N/D rounded `roundings` times: (1) divided by |n|, plus the point's rounding (2).
+double quotient_point_bound(Precision p, int roundings, const Bounded& N, const Bounded& D_at_travel,
+                            const NormalBounds& nb, const Vec3& travel, const Vec3& point_abs) {
+  const double gk = gamma_up(p, roundings), g = up(gk / down(1 - gk));
+  const double along = up(N.err + up(up(D_at_travel.err * up(1 + g)) + up(g * D_at_travel.mag)));
+  return up(up(along / nb.length_lo) + point_rounding(p, nb.unit_abs_hi, travel, point_abs));
+}
+// (3) divided by |n|.
+double quotient_rehit(Precision p, int roundings, double err_N, double err_D, const NormalBounds& nb) {
+  const double gk = gamma_up(p, roundings), g = up(gk / down(1 - gk));
+  return up(up(err_N + up(err_D * up(1 + g))) / nb.length_lo);
+}
+
+// Möller–Trumbore (variants.cpp moller_trumbore): p = d × e2, det = e1·p, q = s × e1,
+// t = (e2·q)·(1/det): two roundings in the quotient.
+std::optional<OffsetProof> moller_trumbore_proof(Precision p, const Triangle& input, const Bounds& scene_box) {
+  Triangle tri;
+  for (int k = 0; k < 3; ++k) tri.v[k] = in_precision(p, input.v[k]);
+  const Bounds box = in_precision(p, scene_box);
+  std::array<Expansion, 3> e1x, e2x;
+  for (int i = 0; i < 3; ++i) {
+    e1x[i] = exact_difference(tri.v[1][i], tri.v[0][i]);
+    e2x[i] = exact_difference(tri.v[2][i], tri.v[0][i]);
+  }
+  const std::array<Expansion, 3> nx = {e1x[1] * e2x[2] - e1x[2] * e2x[1], e1x[2] * e2x[0] - e1x[0] * e2x[2],
+                                       e1x[0] * e2x[1] - e1x[1] * e2x[0]};
+  const NormalBounds nb = normal_bounds(nx);
+  if (!(nb.length_lo > 0)) return std::nullopt;
+  const RunningBound A{unit_roundoff(p)};
+  BVec e1, e2;
+  for (int i = 0; i < 3; ++i) {
+    e1[i] = A.difference(upper_abs(e1x[i]));
+    e2[i] = A.difference(upper_abs(e2x[i]));
+  }
+  auto N_at = [&](const Vec3& s_mag) {
+    BVec s;
+    for (int i = 0; i < 3; ++i) s[i] = A.difference(s_mag[i]);
+    return A.dot(e2, A.cross(s, e1));
+  };
+  auto D_at = [&](const Vec3& travel_mag) { return A.dot(e1, A.cross(inputs(travel_mag), e2)); };
+  Bounds own;
+  for (const Vec3& v : tri.v) own.grow(v);
+
+  // Pass 1 over the scene's box bounds every hit point; pass 2 over the primitive's box widened
+  // by pass 1's bound (the domain) is the bound reported.
+  const Vec3 s_mag = reach_from(box, tri.v[0]);
+  auto bound_for = [&](const Bounds& points) {
+    const Vec3 w = travel(box, points);
+    return quotient_point_bound(p, 2, N_at(s_mag), D_at(w), nb, w, largest_abs(points));
+  };
+  OffsetProof proof;
+  const double coarse = bound_for(box);
+  if (!std::isfinite(coarse)) return std::nullopt;
+  proof.point_box = widened(own, coarse);
+  proof.point = std::min(coarse, bound_for(proof.point_box));
+  // Re-hits: origins within the domain's box widened by `reach`, re-hit points in the domain.
+  const Vec3 ones(1, 1, 1);
+  const Vec3 near_mag = reach_from(proof.point_box, tri.v[0]);
+  const Vec3 rehit_travel = travel(proof.point_box, proof.point_box);
+  proof.rehit_base = quotient_rehit(p, 2, N_at(near_mag).err, D_at(rehit_travel).err, nb);
+  proof.rehit_per_reach = quotient_rehit(p, 2, N_at(ones).err, D_at(ones).err, nb);
+  return proof;
+}
+
+// The plane (variants.cpp direct): t = (off − n·o) / (n·d), one rounding in the quotient. The
+// plane has no box of its own: its domain is the scene's box.
+std::optional<OffsetProof> plane_proof(Precision p, const Plane& input, const Bounds& scene_box) {
+  const Vec3 n = in_precision(p, input.normal);
+  const double off = in_precision(p, input.offset);
+  const Bounds box = in_precision(p, scene_box);
+  const std::array<Expansion, 3> nx = {Expansion(n.x()), Expansion(n.y()), Expansion(n.z())};
+  const NormalBounds nb = normal_bounds(nx);
+  if (!(nb.length_lo > 0)) return std::nullopt;
+  const RunningBound A{unit_roundoff(p)};
+  const BVec nv = inputs(n.cwiseAbs());
+  auto N_at = [&](const Vec3& origin_mag, double off_mag) {
+    return A.add(RunningBound::input(off_mag), A.dot(nv, inputs(origin_mag)));
+  };
+  auto D_at = [&](const Vec3& travel_mag) { return A.dot(nv, inputs(travel_mag)); };
+  auto bound_for = [&](const Bounds& points) {
+    const Vec3 w = travel(box, points);
+    return quotient_point_bound(p, 1, N_at(largest_abs(box), std::abs(off)), D_at(w), nb, w, largest_abs(points));
+  };
+  OffsetProof proof;
+  const double coarse = bound_for(box);
+  if (!std::isfinite(coarse)) return std::nullopt;
+  proof.point_box = widened(box, coarse);
+  // An axis-aligned plane pins its points' coordinate on that axis (within the coarse bound).
+  const int nonzero = (n.x() != 0) + (n.y() != 0) + (n.z() != 0);
+  for (int i = 0; i < 3 && nonzero == 1; ++i)
+    if (n[i] != 0) {
+      const double at = off / n[i];
+      proof.point_box.lo[i] = down(down(at) - coarse);
+      proof.point_box.hi[i] = up(up(at) + coarse);
+    }
+  proof.point = std::min(coarse, bound_for(proof.point_box));
+  const Vec3 ones(1, 1, 1);
+  const Vec3 rehit_travel = travel(proof.point_box, proof.point_box);
+  proof.rehit_base =
+      quotient_rehit(p, 1, N_at(largest_abs(proof.point_box), std::abs(off)).err, D_at(rehit_travel).err, nb);
+  proof.rehit_per_reach = quotient_rehit(p, 1, N_at(ones, 0).err, D_at(ones).err, nb);
+  return proof;
+}
+
+// The box variants: each face's coordinate (the derivation above).
+std::optional<OffsetProof> box_proof(Precision p, bool robust, const Box& input, const Bounds& scene_box) {
+  const Bounds own = {in_precision(p, input.min), in_precision(p, input.max)};
+  const Bounds box = in_precision(p, scene_box);
+  const double u = unit_roundoff(p);
+  double theta = gamma_up(p, 3);
+  if (robust) {
+    // K̃ as robust_slab computes it in its own precision.
+    const double widen = p == Precision::f32 ? double(1.0f + 2 * (3 * 0x1p-24f / (1 - 3 * 0x1p-24f)))
+                                             : 1 + 2 * gamma(3);
+    theta = std::max(gamma_up(p, 4), up(up(widen - 1) + up(widen * gamma_up(p, 5))));
+  }
+  auto bound_for = [&](const Bounds& points) {
+    const Vec3 point_abs = largest_abs(points);
+    double worst = 0;
+    for (int i = 0; i < 3; ++i) {
+      const double w = up(std::max(std::max(std::abs(own.lo[i] - box.lo[i]), std::abs(box.hi[i] - own.lo[i])),
+                                   std::max(std::abs(own.hi[i] - box.lo[i]), std::abs(box.hi[i] - own.hi[i]))));
+      worst = std::max(worst, up(up(theta * w) + up(u * point_abs[i] / down(1 - u))));
+    }
+    return worst;
+  };
+  OffsetProof proof;
+  const double coarse = bound_for(box);
+  if (!std::isfinite(coarse)) return std::nullopt;
+  proof.point_box = widened(own, coarse);
+  proof.point = std::min(coarse, bound_for(proof.point_box));
+  return proof;  // re-hits: none from strictly outside (rehit 0)
+}
+
+enum class Formula { none, moller_trumbore, plane_direct, slab, robust_slab };
+// The formula a built-in variant computes (its structure-of-arrays twins are bit-identical).
+Formula formula_of(const Variant& v) {
+  if (v.external != nullptr || v.kernel == nullptr || v.is_oracle) return Formula::none;
+  std::string_view name = v.name;
+  if (name.ends_with("-batch")) name.remove_suffix(6);
+  if (name.ends_with("-f32")) name.remove_suffix(4);
+  if (name == "moller-trumbore") return Formula::moller_trumbore;
+  if (name == "direct") return Formula::plane_direct;
+  if (name == "slab") return Formula::slab;
+  if (name == "robust-slab") return Formula::robust_slab;
+  return Formula::none;
+}
+// The batch twins report double but compute in the precision their name says.
+Precision precision_of(const Variant& v) {
+  return std::string_view(v.name).find("-f32") != std::string_view::npos ? Precision::f32 : v.precision;
+}
+
+}  // namespace
+
+double OffsetProof::rehit_at(double reach) const { return up(rehit_base + up(rehit_per_reach * reach)); }
+
+std::optional<OffsetProof> offset_proof(const Variant& v, const Shape& shape, const Bounds& scene_box) {
+  const Precision p = precision_of(v);
+  switch (formula_of(v)) {
+    case Formula::moller_trumbore:
+      if (const auto* t = std::get_if<Triangle>(&shape)) return moller_trumbore_proof(p, *t, scene_box);
+      break;
+    case Formula::plane_direct:
+      if (const auto* pl = std::get_if<Plane>(&shape)) return plane_proof(p, *pl, scene_box);
+      break;
+    case Formula::slab:
+    case Formula::robust_slab:
+      if (const auto* b = std::get_if<Box>(&shape))
+        return box_proof(p, formula_of(v) == Formula::robust_slab, *b, scene_box);
+      break;
+    case Formula::none:
+      break;
+  }
+  return std::nullopt;
+}
+
+std::vector<std::string_view> variants_with_offset_proofs() {
+  std::vector<std::string_view> names;
+  for (const Variant& v : all_variants())
+    if (formula_of(v) != Formula::none) names.push_back(v.name);
+  return names;
+}
+
+double ulp_in(Precision precision, double x) {
+  const int digits = precision == Precision::f32 ? 24 : 53;
+  const double smallest = precision == Precision::f32 ? 0x1p-149 : 0x1p-1074;
+  if (x == 0 || !std::isfinite(x)) return smallest;
+  int e;
+  std::frexp(std::abs(x), &e);  // |x| = m·2^e, m in [½, 1)
+  return std::max(std::ldexp(1.0, e - digits), smallest);
+}
+
+OffsetRule parse_offset_rule(std::string_view text) {
+  OffsetRule r;
+  r.name = std::string(text);
+  auto number_after = [&](std::string_view prefix) {
+    const std::string rest(text.substr(prefix.size()));
+    char* end = nullptr;
+    const double x = std::strtod(rest.c_str(), &end);
+    if (rest.empty() || end != rest.c_str() + rest.size() || !std::isfinite(x) || !(x > 0))
+      throw std::invalid_argument("offset rule '" + std::string(text) + "': " + std::string(prefix) +
+                                  " needs a positive finite number");
+    return x;
+  };
+  if (text.starts_with("fixed:")) {
+    r.kind = OffsetRule::Kind::fixed;
+    r.amount = number_after("fixed:");
+  } else if (text.starts_with("ulps:")) {
+    r.kind = OffsetRule::Kind::ulps;
+    r.amount = number_after("ulps:");
+    if (r.amount != std::floor(r.amount) || r.amount > 0x1p30)
+      throw std::invalid_argument("offset rule '" + std::string(text) + "': ulps:N needs a whole N up to 2^30");
+  } else if (text == "pbrt") {
+    r.kind = OffsetRule::Kind::pbrt;
+  } else if (text == "waechter-binder") {
+    r.kind = OffsetRule::Kind::waechter_binder;
+  } else if (text == "proved") {
+    r.kind = OffsetRule::Kind::proved;
+  } else {
+    throw std::invalid_argument("unknown offset rule '" + std::string(text) +
+                                "' (fixed:EPS, ulps:N, pbrt, waechter-binder, proved)");
+  }
+  return r;
+}
+
+std::vector<OffsetRule> default_offset_rules() {
+  std::vector<OffsetRule> rules;
+  for (std::string_view s : {"fixed:1e-4", "ulps:32", "pbrt", "waechter-binder", "proved"})
+    rules.push_back(parse_offset_rule(s));
+  return rules;
+}
+
+namespace {
+// pbrt-v4's OffsetRayOrigin, its final step: each coordinate one more representable number away
+// along n, so that the rounding of p + offset·n never pulls it back.
+template <class T>
+T away(T x, T n_i) {
+  if (n_i > 0) return std::nextafter(x, std::numeric_limits<T>::infinity());
+  if (n_i < 0) return std::nextafter(x, -std::numeric_limits<T>::infinity());
+  return x;
+}
+template <class T>
+T ulp_of(T x) {
+  return T(ulp_in(std::is_same_v<T, float> ? Precision::f32 : Precision::f64, double(x)));
+}
+template <class T>
+Vec3 apply_in(const OffsetRule& rule, const Vec3& p_in, const Vec3& n_in, double proved) {
+  const T p[3] = {T(p_in.x()), T(p_in.y()), T(p_in.z())};  // p is already in T (the variant's point)
+  T n[3];
+  for (int i = 0; i < 3; ++i)
+    n[i] = std::is_same_v<T, float> ? T(to_nearest_float(n_in[i])) : T(n_in[i]);
+  T out[3];
+  switch (rule.kind) {
+    case OffsetRule::Kind::fixed:
+    case OffsetRule::Kind::ulps: {
+      T step;
+      if (rule.kind == OffsetRule::Kind::fixed) {
+        step = std::is_same_v<T, float> ? T(to_nearest_float(rule.amount)) : T(rule.amount);
+      } else {
+        const T m = std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
+        step = T(rule.amount) * ulp_of(m);
+      }
+      for (int i = 0; i < 3; ++i) out[i] = p[i] + step * n[i];
+      break;
+    }
+    case OffsetRule::Kind::pbrt: {
+      // pbrt-v4 Triangle::InteractionFromIntersection: pError = γ(7)·Σ|b_i·v_i| ≥ γ(7)·|p|; its
+      // smallest value, γ(7)·|p| per coordinate, is what this rule spawns with.
+      constexpr T u = std::numeric_limits<T>::epsilon() / 2;
+      const T g7 = (7 * u) / (1 - 7 * u);
+      const T d = std::abs(n[0]) * (g7 * std::abs(p[0])) + std::abs(n[1]) * (g7 * std::abs(p[1])) +
+                  std::abs(n[2]) * (g7 * std::abs(p[2]));
+      for (int i = 0; i < 3; ++i) out[i] = away(p[i] + d * n[i], n[i]);
+      break;
+    }
+    case OffsetRule::Kind::proved: {
+      T s = T(proved);  // the float step rounded up, never below the proved offset
+      if (double(s) < proved) s = std::nextafter(s, std::numeric_limits<T>::infinity());
+      for (int i = 0; i < 3; ++i) out[i] = away(p[i] + s * n[i], n[i]);
+      break;
+    }
+    case OffsetRule::Kind::waechter_binder: {
+      const Vec3 moved = std::is_same_v<T, float> ? offset_by_ulps_f32(p_in, n_in) : offset_by_ulps(p_in, n_in);
+      return moved;
+    }
+  }
+  return {double(out[0]), double(out[1]), double(out[2])};
+}
+}  // namespace
+
+Vec3 apply_offset_rule(const OffsetRule& rule, Precision precision, const Vec3& p, const Vec3& n, double proved) {
+  return precision == Precision::f32 ? apply_in<float>(rule, p, n, proved) : apply_in<double>(rule, p, n, proved);
+}
+
+// The displacement along the true unit normal. The renderer's n is within 2^-40 of it per
+// coordinate and is rounded to the precision, so n_T·n_true ≥ 1 − u − 2^-38 (`cosine`).
+//   Scaled rules (fixed, ulps): o′_i = fl(p_i + fl(s·n_i)) moves by s·n_i(1 + ε) + e_i with
+//   |e_i| ≤ u·|o′_i|(1 + u): along n_true at least s·(cosine − 2u) − Σ(|n_i| + 2^-40)·u(1 + u)·|o′_i|.
+//   Rounded-away rules (pbrt, proved): the step away makes each coordinate move at least
+//   |fl(s·n_i)| ≥ s|n_i|(1 − u) in n_i's direction (at a binade edge too: rounding toward a power
+//   of two errs by at most half the finer spacing, which the step exceeds), so along n_true at
+//   least s(1 − u)(cosine − 2^-70), less what coordinates whose sign n may have wrong (|n_i| ≤
+//   2^-40) take back, below 2^-37·Σ 4u·|o′_i|.
+//   Wächter–Binder: per coordinate, below 1/32 a scaled step fs·n_i, else trunc(256·|n_i|)
+//   representable numbers, each at least half the spacing at the coordinate's smallest magnitude.
+Displacement rule_displacement(const OffsetRule& rule, Precision precision, const Bounds& points, const Vec3& n,
+                               double proved) {
+  const double u = unit_roundoff(precision);
+  const double cosine = down(1 - up(u + 0x1p-38));
+  const Vec3 qmax = largest_abs(points);
+  Vec3 qmin;
+  for (int i = 0; i < 3; ++i)
+    qmin[i] = points.lo[i] <= 0 && points.hi[i] >= 0 ? 0.0 : std::min(std::abs(points.lo[i]), std::abs(points.hi[i]));
+  auto rounding_loss = [&](double factor, double step_max) {
+    double sum = 0;
+    for (int i = 0; i < 3; ++i) sum = up(sum + up(up(std::abs(n[i]) + 0x1p-40) * up(factor * up(qmax[i] + step_max))));
+    return sum;
+  };
+  auto upper = [&](double step_max) { return up(up(step_max * (1 + 4 * u)) + rounding_loss(4 * u, step_max)); };
+  Displacement d;
+  switch (rule.kind) {
+    case OffsetRule::Kind::fixed:
+    case OffsetRule::Kind::ulps: {
+      double smin, smax;
+      if (rule.kind == OffsetRule::Kind::fixed) {
+        smin = down(rule.amount * (1 - u));
+        smax = up(rule.amount * (1 + u));
+      } else {
+        const double mmin = std::max({qmin[0], qmin[1], qmin[2]}), mmax = std::max({qmax[0], qmax[1], qmax[2]});
+        smin = rule.amount * ulp_in(precision, mmin) * (mmin == 0 ? 0 : 1);
+        smax = rule.amount * ulp_in(precision, mmax) * 2;
+      }
+      d.min = down(down(smin * down(cosine - 2 * u)) - rounding_loss(up(u * (1 + u)), smax));
+      d.max = upper(smax);
+      return d;
+    }
+    case OffsetRule::Kind::pbrt:
+    case OffsetRule::Kind::proved: {
+      double smin, smax;
+      if (rule.kind == OffsetRule::Kind::pbrt) {
+        const double g7 = gamma_up(precision, 7), g7_lo = 7 * u;  // the renderer's γ(7), computed in T, ≥ 7u
+        double lo = 0, hi = 0;
+        for (int i = 0; i < 3; ++i) {
+          lo += std::abs(n[i]) * qmin[i];
+          hi += (std::abs(n[i]) + 0x1p-40) * qmax[i];
+        }
+        smin = down(down(lo * down(g7_lo * (1 - 16 * u))) * (1 - 0x1p-40));
+        smax = up(up(hi * g7) * (1 + 8 * u));
+      } else {
+        smin = proved;  // apply_offset_rule rounds a float step up
+        smax = up(up(proved) * (1 + 0x1p-20));
+      }
+      d.min = down(down(down(smin * (1 - u)) * down(cosine - 0x1p-70)) - rounding_loss(0x1p-35 * u, smax));
+      d.max = upper(up(smax + rounding_loss(4 * u, smax)));
+      return d;
+    }
+    case OffsetRule::Kind::waechter_binder: {
+      const double origin = 1.0 / 32, fs = precision == Precision::f32 ? 1.0 / 65536 : 0x1p-16 * 0x1p-29;
+      double lo = 0, hi = 0;
+      for (int i = 0; i < 3; ++i) {
+        const double ni = std::abs(precision == Precision::f32 ? double(to_nearest_float(n[i])) : n[i]);
+        double along = INFINITY;  // the coordinate's move in n_i's direction, at least
+        if (qmin[i] < origin)
+          along = std::min(along, down(down(fs * ni * (1 - u)) - up(u * (1 + u) * up(origin + fs))));
+        if (qmax[i] >= origin) {
+          const double k = std::trunc(256 * ni);
+          along = std::min(along, k * ulp_in(precision, std::max(qmin[i], origin)) / 2);
+        }
+        const double weight = along >= 0 ? std::max(0.0, std::abs(n[i]) - 0x1p-40) : std::abs(n[i]) + 0x1p-40;
+        lo = down(lo + down(along * weight));
+        hi = up(hi + up(up(256 * ulp_in(precision, qmax[i]) * 2) + fs + up(u * (qmax[i] + 1))));
+      }
+      d.min = lo;
+      d.max = hi;
+      return d;
+    }
+  }
+  return d;
+}
+
+bool rule_proved_safe(const OffsetProof& proof, const Displacement& moved) {
+  const double beyond = down(moved.min - proof.point);
+  return beyond > 0 && beyond > proof.rehit_at(moved.max);  // o′ lies within point_box widened by max
+}
+
+double proved_offset(const OffsetProof& proof, Precision precision, const Vec3& n) {
+  const OffsetRule rule{OffsetRule::Kind::proved, 0, "proved"};
+  double s = up(proof.point + proof.rehit_at(up(2 * up(proof.point + proof.rehit_base))));
+  s = s > 0 ? s : 0x1p-1000;
+  for (int tries = 0; tries < 200; ++tries) {
+    if (rule_proved_safe(proof, rule_displacement(rule, precision, proof.point_box, n, s))) return s;
+    s = up(s * (1 + 0x1p-20) + 0x1p-1022 * tries);
+    if (tries > 8) s = up(s * 2);
+  }
+  return INFINITY;
+}
+
+}  // namespace rayproof
