@@ -48,6 +48,7 @@ void add_audit_command(CLI::App& app, int& exit_code) {
     std::string scene, dir;
     std::vector<std::string> variants;
     bool headroom = false;
+    std::string offset = "default";
     int threads = 0;
     ExternalFlags ext;
     TracerFlags tracer_flags;
@@ -61,6 +62,10 @@ void add_audit_command(CLI::App& app, int& exit_code) {
       ->required();
   add_variants_flag(cmd, opts->variants);
   cmd->add_flag("--headroom", opts->headroom, "also translate the scene by 2^k·(1, 0.75, 0.5), k = 0, 2, …, 62");
+  cmd->add_option("--offset", opts->offset,
+                  "where shadow rays start: default (pbrt's error bound for double code, Waechter & Binder's "
+                  "for float) or proved (the scene's proved offset, rayproof offsets)")
+      ->check(CLI::IsMember({"default", "proved"}));
   add_external_flags(cmd, opts->ext);
   add_tracer_flags(cmd, opts->tracer_flags);
   add_threads_flag(cmd, opts->threads);
@@ -86,6 +91,7 @@ void add_audit_command(CLI::App& app, int& exit_code) {
     ao.variants = parse_variants(opts->variants);
     if (opts->tracer_flags.given()) ao.tracers = parse_tracers(opts->tracer_flags.names);
     ao.headroom = opts->headroom;
+    ao.spawn_proved = opts->offset == "proved";
     ao.threads = opts->threads;
     std::unique_ptr<Progress> progress;
     std::string stage;
@@ -117,6 +123,11 @@ void add_audit_command(CLI::App& app, int& exit_code) {
                    va.counts.false_hits, va.counts.shadow_wrong, va.counts.acne, va.exact_for_scene() ? "yes" : "no ",
                    headroom.c_str());
     }
+    for (const studies::VariantAudit& va : audit.variants)
+      if (va.proved_offset_ulps)
+        std::fprintf(stderr, "spawn offset: %s needs %.3g ulps for this scene, proved (rayproof offsets)%s\n",
+                     va.label.c_str(), *va.proved_offset_ulps,
+                     opts->offset == "proved" ? "; its shadow rays started there" : "; --offset proved spawns there");
     for (const auto& r : audit.recommendation) {
       std::cerr << "recommendation: " << to_string(r.shape) << ": "
                 << (r.best ? r.best->name

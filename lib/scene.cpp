@@ -254,22 +254,7 @@ Scene scaled(const Scene& scene, int log2) {
       obj.mesh = std::move(mesh);
       continue;
     }
-    std::visit(
-        [&](auto& s) {
-          using S = std::decay_t<decltype(s)>;
-          if constexpr (std::is_same_v<S, Sphere>) {
-            s.center = by(s.center);
-            s.radius = std::ldexp(s.radius, log2);
-          } else if constexpr (std::is_same_v<S, Plane>) {
-            s.offset = std::ldexp(s.offset, log2);
-          } else if constexpr (std::is_same_v<S, Triangle>) {
-            for (Vec3& v : s.v) v = by(v);
-          } else {
-            s.min = by(s.min);
-            s.max = by(s.max);
-          }
-        },
-        obj.shape);
+    obj.shape = rayproof::scaled(obj.shape, std::ldexp(1.0, log2));
   }
   return out;
 }

@@ -159,4 +159,16 @@ mutate "t-rounding-interval-open-above" verify/variant_backward_error.cpp \
   "compare(exact, Q((exact_of(below) + x) / 2)) > 0"
 mutate "variant-closed-range-ignored" verify/variant_backward_error.cpp \
   "o.answer.t == 0 && origin_on_shape(*seen)" "false"
+mutate "offset-point-rounding-dropped" verify/offset_bounds.cpp \
+  "return up(up(along / nb.length_lo) + point_rounding(p, nb.unit_abs_hi, travel, point_abs));" \
+  "return up(along / nb.length_lo);"
+mutate "offset-box-exit-widening-ignored" verify/offset_bounds.cpp \
+  "exit = up(up(widen - 1) + up(widen * gamma_up(p, 5)));" \
+  "exit = gamma_up(p, 4);"
+mutate "offset-sphere-root-rounding-ignored" verify/offset_bounds.cpp \
+  "const double big = up(Q * up(up(g3 / down(1 - g3)) * Lt));" \
+  "const double big = 0;"
+mutate "offset-ulps-rule-at-the-largest-coordinate" verify/offset_bounds.cpp \
+  "smin = rule.amount * ulp_in(precision, mmin) * (mmin == 0 ? 0 : 1);" \
+  "smin = rule.amount * ulp_in(precision, mmax);"
 cmake --build "$build" -j2 > /dev/null 2>&1  # leave the build matching the sources

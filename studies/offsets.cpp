@@ -9,6 +9,7 @@
 #include <cmath>
 #include <mutex>
 #include <numeric>
+#include <tuple>
 
 #include "rayproof/core/casefile.h"
 #include "rayproof/core/fp.h"
@@ -280,7 +281,17 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
                      Stream& s) {
   const int pattern = int(s.next() % 4);
   const auto [target, n] = target_on(shape, box, pattern == 3 ? 0 : pattern, s);
-  Vec3 origin = local < listed.size() ? listed[local] : random_in(box, s);
+  // After the listed origins, every other ray from the box corner farthest from the target: the
+  // longest reach, where the proof's error terms are largest.
+  Vec3 origin;
+  if (local < listed.size()) {
+    origin = listed[local];
+  } else if (local % 2 == 0) {
+    for (int i = 0; i < 3; ++i)
+      origin[i] = std::abs(box.lo[i] - target[i]) > std::abs(box.hi[i] - target[i]) ? box.lo[i] : box.hi[i];
+  } else {
+    origin = random_in(box, s);
+  }
   if (pattern == 3) {  // grazing: from far along the surface's tangent plane, lifted a little
     const Vec3 along = perpendicular(n);
     const Vec3 side = cross(along, n);
@@ -297,12 +308,22 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
     }
   }
   SearchRay r;
-  r.ray = Ray(origin, target - origin);
+  // A unit direction, as renderers use: a long one would overflow float's products (b² of a far
+  // sphere at 2^30), outside the proofs' domain.
+  r.ray = Ray(origin, normalized(target - origin));
   r.ok = all_finite(r.ray.direction) && r.ray.direction != Vec3::Zero() && inside(box, origin);
   return r;
 }
 
 const Vec3& eye_of(const Scene& scene) { return scene.camera.eye; }
+
+// Whether a ray starts inside a solid (box, sphere): its hit is an exit, and a new ray leaving to
+// that side is inside the solid, which it meets again by definition.
+bool starts_inside_solid(const Shape& shape, const Vec3& o) {
+  if (const auto* b = std::get_if<Box>(&shape)) return inside({b->min, b->max}, o);
+  if (const auto* s = std::get_if<Sphere>(&shape)) return (o - s->center).squaredNorm() < s->radius * s->radius;
+  return false;
+}
 
 // The outgoing directions a re-hit is looked for along: straight out, mirrored, grazing out.
 std::array<Vec3, 3> outgoing_directions(const Vec3& incoming, const Vec3& n) {
@@ -311,6 +332,28 @@ std::array<Vec3, 3> outgoing_directions(const Vec3& incoming, const Vec3& n) {
   return {n, mirrored.dot(n) > 0 ? mirrored : Vec3(n), grazing};
 }
 
+Precision computing_precision(const Variant& v) {  // batched float twins report double
+  return std::string_view(v.name).find("-f32") != std::string_view::npos ? Precision::f32 : v.precision;
+}
+// The primitive's proved offset and the ulps it takes at the point's smallest magnitude.
+std::pair<double, double> proved_offset_and_ulps(const OffsetProof& proof, Precision prec, const Shape& shape) {
+  Vec3 n(1, 0, 0);
+  if (const auto* t = std::get_if<Triangle>(&shape)) n = unit(cross(t->v[1] - t->v[0], t->v[2] - t->v[0]));
+  if (const auto* pl = std::get_if<Plane>(&shape)) n = unit(pl->normal);
+  double worst = proved_offset(proof, prec, n);
+  if (std::holds_alternative<Box>(shape))  // the offset along any face's normal: the largest
+    for (int i = 1; i < 3; ++i) {
+      Vec3 e = Vec3::Zero();
+      e[i] = 1;
+      worst = std::max(worst, proved_offset(proof, prec, e));
+    }
+  double smallest_max = 0;
+  for (int i = 0; i < 3; ++i) {
+    const double lo = proof.point_box.lo[i], hi = proof.point_box.hi[i];
+    smallest_max = std::max(smallest_max, lo <= 0 && hi >= 0 ? 0.0 : std::min(std::abs(lo), std::abs(hi)));
+  }
+  return std::pair{worst, smallest_max > 0 ? worst / ulp_in(prec, smallest_max) : INFINITY};
+}
 }  // namespace
 
 Bounds offsets_scene_box(const SceneIndex& index) {
@@ -347,7 +390,7 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
     const auto started = std::chrono::steady_clock::now();
     VariantOffsets out;
     out.variant = v;
-    out.precision = std::string_view(v->name).find("-f32") != std::string_view::npos ? Precision::f32 : v->precision;
+    out.precision = computing_precision(*v);
     const Precision prec = out.precision;
     std::vector<std::int32_t> ids;
     for (std::int32_t i = 0; i < std::int32_t(index.primitives().size()); ++i)
@@ -406,25 +449,13 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
           const auto check = surface_check(shape, tri ? &*tri : nullptr, ray, p);
           if (!check) continue;
           const double distance = check->side * check->value.estimate() / check->scale;
-          if (po.proof && check->exceeds(po.proof->point)) ++po.contradictions;
+          if (po.proof && check->exceeds(po.proof->point)) ++po.beyond_bound;
           const OffsetWitness w{ray, a.t, p, distance, check->normal};
           if (!po.farthest || std::abs(distance) > std::abs(po.farthest->distance)) po.farthest = w;
           if (distance < 0 && (!po.deepest || distance < po.deepest->distance)) po.deepest = w;
         }
         // The rules.
-        const Vec3 rule_normal = po.farthest ? po.farthest->normal : Vec3::Zero();
-        if (po.proof) {
-          Vec3 n = tri ? tri->unit_normal : Vec3(1, 0, 0);
-          if (const auto* pl = std::get_if<Plane>(&shape)) n = pl->normal / pl->normal.norm();
-          po.proved_offset = proved_offset(*po.proof, prec, n);
-          double smallest_max = 0;
-          for (int i = 0; i < 3; ++i) {
-            const double lo = po.proof->point_box.lo[i], hi = po.proof->point_box.hi[i];
-            smallest_max = std::max(smallest_max, lo <= 0 && hi >= 0 ? 0.0 : std::min(std::abs(lo), std::abs(hi)));
-          }
-          po.required_ulps = smallest_max > 0 ? po.proved_offset / ulp_in(prec, smallest_max) : INFINITY;
-        }
-        (void)rule_normal;
+        if (po.proof) std::tie(po.proved_offset, po.required_ulps) = proved_offset_and_ulps(*po.proof, prec, shape);
         po.verdicts.assign(options.rules.size(), OffsetVerdict::unproved);
         std::vector<json> cases;
         for (std::size_t r = 0; r < options.rules.size(); ++r) {
@@ -454,6 +485,8 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
           // The witness: spawn from the deepest point found (else the farthest), look for a re-hit.
           const std::optional<OffsetWitness>& from = po.deepest ? po.deepest : po.farthest;
           if (!from) continue;
+          // A solid (box, sphere) is left to its outside: a ray into it meets it again by definition.
+          if (starts_inside_solid(shape, from->ray.origin)) continue;
           const Vec3 o2 = apply_offset_rule(rule, prec, from->point, from->normal,
                                             std::isfinite(po.proved_offset) ? po.proved_offset : 0);
           if (!all_finite(o2)) continue;
@@ -463,7 +496,7 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
             const Answer again = v->intersect(spawned, shape, options.rule);
             if (again.failed() || !reports_hit(again)) continue;
             const Vec3 p2 = computed_point(prec, spawned, again.t);
-            if (safe && inside(domain, p2)) ++po.contradictions;
+            if (safe && inside(domain, p2)) ++po.rehit_where_safe;
             if (safe) continue;  // outside the domain: a wrong answer of the variant, not this rule's
             po.verdicts[r] = OffsetVerdict::unsafe;
             const Hit exact = certified_intersect(spawned, shape, options.rule);
@@ -497,7 +530,7 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
               [](const json& a, const json& b) { return a["id"].get<std::string>() < b["id"].get<std::string>(); });
     for (const PrimitiveOffsets& po : out.primitives) {
       out.derived = out.derived || po.proof.has_value();
-      out.contradictions += po.contradictions;
+      out.contradictions += po.beyond_bound + po.rehit_where_safe;
       for (std::size_t r = 0; r < options.rules.size(); ++r) {
         RuleSummary& sum = out.rules[r];
         switch (po.verdicts[r]) {
@@ -525,6 +558,30 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
     report.variants.push_back(std::move(out));
   }
   return report;
+}
+
+
+std::optional<Vec3> proved_spawn_origin(const Variant& v, const Shape& shape, const Bounds& scene_box, const Ray& ray,
+                                        double t, const Vec3& n) {
+  const Precision prec = computing_precision(v);
+  const auto proof = offset_proof(v, shape, scene_box);
+  if (!proof) return std::nullopt;
+  const auto offset = proved_offset_and_ulps(*proof, prec, shape);
+  if (!std::isfinite(offset.first)) return std::nullopt;
+  const Ray seen(to_precision(prec, ray.origin), to_precision(prec, ray.direction));
+  return apply_offset_rule(OffsetRule{OffsetRule::Kind::proved, 0, "proved"}, prec, computed_point(prec, seen, t), n,
+                           offset.first);
+}
+
+std::optional<double> scene_needs_ulps(const SceneIndex& index, const Variant& v, const Bounds& scene_box) {
+  std::optional<double> most;
+  for (const Primitive& p : index.primitives()) {
+    if (!v.handles(kind_of(p.shape))) continue;
+    const auto proof = offset_proof(v, p.shape, scene_box);
+    if (!proof) return std::nullopt;
+    most = std::max(most.value_or(0.0), proved_offset_and_ulps(*proof, computing_precision(v), p.shape).second);
+  }
+  return most;
 }
 
 std::vector<double> offset_brackets(const VariantOffsets& v) {

@@ -13,6 +13,7 @@
 #include "rayproof/core/parallel.h"
 #include "rayproof/core/scene_rays.h"
 #include "rayproof/core/timing.h"
+#include "rayproof/studies/offsets.h"
 #include "rayproof/verify/exact_scene.h"
 
 namespace rayproof::studies {
@@ -144,7 +145,10 @@ class Auditor {
       : scene_(scene),
         index_(scene),
         options_(options),
-        threads_(std::clamp(options.threads > 0 ? options.threads : default_threads(), 1, 256)) {}
+        threads_(std::clamp(options.threads > 0 ? options.threads : default_threads(), 1, 256)),
+        offsets_box_(offsets_scene_box(index_)) {}
+
+  const Bounds& offsets_box() const { return offsets_box_; }
 
   const SceneIndex& index() const { return index_; }
 
@@ -560,7 +564,9 @@ class Auditor {
       // The contender's own spawn: pbrt's error bound for double code, Wächter & Binder's float
       // offset from the float hit point for float code (core/offset.h).
       const Precision own = c.tracer ? c.tracer->precision : c.variant->precision;
-      const Vec3 start = visible_is_variant ? spawn_origin(ray, visible.hit.t, p, n, own) : p;
+      Vec3 start = visible_is_variant ? spawn_origin(ray, visible.hit.t, p, n, own) : p;
+      if (visible_is_variant && c.variant && options_.spawn_proved)
+        start = proved_spawn_origin(*c.variant, prim.shape, offsets_box_, ray, visible.hit.t, n).value_or(start);
       std::vector<double> cosines(scene_.lights.size(), 0);
       std::uint64_t lit = 0;
       if (scene_.shading == Shading::diffuse) {
@@ -624,6 +630,7 @@ class Auditor {
   const Scene& scene_;
   SceneIndex index_;
   const SceneAuditOptions& options_;
+  Bounds offsets_box_;  // the domain of the proved offsets (offsets.md): the scene's box
   int threads_;
   std::vector<ExactPixel> exact_;
   // Per variant and kind, the reach it is traced with in this scene (calibrated_reach on the
@@ -752,6 +759,7 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
       va.label += to_string(c.kind);
     }
     va.counts = auditor.variant_pass(c, &va, &audit.exact);
+    if (c.variant) va.proved_offset_ulps = scene_needs_ulps(auditor.index(), *c.variant, auditor.offsets_box());
     const auto timing = auditor.time_variant(c);
     va.ns_per_ray = timing.ns_per_ray;
     va.round_trip_ns_per_ray = timing.round_trip_ns_per_ray;

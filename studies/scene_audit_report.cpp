@@ -186,6 +186,7 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
               {"render", stems[i] + ".png"},
               {"diff", stems[i] + "-diff.png"}};
     if (!va.stopped.empty()) e["stopped"] = va.stopped;
+    if (va.proved_offset_ulps) e["proved_offset_ulps"] = *va.proved_offset_ulps;
     if (has_cases_file(va)) {
       e["cases"] = stems[i] + "-cases.jsonl";
       e["cases_written"] = va.cases.size();

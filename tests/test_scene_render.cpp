@@ -71,15 +71,6 @@ TEST(Seed2, OnlyTheUpperHalfIsLitAndTheBrightestPixelIsNearTheTop) {
   EXPECT_LT(best_row, centre_row - radius_px / 2);
 }
 
-// Scales every length of a scene by 2^k (exact in binary floating point).
-Scene scaled(Scene scene, int k) {
-  const double f = std::ldexp(1.0, k);
-  scene.camera.eye *= f;
-  for (auto& l : scene.lights) l.position *= f;
-  for (auto& o : scene.objects) o.shape = rayproof::scaled(o.shape, f);
-  return scene;
-}
-
 // Independent geometry for the tests below: the nearest hit of a ray among spheres and planes,
 // solved in long double with the textbook formula (no library intersector involved).
 struct Analytic {

@@ -47,8 +47,34 @@
 // signs of plane − o, 1/d and their product are exact in floating point, ±0 directions give ±∞
 // of the right sign, and widening by K̃ keeps a sign. Any δ > 0 suffices: the re-hit bound is 0.
 //
-// Spheres and the watertight triangles (t from sheared edge functions) are not derived yet: they
-// get the witness side only, and their rules stay `unproved` unless a witness shows `unsafe`.
+// Spheres (textbook, stable, stable-fma), with f(t) = a t² − 2βt + c = |o + t·d − m|² − R²
+// (β = −d·(o − m)): the point o + t̃·d lies off the sphere by |f(t̃)|/(|p − m| + R) ≤ |f(t̃)|/R.
+// The code computes ã, β̃, C̃ (errors E_a, E_β, E_C against a, β, c) and D̃, the discriminant in
+// β² − ac units (disc/4), with δ_D = D̃ − (β̃² − ãC̃), |δ_D| ≤ κ(β̃² + ã|C̃|), κ = γ(2) (b² − 4ac
+// in three roundings; Kahan's FMA form within γ(3)). Let Ĉ = (β̃² − D̃)/ã: then D̃ = β̃² − ãĈ
+// exactly, and the roots T1 = q̂/ã, T2 = Ĉ/q̂ of G(t) = ãt² − 2β̃t + Ĉ (q̂ = β̃ ± √D̃, the larger
+// magnitude, |T2| ≤ |T1|) are what the code computes up to its last roundings. So
+//     |f(t̃)| ≤ |f − G|(t̃) + |G(t̃)|,  |f − G|(t̃) ≤ E_a·t̃² + 2E_β|t̃| + E_C + |δ_D|/ã,     (4)
+// and G(t̃) = ã(t̃ − T)(t̃ − T′) for t̃ near its root T:
+//   stable q/a: t̃ = T1(1 + η), |η| ≤ γ(3): |G| ≤ γ(3)/(1 − γ(3))·|t̃|·(ã|t̃| + |β̃| + √D̃);
+//   stable c/q: t̃ = (C̃/q̂)(1 + η) = T2(1 + η) + (δ_D/ã)(1 + η)/q̂; with q̂² ≥ β̃², q̂² ≥ ã|Ĉ| (D̃ ≥
+//     0 for any reported hit), |δ_D|/q̂² ≤ ρ = 2κ/(1 − κ) and ã|t̃|/|q̂| ≤ (1 + γ(3))(1 + ρ), so
+//     |G| ≤ γ(3)(ã t̃² + (1 + γ(3))²(1 + ρ)|δ_D|/ã)/(1 − γ(3)) + γ(3)|Ĉ|
+//           + ((1 + γ(3))(1 + ρ) + 1)(1 + γ(3))|δ_D|/ã;
+//   textbook (β̃ ± √D̃)/ã: t̃ = (T + e/(2ã))(1 + ε), |e| ≤ 2u√D̃ + u|numerator|, so
+//     |G| ≤ (ã|t̃| + |β̃| + √D̃)(u|T| + (1 + u)|e|/(2ã)).
+// Every term is homogeneous of degree 0 in d: with |t̃·d| ≤ |W| (the travel), |β̃| ≤ |d|F(1 + γ(4))
+// (F ≥ |o − m|), ã ≥ |d|²(1 − γ(3)), each is a number of the scene. The re-hit side: a ray from
+// an origin δ outside, going away (b ≥ 0), is reported only if C̃ ≤ 0, or b̃ < 0 by rounding with
+// b̃²(1 + κ) ≥ 4ãC̃(1 − κ) (stable: b̃² ≤ 4γ(4)²|d|²F′²), or the textbook's √disc exceeds b̃,
+// which needs 4ãC̃(1 − κ) < κb̃²; c = δ(2R + δ) ≥ 2Rδ beyond E_C plus that rules all out.
+//
+// Hearn–Baker's discriminant r² − |l|² is not rounded in proportion to the quadratic's
+// coefficients (its |l|² errs by γ·|o − m|² even where β and c vanish), so the small root's
+// bound above needs a lower bound on q that tangent rays from the surface do not give; it and
+// the watertight triangles (t from sheared edge functions, whose rounding identity (1) bounds only
+// away from grazing incidence) get the witness side only: their rules stay `unproved` unless a
+// witness shows `unsafe`.
 #include "rayproof/verify/offset_bounds.h"
 
 #include <algorithm>
@@ -288,20 +314,25 @@ std::optional<OffsetProof> box_proof(Precision p, bool robust, const Box& input,
   const Bounds own = {in_precision(p, input.min), in_precision(p, input.max)};
   const Bounds box = in_precision(p, scene_box);
   const double u = unit_roundoff(p);
-  double theta = gamma_up(p, 3);
+  // Entries come from anywhere in the scene's box; exits from inside the box itself, so their
+  // travel is at most its extent.
+  const double entry = gamma_up(p, robust ? 4 : 3);
+  double exit = gamma_up(p, 3);
   if (robust) {
     // K̃ as robust_slab computes it in its own precision.
     const double widen = p == Precision::f32 ? double(1.0f + 2 * (3 * 0x1p-24f / (1 - 3 * 0x1p-24f)))
                                              : 1 + 2 * gamma(3);
-    theta = std::max(gamma_up(p, 4), up(up(widen - 1) + up(widen * gamma_up(p, 5))));
+    exit = up(up(widen - 1) + up(widen * gamma_up(p, 5)));
   }
   auto bound_for = [&](const Bounds& points) {
     const Vec3 point_abs = largest_abs(points);
     double worst = 0;
     for (int i = 0; i < 3; ++i) {
-      const double w = up(std::max(std::max(std::abs(own.lo[i] - box.lo[i]), std::abs(box.hi[i] - own.lo[i])),
-                                   std::max(std::abs(own.hi[i] - box.lo[i]), std::abs(box.hi[i] - own.hi[i]))));
-      worst = std::max(worst, up(up(theta * w) + up(u * point_abs[i] / down(1 - u))));
+      const double from_scene = up(std::max(std::max(std::abs(own.lo[i] - box.lo[i]), std::abs(box.hi[i] - own.lo[i])),
+                                            std::max(std::abs(own.hi[i] - box.lo[i]), std::abs(box.hi[i] - own.hi[i]))));
+      const double from_inside = up(own.hi[i] - own.lo[i]);
+      const double along = std::max(up(entry * from_scene), up(exit * from_inside));
+      worst = std::max(worst, up(along + up(u * point_abs[i] / down(1 - u))));
     }
     return worst;
   };
@@ -313,7 +344,69 @@ std::optional<OffsetProof> box_proof(Precision p, bool robust, const Box& input,
   return proof;  // re-hits: none from strictly outside (rehit 0)
 }
 
-enum class Formula { none, moller_trumbore, plane_direct, slab, robust_slab };
+enum class SphereFormula { textbook, stable, stable_fma };
+
+// The sphere variants (the derivation above (4)).
+std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, const Sphere& input,
+                                        const Bounds& scene_box) {
+  const Vec3 m = in_precision(p, input.center);
+  const double R = in_precision(p, input.radius);
+  if (!(R > 0)) return std::nullopt;
+  const Bounds box = in_precision(p, scene_box);
+  const double u = unit_roundoff(p), g3 = gamma_up(p, 3), g4 = gamma_up(p, 4), g6 = gamma_up(p, 6);
+  const double kappa = gamma_up(p, formula == SphereFormula::stable_fma ? 3 : 2), rho = up(2 * kappa / down(1 - kappa));
+  const RunningBound A{u};
+  const Vec3 f_mag = reach_from(box, m);
+  const double F = up(f_mag.norm() * (1 + 0x1p-50));
+  BVec oc;
+  for (int i = 0; i < 3; ++i) oc[i] = A.difference(f_mag[i]);
+  const Bounded C = A.add(A.dot(oc, oc), A.mul(RunningBound::input(R), RunningBound::input(R)));
+  const double Fb = up(F * (1 + g4));                                                      // |β̃|/|d|
+  const double delta_D = up(kappa * up(up(Fb * Fb / down(1 - g3)) + up(C.mag + C.err)));  // |δ_D|/ã
+  const double C_hat = up(up(C.mag + C.err) + delta_D);                                    // |Ĉ|
+  const double Sd = up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50));             // √D̃/|d|
+  auto bound_for = [&](const Bounds& points) {
+    const Vec3 w = travel(box, points);
+    const double Lt = up(w.norm() * (1 + 0x1p-50));  // |t̃·d|
+    const Bounded a = A.dot(inputs(w), inputs(w));    // E_a·t̃² (homogeneity)
+    const Bounded beta = A.dot(inputs(w), oc);        // E_β·|t̃|
+    const double f_minus_G = up(up(up(a.err + up(2 * beta.err)) + C.err) + delta_D);  // (4)
+    const double Q = up(up(up(Lt * (1 + g3)) + Fb) + Sd);                           // (ã|t̃| + |β̃| + √D̃)/|d|
+    double G;
+    if (formula == SphereFormula::textbook) {
+      const double E0 = up(u * up(Sd + up(up((1 + u) * (1 + u)) * up(Fb + Sd))) / down(1 - g3));  // |e|/(2ã)·|d|
+      G = up(Q * up(up(u * up(Lt + up((1 + u) * E0)) / down(1 - u)) + up((1 + u) * E0)));
+    } else {
+      const double big = up(Q * up(up(g3 / down(1 - g3)) * Lt));
+      const double t2 = up(up(Lt * Lt) * (1 + g3));  // ã·t̃²
+      const double spread = up(up(1 + g3) * up(1 + rho));
+      const double small = up(up(up(g3 * up(t2 + up(up(spread * (1 + g3)) * delta_D))) / down(1 - g3)) +
+                              up(up(g3 * C_hat) + up(up(up(spread + 1) * (1 + g3)) * delta_D)));
+      G = std::max(big, small);
+    }
+    const double f_bound = up(f_minus_G + G);
+    return up(up(f_bound / R) + point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points)));
+  };
+  Bounds own;
+  own.grow(Vec3(down(m.x() - R), down(m.y() - R), down(m.z() - R)));
+  own.grow(Vec3(up(m.x() + R), up(m.y() + R), up(m.z() + R)));
+  OffsetProof proof;
+  const double coarse = bound_for(box);
+  if (!std::isfinite(coarse)) return std::nullopt;
+  proof.point_box = widened(own, coarse);
+  proof.point = std::min(coarse, bound_for(proof.point_box));
+  // Re-hits from origins within point + reach of the surface: F′ = R + point + reach.
+  const double coef = formula == SphereFormula::textbook
+                          ? up(kappa * up((1 + g4) * (1 + g4)) / down(down(1 - g3) * down(1 - kappa)))
+                          : up(up(g4 * g4) * up(up((1 + kappa) * (1 + g4) * (1 + g4)) / down(down(1 - kappa) * down(1 - g3))));
+  const double k2 = up(g6 + coef), F0 = up(R + proof.point), two_R = down(2 * R);
+  proof.rehit_base = up(up(up(k2 * up(F0 * F0)) + up(g6 * up(R * R))) / two_R);
+  proof.rehit_per_reach = up(up(2 * up(k2 * F0)) / two_R);
+  proof.rehit_per_reach_squared = up(k2 / two_R);
+  return proof;
+}
+
+enum class Formula { none, moller_trumbore, plane_direct, slab, robust_slab, textbook, stable, stable_fma };
 // The formula a built-in variant computes (its structure-of-arrays twins are bit-identical).
 Formula formula_of(const Variant& v) {
   if (v.external != nullptr || v.kernel == nullptr || v.is_oracle) return Formula::none;
@@ -324,6 +417,9 @@ Formula formula_of(const Variant& v) {
   if (name == "direct") return Formula::plane_direct;
   if (name == "slab") return Formula::slab;
   if (name == "robust-slab") return Formula::robust_slab;
+  if (name == "textbook") return Formula::textbook;
+  if (name == "stable") return Formula::stable;
+  if (name == "stable-fma") return Formula::stable_fma;
   return Formula::none;
 }
 // The batch twins report double but compute in the precision their name says.
@@ -333,7 +429,9 @@ Precision precision_of(const Variant& v) {
 
 }  // namespace
 
-double OffsetProof::rehit_at(double reach) const { return up(rehit_base + up(rehit_per_reach * reach)); }
+double OffsetProof::rehit_at(double reach) const {
+  return up(up(rehit_base + up(rehit_per_reach * reach)) + up(rehit_per_reach_squared * up(reach * reach)));
+}
 
 std::optional<OffsetProof> offset_proof(const Variant& v, const Shape& shape, const Bounds& scene_box) {
   const Precision p = precision_of(v);
@@ -348,6 +446,16 @@ std::optional<OffsetProof> offset_proof(const Variant& v, const Shape& shape, co
     case Formula::robust_slab:
       if (const auto* b = std::get_if<Box>(&shape))
         return box_proof(p, formula_of(v) == Formula::robust_slab, *b, scene_box);
+      break;
+    case Formula::textbook:
+    case Formula::stable:
+    case Formula::stable_fma:
+      if (const auto* sp = std::get_if<Sphere>(&shape)) {
+        const SphereFormula f = formula_of(v) == Formula::textbook ? SphereFormula::textbook
+                                : formula_of(v) == Formula::stable ? SphereFormula::stable
+                                                                   : SphereFormula::stable_fma;
+        return sphere_proof(p, f, *sp, scene_box);
+      }
       break;
     case Formula::none:
       break;

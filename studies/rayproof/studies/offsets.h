@@ -52,9 +52,9 @@ struct PrimitiveOffsets {
   std::optional<OffsetWitness> deepest;   // the most negative distance (behind the surface)
   std::uint64_t rays = 0, hits = 0, outside_domain = 0;
   std::vector<OffsetVerdict> verdicts;  // per rule, in options' order
-  // A witness farther than the proved bound, or a re-hit where a rule was proved safe: a bug in
-  // the derivation (the tests look for them).
-  std::uint64_t contradictions = 0;
+  // A witness farther than the proved bound, or a re-hit where a rule was proved safe: each a
+  // bug in the derivation (the tests look for them).
+  std::uint64_t beyond_bound = 0, rehit_where_safe = 0;
 };
 
 struct RuleSummary {
@@ -92,6 +92,15 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
 void write_offsets_json(const OffsetsReport& report, const SceneIndex& index, std::ostream& out);
 std::string offsets_html(const OffsetsReport& report, const SceneIndex& index);
 std::vector<std::string> offsets_summary_lines(const OffsetsReport& report);
+
+// Where `proved` spawns from a hit at t of `ray` on `shape` (n: the unit normal toward the side
+// the new ray leaves to): the variant's computed point moved by the primitive's proved offset;
+// nullopt where the variant's formula has no derivation (`audit --offset proved`).
+std::optional<Vec3> proved_spawn_origin(const Variant& v, const Shape& shape, const Bounds& scene_box, const Ray& ray,
+                                        double t, const Vec3& n);
+// The largest proved offset in ulps over the scene's primitives of v's shape (what `audit`
+// reports), or nullopt where v's formula has no derivation.
+std::optional<double> scene_needs_ulps(const SceneIndex& index, const Variant& v, const Bounds& scene_box);
 
 // The bracket bound / |witness distance| of each primitive with both (how tight the proof is).
 std::vector<double> offset_brackets(const VariantOffsets& v);

@@ -27,6 +27,9 @@ struct SceneAuditOptions {
   // their vertices shared as in their files, and lone triangles), the other shapes exact.
   std::vector<const Tracer*> tracers;
   bool headroom = false;
+  // Shadow rays of the built-in variants start from the proved offset (offsets.md, `--offset
+  // proved`) instead of pbrt's error bound (double) or Wächter & Binder's (float).
+  bool spawn_proved = false;
   int threads = 0;  // 0: every hardware thread
   // Called from the calling thread between and within stages (for a progress line).
   std::function<void(const std::string& stage, long done, long total)> progress;
@@ -94,6 +97,9 @@ struct VariantAudit {
   // the scene collapsed). exact_up_to is set only for a variant exact for the scene itself.
   std::vector<long> headroom_wrong;
   std::optional<int> exact_up_to_log2_translate, first_wrong_log2_translate;
+  // The scene's proved spawn offset for this variant (`rayproof offsets`): the largest over its
+  // primitives, in ulps of the point's largest coordinate; nullopt without a derivation.
+  std::optional<double> proved_offset_ulps;
 };
 
 struct SceneAudit {

@@ -23,17 +23,17 @@ namespace rayproof {
 // primitive's box widened by a first, coarser bound on the point (every computed point of a hit
 // from the scene's box lies that close to the plane). A reported hit farther off is a wrong answer
 // of the intersector (the exact contact is elsewhere or absent; `check` judges it), not a
-// question of offsets. No product may underflow (fp.h's proved range): the witness search keeps
-// to it.
+// question of offsets. No product may under- or overflow (fp.h's proved range): the witness
+// search keeps to it with unit directions.
 struct OffsetProof {
   // |n̂·(p̃ − surface)| ≤ point for every computed hit point p̃ of the domain (n̂: the unit normal
   // of the surface at the hit; a box: its hit face's).
   double point = 0;
   // The re-intersection side: a ray leaving an origin that lies strictly more than
   // rehit_at(reach) off the surface on the side it leaves to, in any direction into that side,
-  // whose origin lies within point_box widened by `reach`, cannot be reported hitting the
-  // primitive by the variant (within the domain).
-  double rehit_base = 0, rehit_per_reach = 0;
+  // whose origin lies within point_box widened by `reach` (a sphere: within `point` + `reach`
+  // of its surface), cannot be reported hitting the primitive by the variant (within the domain).
+  double rehit_base = 0, rehit_per_reach = 0, rehit_per_reach_squared = 0;
   double rehit_at(double reach) const;
   // Where the domain's computed hit points lie.
   Bounds point_box;

@@ -1,0 +1,286 @@
+// Spawn offsets (docs/spec/offsets.md): no witness ever lies farther off its surface than the
+// proved bound (on every bundled mesh at 2^-30, 2^0 and 2^30, on planes and boxes), the search is
+// strong enough to catch a derivation a few times too small, a rule that is too small is shown
+// unsafe by a ray that re-hits (replayed by `check`), and `proved` is safe where it is.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+
+#include "cli_run.h"
+#include "rayproof/core/casefile.h"
+#include "rayproof/core/mesh.h"
+#include "rayproof/core/scene_index.h"
+#include "rayproof/studies/offsets.h"
+#include "rayproof/verify/certified.h"
+#include "test_dir.h"
+
+namespace rayproof {
+namespace {
+
+using studies::OffsetsOptions;
+using studies::OffsetVerdict;
+using testing_support::run_cli;
+using testing_support::test_dir;
+
+std::vector<const Variant*> named(std::initializer_list<const char*> names) {
+  std::vector<const Variant*> out;
+  for (const char* n : names) {
+    const Variant* v = find_variant(n);
+    EXPECT_NE(v, nullptr) << n;
+    if (v) out.push_back(v);
+  }
+  return out;
+}
+
+Scene scene_of_mesh(const std::string& path) {
+  const Mesh mesh = load_mesh(path);
+  Scene s;
+  for (const Triangle& t : mesh.triangles) s.objects.push_back({t});
+  Bounds box;
+  for (const Triangle& t : mesh.triangles)
+    for (const Vec3& v : t.v) box.grow(v);
+  // A light off the mesh's box, so that rays come from far across the scene as well.
+  s.lights.push_back({box.hi + (box.hi - box.lo), 1});
+  return s;
+}
+
+// Every witness within its bound (decided exactly, counted as a contradiction otherwise); and
+// the distances the search found are real: some come within 4× of the bound.
+void expect_no_witness_beyond_bound(const Scene& scene, const std::vector<const Variant*>& variants,
+                                    std::uint64_t rays, const std::string& what, double within = 6) {
+  const SceneIndex index(scene);
+  OffsetsOptions options;
+  options.rays = rays;
+  options.threads = 2;
+  const studies::OffsetsReport report = studies::run_offsets(index, what, variants, options);
+  for (const studies::VariantOffsets& v : report.variants) {
+    SCOPED_TRACE(what + " " + std::string(v.variant->name));
+    EXPECT_TRUE(v.derived);
+    EXPECT_EQ(v.contradictions, 0u);
+    std::uint64_t witnesses = 0, beyond = 0, rehits = 0;
+    for (const studies::PrimitiveOffsets& p : v.primitives) beyond += p.beyond_bound, rehits += p.rehit_where_safe;
+    EXPECT_EQ(beyond, 0u);
+    EXPECT_EQ(rehits, 0u);
+    double closest = INFINITY;  // the smallest bracket
+    for (const studies::PrimitiveOffsets& p : v.primitives) {
+      ASSERT_TRUE(p.proof.has_value());
+      if (!p.farthest) continue;
+      ++witnesses;
+      EXPECT_LE(std::abs(p.farthest->distance), p.proof->point * (1 + 1e-12));
+      if (p.farthest->distance != 0) closest = std::min(closest, p.proof->point / std::abs(p.farthest->distance));
+    }
+    EXPECT_GT(witnesses, v.primitives.size() / 4);
+    // A derivation `within` times too optimistic would have been contradicted: the search
+    // reaches that close to the bound.
+    EXPECT_LT(closest, within);
+  }
+}
+
+const std::string kMeshDir = RAYPROOF_MESH_DIR;
+const std::string kScenes = RAYPROOF_SCENES_DIR;
+
+TEST(Offsets, NoWitnessBeyondTheBoundOnTheBundledMeshesAtThreeScales) {
+  const std::vector<std::string> meshes = {kMeshDir + "/bunny00.off", kMeshDir + "/elephant.off",
+                                           kMeshDir + "/armadillo.off", kScenes + "/audit/edge-grid-tilted.off",
+                                           kScenes + "/audit/terrain.obj"};
+  for (const std::string& path : meshes) {
+    ASSERT_TRUE(std::filesystem::exists(path)) << path;
+    const Scene base = scene_of_mesh(path);
+    // 10^6 rays per mesh and scale, half to each precision.
+    for (int k : {-30, 0, 30})
+      expect_no_witness_beyond_bound(scaled(base, k), named({"moller-trumbore", "moller-trumbore-f32"}), 500000,
+                                     path + " at 2^" + std::to_string(k));
+  }
+  // Far from the origin, where the point's own rounding is most of the bound (double only: a
+  // float cannot hold the elephant at 2^20).
+  const Scene far = translated(scene_of_mesh(kMeshDir + "/elephant.off"), Vec3(0x1p20, 0.75 * 0x1p20, 0.5 * 0x1p20));
+  expect_no_witness_beyond_bound(far, named({"moller-trumbore"}), 500000, "elephant moved by 2^20");
+}
+
+TEST(Offsets, NoWitnessBeyondTheBoundOnPlanesAndBoxes) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Scene base;
+  for (int i = 0; i < 40; ++i) {
+    const Vec3 lo(u(rng), u(rng), u(rng));
+    base.objects.push_back({Box{lo, lo + Vec3(0.05 + 0.5 * std::abs(u(rng)), 0.02 + std::abs(u(rng)), 0.3)}});
+  }
+  for (int i = 0; i < 6; ++i) {
+    const Vec3 n(u(rng), u(rng), u(rng));
+    base.objects.push_back({Plane{i < 2 ? Vec3(0, 1, 0) : n, u(rng)}});
+  }
+  base.lights.push_back({Vec3(3, 2.5, -2), 1});
+  for (int k : {-30, 0, 30}) {
+    expect_no_witness_beyond_bound(scaled(base, k), named({"slab", "robust-slab", "slab-f32", "robust-slab-f32"}),
+                                   200000, "boxes at 2^" + std::to_string(k));
+    expect_no_witness_beyond_bound(scaled(base, k), named({"direct", "direct-f32"}), 200000,
+                                   "planes at 2^" + std::to_string(k));
+  }
+}
+
+TEST(Offsets, NoWitnessBeyondTheBoundOnSpheres) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Scene base;
+  for (int i = 0; i < 30; ++i)
+    base.objects.push_back({Sphere{Vec3(u(rng), u(rng), u(rng)), 0.02 + 0.4 * std::abs(u(rng))}});
+  base.lights.push_back({Vec3(4, 3, -2), 1});
+  for (int k : {-30, 0, 30})
+    expect_no_witness_beyond_bound(scaled(base, k),
+                                   named({"textbook", "stable", "stable-fma", "textbook-f32", "stable-f32", "stable-fma-f32"}),
+                                   100000, "spheres at 2^" + std::to_string(k), 16);
+}
+
+// Exits from inside a robust slab's box overshoot the far face by its widening 1 + 2γ(3): the
+// bound must hold for them (a derivation without the widening is contradicted here).
+TEST(Offsets, RobustSlabExitsFromInsideStayWithinTheBound) {
+  Scene scene;
+  scene.objects.push_back({Box{Vec3(-0.5, -0.5, -0.5), Vec3(0.5, 0.5, 0.5)}});
+  expect_no_witness_beyond_bound(scene, named({"robust-slab", "robust-slab-f32"}), 200000, "one box, from inside");
+}
+
+// Each rule's proved displacement range holds for the moves the rule really makes: points drawn
+// from a box, moved by the rule, the move along the true normal computed exactly.
+TEST(Offsets, RuleDisplacementsBoundTheRealMoves) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (Precision prec : {Precision::f64, Precision::f32})
+    for (const char* name : {"fixed:1e-4", "ulps:32", "ulps:1", "pbrt", "waechter-binder", "proved"})
+      for (int trial = 0; trial < 40; ++trial) {
+        const OffsetRule rule = parse_offset_rule(name);
+        const double scale = std::ldexp(1.0, int(u(rng) * 40) - 20);
+        Bounds points;
+        const Vec3 corner = scale * Vec3(u(rng) - 0.3, u(rng) - 0.6, u(rng) - 0.1);
+        points.grow(corner);
+        points.grow(corner + scale * Vec3(u(rng), u(rng), u(rng)) * (trial % 2 ? 1.0 : 0.01));
+        const Vec3 n = Vec3(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5).normalized();
+        const double proved = scale * 1e-9 * (1 + u(rng));
+        const Displacement d = rule_displacement(rule, prec, points, n, proved);
+        for (int k = 0; k < 50; ++k) {
+          Vec3 p;
+          for (int i = 0; i < 3; ++i) p[i] = points.lo[i] + u(rng) * (points.hi[i] - points.lo[i]);
+          if (prec == Precision::f32)
+            for (int i = 0; i < 3; ++i) p[i] = double(to_nearest_float(p[i]));
+          for (int i = 0; i < 3 && prec == Precision::f32; ++i) ASSERT_EQ(p[i], double(to_nearest_float(p[i]))) << i;
+          if (!(p.x() >= points.lo.x() && p.x() <= points.hi.x() && p.y() >= points.lo.y() && p.y() <= points.hi.y() &&
+                p.z() >= points.lo.z() && p.z() <= points.hi.z()))
+            continue;
+          const Vec3 moved = apply_offset_rule(rule, prec, p, n, proved);
+          // The move along n in long double: the difference of two doubles and three products,
+          // far more precise than the margins compared.
+          long double along = 0;
+          for (int i = 0; i < 3; ++i) along += ((long double)moved[i] - (long double)p[i]) * (long double)n[i];
+          EXPECT_GE(along, (long double)d.min * (1 - 1e-12L))
+              << name << " " << to_string(prec) << " trial " << trial << " p " << p.transpose() << " moved "
+              << moved.transpose() << " n " << n.transpose() << " box " << points.lo.transpose() << " / "
+              << points.hi.transpose();
+          EXPECT_LE(along, (long double)d.max * (1 + 1e-12L)) << name << " " << to_string(prec) << " trial " << trial;
+        }
+      }
+}
+
+// One small triangle near the origin lit from far away: its computed points lie many ulps of
+// their own magnitude off the plane, so one ulp is not enough — and the proved offset is.
+TEST(Offsets, OneUlpIsUnsafeWithAReplayableWitnessAndProvedIsSafe) {
+  Scene scene;
+  scene.objects.push_back({Triangle{{Vec3(0.01, 0.02, 0.015), Vec3(0.07, 0.025, 0.01), Vec3(0.03, 0.08, 0.02)}}});
+  scene.lights.push_back({Vec3(40, 35, 50), 1});
+  const SceneIndex index(scene);
+  OffsetsOptions options;
+  options.rules = {parse_offset_rule("ulps:1"), parse_offset_rule("proved")};
+  options.rays = 4000;
+  for (const Variant* v : named({"moller-trumbore", "moller-trumbore-f32"})) {
+    SCOPED_TRACE(v->name);
+    const auto report = studies::run_offsets(index, "pinned", {v}, options);
+    const studies::VariantOffsets& out = report.variants.at(0);
+    EXPECT_EQ(out.contradictions, 0u);
+    EXPECT_EQ(out.rules[0].verdict(), OffsetVerdict::unsafe);
+    EXPECT_EQ(out.rules[1].verdict(), OffsetVerdict::safe);
+    ASSERT_TRUE(out.rules[0].witness.has_value());
+    // The witness replays: the variant re-hits the triangle from the spawned origin, and the
+    // oracle says the ray truly meets it (the origin is still behind the surface).
+    const Case c = parse_case(out.rules[0].witness->dump());
+    const Hit again = v->intersect(c.ray, c.shape, HitRule::nearest_contact);
+    EXPECT_NE(again.cls, HitClass::miss);
+    EXPECT_GT(again.t, 0);
+    EXPECT_NE(certified_intersect(c.ray, c.shape, HitRule::nearest_contact).cls, HitClass::miss);
+    EXPECT_EQ(c.found["rule"], "ulps:1");
+    // The proof needs more than one ulp here, and says how many.
+    EXPECT_GT(out.needs_ulps_at_most(), 1.0);
+  }
+}
+
+TEST(Offsets, RulesParseAndRefuseNonsense) {
+  EXPECT_EQ(parse_offset_rule("fixed:1e-4").amount, 1e-4);
+  EXPECT_EQ(parse_offset_rule("ulps:32").kind, OffsetRule::Kind::ulps);
+  EXPECT_EQ(default_offset_rules().size(), 5u);
+  for (const char* bad : {"fixed:", "fixed:-1", "fixed:nan", "ulps:1.5", "ulps:inf", "pbrt2", "", "proved:3"})
+    EXPECT_THROW(parse_offset_rule(bad), std::invalid_argument) << bad;
+}
+
+// A point moved by more than its bound plus the re-hit bound is safe; one moved by less than its
+// bound is not proved.
+TEST(Offsets, ProvedSafeNeedsTheWholeMargin) {
+  const Triangle tri{{Vec3(0.5, 0.5, 0.5), Vec3(0.7, 0.52, 0.5), Vec3(0.55, 0.8, 0.51)}};
+  Bounds box;
+  box.grow(Vec3(-1, -1, -1));
+  box.grow(Vec3(2, 2, 2));
+  const auto proof = offset_proof(*find_variant("moller-trumbore"), tri, box);
+  ASSERT_TRUE(proof.has_value());
+  EXPECT_GT(proof->point, 0);
+  const Vec3 n = cross(tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]).normalized();
+  const double proved = proved_offset(*proof, Precision::f64, n);
+  EXPECT_GT(proved, proof->point);
+  EXPECT_LT(proved, 4 * (proof->point + proof->rehit_base) + 1e-30);
+  const OffsetRule fixed_small{OffsetRule::Kind::fixed, proof->point / 2, "small"};
+  EXPECT_FALSE(rule_proved_safe(*proof, rule_displacement(fixed_small, Precision::f64, proof->point_box, n, proved)));
+  const OffsetRule fixed_big{OffsetRule::Kind::fixed, 4 * proved, "big"};
+  EXPECT_TRUE(rule_proved_safe(*proof, rule_displacement(fixed_big, Precision::f64, proof->point_box, n, proved)));
+  // The float variant's bound is the float unit roundoff's: about 2^29 times larger.
+  const auto proof32 = offset_proof(*find_variant("moller-trumbore-f32"), tri, box);
+  ASSERT_TRUE(proof32.has_value());
+  EXPECT_GT(proof32->point, proof->point * 0x1p27);
+  // No derivation for users' code or formulas not derived: the witness side only.
+  EXPECT_FALSE(offset_proof(*find_variant("watertight"), tri, box).has_value());
+}
+
+TEST(Offsets, CommandWritesItsFilesAndTheCasesReplay) {
+  const std::string dir = test_dir() + "/out";
+  const auto ran = run_cli("offsets " + kScenes + "/audit/edge-grid-tilted.off -o " + dir +
+                           " --variants moller-trumbore,moller-trumbore-f32 --rules ulps:1,ulps:4096,proved "
+                           "--count 20000 --threads 2");
+  ASSERT_EQ(ran.status, 0) << ran.err;
+  EXPECT_NE(ran.out.find("moller-trumbore: proved safe on"), std::string::npos) << ran.out;
+  EXPECT_NE(ran.out.find("moller-trumbore-f32: ulps:1 unsafe: re-hits on"), std::string::npos) << ran.out;
+  std::ifstream in(dir + "/offsets.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["variants"].size(), 2u);
+  const auto& prim = j["variants"][0]["primitives"][0];
+  for (const char* key : {"mesh", "index", "shape", "bound", "witness", "bracket"}) EXPECT_TRUE(prim.contains(key)) << key;
+  EXPECT_EQ(j["variants"][0]["rules"][2]["verdict"], "safe");
+  // Every unsafe witness is a case `check` reads and replays.
+  std::ifstream cases(dir + "/offsets-cases.jsonl");
+  int lines = 0;
+  for (std::string line; std::getline(cases, line); ++lines) EXPECT_NO_THROW(parse_case(line)) << line;
+  EXPECT_GT(lines, 0);
+  const auto check = run_cli("check " + dir + "/offsets-cases.jsonl --variants moller-trumbore-f32");
+  EXPECT_EQ(check.status, 0) << check.err;
+  EXPECT_NE(check.err.find("0 unreadable"), std::string::npos) << check.err;
+  std::stringstream html;
+  html << std::ifstream(dir + "/report.html").rdbuf();
+  EXPECT_NE(html.str().find("data:image/png;base64,"), std::string::npos);
+  // Bad input: an unknown rule and a missing scene name the problem and exit non-zero.
+  const auto bad_rule = run_cli("offsets " + kScenes + "/audit/edge-grid.off -o " + dir + " --rules ulps:x");
+  EXPECT_NE(bad_rule.status, 0);
+  EXPECT_NE(bad_rule.err.find("ulps:x"), std::string::npos) << bad_rule.err;
+  const auto missing = run_cli("offsets " + dir + "/nothing.off -o " + dir);
+  EXPECT_NE(missing.status, 0);
+  EXPECT_NE(missing.err.find("nothing.off"), std::string::npos) << missing.err;
+}
+
+}  // namespace
+}  // namespace rayproof
