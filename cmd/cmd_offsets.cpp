@@ -95,9 +95,8 @@ void add_offsets_command(CLI::App& app, int& exit_code) {
     std::vector<ShapeKind> shapes = index.shapes_used();
     std::vector<const Variant*> variants = parse_variants(opts->variants, shapes);
     if (opts->variants.empty())  // by default the built-in formulas, not the oracle nor the batched twins
-      std::erase_if(variants, [](const Variant* v) {
-        return v->is_oracle || std::string_view(v->name).ends_with("-batch");
-      });
+      std::erase_if(variants,
+                    [](const Variant* v) { return v->is_oracle || std::string_view(v->name).ends_with("-batch"); });
     if (variants.empty()) throw std::runtime_error("no variant for the scene's shapes");
 
     if (std::filesystem::exists(opts->dir) && !std::filesystem::is_directory(opts->dir))
@@ -126,8 +125,8 @@ void add_offsets_command(CLI::App& app, int& exit_code) {
     html_out.commit();
     for (const std::string& line : studies::offsets_summary_lines(report)) std::cout << line << "\n";
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    std::cerr << "rayproof offsets: " << report.variants.size() << " variants in " << seconds << " s; "
-              << unsafe_cases << " unsafe witnesses; results in " << printable(opts->dir)
+    std::cerr << "rayproof offsets: " << report.variants.size() << " variants in " << seconds << " s; " << unsafe_cases
+              << " unsafe witnesses; results in " << printable(opts->dir)
               << "/ (offsets.json, offsets-cases.jsonl, report.html)\n";
     if (contradictions > 0) {
       std::cerr << "rayproof offsets: " << contradictions

@@ -229,7 +229,9 @@ Scene load_scene(const std::string& path) {
 }
 
 Scene scaled(const Scene& scene, int log2) {
-  auto by = [log2](const Vec3& v) { return Vec3(std::ldexp(v.x(), log2), std::ldexp(v.y(), log2), std::ldexp(v.z(), log2)); };
+  auto by = [log2](const Vec3& v) {
+    return Vec3(std::ldexp(v.x(), log2), std::ldexp(v.y(), log2), std::ldexp(v.z(), log2));
+  };
   Scene out = scene;
   out.warnings.clear();
   out.camera.eye = by(scene.camera.eye);

@@ -165,9 +165,6 @@ mutate "offset-point-rounding-dropped" verify/offset_bounds.cpp \
 mutate "offset-box-exit-widening-ignored" verify/offset_bounds.cpp \
   "exit = up(up(widen - 1) + up(widen * gamma_up(p, 5)));" \
   "exit = gamma_up(p, 4);"
-mutate "offset-sphere-root-rounding-ignored" verify/offset_bounds.cpp \
-  "const double big = up(Q * up(up(g3 / down(1 - g3)) * Lt));" \
-  "const double big = 0;"
 mutate "offset-ulps-rule-at-the-largest-coordinate" verify/offset_bounds.cpp \
   "smin = rule.amount * ulp_in(precision, mmin) * (mmin == 0 ? 0 : 1);" \
   "smin = rule.amount * ulp_in(precision, mmax);"

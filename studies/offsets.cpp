@@ -27,12 +27,9 @@ namespace rayproof::studies {
 
 std::string_view to_string(OffsetVerdict v) {
   switch (v) {
-    case OffsetVerdict::safe:
-      return "safe";
-    case OffsetVerdict::unsafe:
-      return "unsafe";
-    case OffsetVerdict::unproved:
-      return "unproved";
+    case OffsetVerdict::safe: return "safe";
+    case OffsetVerdict::unsafe: return "unsafe";
+    case OffsetVerdict::unproved: return "unproved";
   }
   return "unproved";
 }
@@ -87,8 +84,8 @@ Shape to_precision(Precision p, const Shape& s) {
 }
 // o + t·d as the variant's precision computes it.
 Vec3 computed_point(Precision p, const Ray& r, double t) {
-  if (p == Precision::f64) return {r.origin.x() + t * r.direction.x(), r.origin.y() + t * r.direction.y(),
-                                   r.origin.z() + t * r.direction.z()};
+  if (p == Precision::f64)
+    return {r.origin.x() + t * r.direction.x(), r.origin.y() + t * r.direction.y(), r.origin.z() + t * r.direction.z()};
   const float tf = float(t);
   Vec3 out;
   for (int i = 0; i < 3; ++i) out[i] = double(float(r.origin[i]) + tf * float(r.direction[i]));
@@ -150,8 +147,7 @@ bool exceeds_scaled(const Expansion& value, const Expansion& nn, double bound) {
   return diff.valid() && diff.sign() > 0;
 }
 
-std::optional<SurfaceCheck> surface_check(const Shape& shape, const ExactTriangle* tri, const Ray& ray,
-                                          const Vec3& p) {
+std::optional<SurfaceCheck> surface_check(const Shape& shape, const ExactTriangle* tri, const Ray& ray, const Vec3& p) {
   SurfaceCheck c;
   if (const auto* t = std::get_if<Triangle>(&shape)) {
     c.value = dot_exact(tri->n, p, t->v[0]);
@@ -363,7 +359,8 @@ Bounds offsets_scene_box(const SceneIndex& index) {
   const Scene& scene = index.scene();
   if (scene.camera.width > 0) box.grow(eye_of(scene));
   for (const PointLight& l : scene.lights) box.grow(l.position);
-  if (box.empty()) throw std::runtime_error("the scene has no bounded primitive, camera or light: no domain for offsets");
+  if (box.empty())
+    throw std::runtime_error("the scene has no bounded primitive, camera or light: no domain for offsets");
   return box;
 }
 
@@ -477,8 +474,8 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
             }
             safe = true;
             for (const Vec3& n : normals)
-              safe = safe && rule_proved_safe(*po.proof, rule_displacement(rule, prec, po.proof->point_box, n,
-                                                                            po.proved_offset));
+              safe = safe && rule_proved_safe(*po.proof,
+                                              rule_displacement(rule, prec, po.proof->point_box, n, po.proved_offset));
           }
           if (safe) po.verdicts[r] = OffsetVerdict::safe;
           if (rule.kind == OffsetRule::Kind::proved && !po.proof) continue;
@@ -507,8 +504,9 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
             c.found = {{"rule", rule.name},
                        {"variant", std::string(v->name)},
                        {"primitive", ids[j]},
-                       {"spawned_from", {exact_json_number(from->point.x()), exact_json_number(from->point.y()),
-                                         exact_json_number(from->point.z())}},
+                       {"spawned_from",
+                        {exact_json_number(from->point.x()), exact_json_number(from->point.y()),
+                         exact_json_number(from->point.z())}},
                        {"point_distance", from->distance},
                        {"reported", {{"class", std::string(to_string(again.cls))}, {"t", exact_json_number(again.t)}}},
                        {"exact", {{"class", std::string(to_string(exact.cls))}}}};
@@ -534,15 +532,9 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
       for (std::size_t r = 0; r < options.rules.size(); ++r) {
         RuleSummary& sum = out.rules[r];
         switch (po.verdicts[r]) {
-          case OffsetVerdict::safe:
-            ++sum.safe;
-            break;
-          case OffsetVerdict::unsafe:
-            ++sum.unsafe;
-            break;
-          case OffsetVerdict::unproved:
-            ++sum.unproved;
-            break;
+          case OffsetVerdict::safe: ++sum.safe; break;
+          case OffsetVerdict::unsafe: ++sum.unsafe; break;
+          case OffsetVerdict::unproved: ++sum.unproved; break;
         }
       }
     }
@@ -559,7 +551,6 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
   }
   return report;
 }
-
 
 std::optional<Vec3> proved_spawn_origin(const Variant& v, const Shape& shape, const Bounds& scene_box, const Ray& ray,
                                         double t, const Vec3& n) {
@@ -587,7 +578,8 @@ std::optional<double> scene_needs_ulps(const SceneIndex& index, const Variant& v
 std::vector<double> offset_brackets(const VariantOffsets& v) {
   std::vector<double> out;
   for (const PrimitiveOffsets& p : v.primitives)
-    if (p.proof && p.farthest && p.farthest->distance != 0) out.push_back(p.proof->point / std::abs(p.farthest->distance));
+    if (p.proof && p.farthest && p.farthest->distance != 0)
+      out.push_back(p.proof->point / std::abs(p.farthest->distance));
   return out;
 }
 
@@ -698,10 +690,11 @@ std::vector<std::string> offsets_summary_lines(const OffsetsReport& report) {
 std::string offsets_html(const OffsetsReport& report, const SceneIndex& index) {
   using markup::escape;
   using markup::format;
-  std::string html = "<!doctype html><meta charset=utf-8><title>rayproof offsets: " + escape(report.scene_name) +
-                     "</title><style>body{font:14px system-ui,sans-serif;margin:2em;max-width:70em}"
-                     "table{border-collapse:collapse}td,th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:left}"
-                     ".safe{color:#060}.unsafe{color:#b00;font-weight:bold}.unproved{color:#666}</style>";
+  std::string html =
+      "<!doctype html><meta charset=utf-8><title>rayproof offsets: " + escape(report.scene_name) +
+      "</title><style>body{font:14px system-ui,sans-serif;margin:2em;max-width:70em}"
+      "table{border-collapse:collapse}td,th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:left}"
+      ".safe{color:#060}.unsafe{color:#b00;font-weight:bold}.unproved{color:#666}</style>";
   html += "<h1>Spawn offsets: " + escape(report.scene_name) + "</h1><p>Domain <b>" + escape(report.domain) +
           "</b>: origins in the box " +
           format("[%g, %g, %g] – [%g, %g, %g]", report.box.lo.x(), report.box.lo.y(), report.box.lo.z(),
@@ -714,19 +707,20 @@ std::string offsets_html(const OffsetsReport& report, const SceneIndex& index) {
     html += "<table><tr><th>rule<th>verdict<th>safe<th>unsafe<th>unproved</tr>";
     for (const RuleSummary& r : v.rules)
       html += "<tr><td>" + escape(r.rule.name) + "<td class=" + std::string(to_string(r.verdict())) + ">" +
-              std::string(to_string(r.verdict())) + format("<td>%llu<td>%llu<td>%llu</tr>", (unsigned long long)r.safe,
-                                                           (unsigned long long)r.unsafe,
-                                                           (unsigned long long)r.unproved);
+              std::string(to_string(r.verdict())) +
+              format("<td>%llu<td>%llu<td>%llu</tr>", (unsigned long long)r.safe, (unsigned long long)r.unsafe,
+                     (unsigned long long)r.unproved);
     html += "</table>";
     const std::vector<double> brackets = offset_brackets(v);
     if (!brackets.empty()) {
       std::vector<double> b = brackets;
       std::sort(b.begin(), b.end());
       const auto within4 = std::count_if(b.begin(), b.end(), [](double x) { return x <= 4; });
-      html += format("<p>Bracket bound / witness over %zu primitives with a witness: median %.3g, 95th percentile "
-                     "%.3g, %.1f%% within 4×. Needs %.3g ulps at most.</p>",
-                     b.size(), b[b.size() / 2], b[std::min(b.size() - 1, b.size() * 95 / 100)],
-                     100.0 * double(within4) / double(b.size()), v.needs_ulps_at_most());
+      html += format(
+          "<p>Bracket bound / witness over %zu primitives with a witness: median %.3g, 95th percentile "
+          "%.3g, %.1f%% within 4×. Needs %.3g ulps at most.</p>",
+          b.size(), b[b.size() / 2], b[std::min(b.size() - 1, b.size() * 95 / 100)],
+          100.0 * double(within4) / double(b.size()), v.needs_ulps_at_most());
     }
     if (!v.derived) {
       html += "<p class=unproved>No derivation for this variant's formula: the witness side only.</p>";
@@ -771,7 +765,8 @@ std::string offsets_html(const OffsetsReport& report, const SceneIndex& index) {
           for (double& ch : c) ch *= shade;
         }
         for (int ch = 0; ch < 3; ++ch)
-          img.rgb[3 * (std::size_t(y) * img.width + x) + ch] = std::uint8_t(std::lround(255 * std::clamp(c[ch], 0.0, 1.0)));
+          img.rgb[3 * (std::size_t(y) * img.width + x) + ch] =
+              std::uint8_t(std::lround(255 * std::clamp(c[ch], 0.0, 1.0)));
       }
     const std::string b64 = markup::base64(encode_png(img));
     html += "<p><img alt='required offset per primitive' src='data:image/png;base64," + b64 +

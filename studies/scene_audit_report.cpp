@@ -149,7 +149,6 @@ std::string cases_jsonl(const VariantAudit& va, const std::string& stem, const s
   return out;
 }
 
-
 // HTML text and attributes need the same escapes as SVG's.
 std::string fixed(double x, int digits) { return markup::format("%.*f", digits, x); }
 
@@ -240,7 +239,8 @@ int enlargement(const Image& img) { return std::max(1, 240 / std::max(1, img.wid
 std::string img_tag(const Image& img, const std::string& alt) {
   const int factor = enlargement(img);
   return "<img alt=\"" + markup::escape(alt) + "\" width=\"" + std::to_string(img.width * factor) + "\" height=\"" +
-         std::to_string(img.height * factor) + "\" src=\"data:image/png;base64," + markup::base64(encode_png(img)) + "\">";
+         std::to_string(img.height * factor) + "\" src=\"data:image/png;base64," + markup::base64(encode_png(img)) +
+         "\">";
 }
 
 // A diff image; where it has few marks (one wrong pixel in 76,800 is invisible at 1:1), each is

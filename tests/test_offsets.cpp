@@ -50,8 +50,8 @@ Scene scene_of_mesh(const std::string& path) {
 
 // Every witness within its bound (decided exactly, counted as a contradiction otherwise); and
 // the distances the search found are real: some come within 4× of the bound.
-void expect_no_witness_beyond_bound(const Scene& scene, const std::vector<const Variant*>& variants,
-                                    std::uint64_t rays, const std::string& what, double within = 6) {
+void expect_no_witness_beyond_bound(const Scene& scene, const std::vector<const Variant*>& variants, std::uint64_t rays,
+                                    const std::string& what, double within = 6) {
   const SceneIndex index(scene);
   OffsetsOptions options;
   options.rays = rays;
@@ -130,9 +130,9 @@ TEST(Offsets, NoWitnessBeyondTheBoundOnSpheres) {
     base.objects.push_back({Sphere{Vec3(u(rng), u(rng), u(rng)), 0.02 + 0.4 * std::abs(u(rng))}});
   base.lights.push_back({Vec3(4, 3, -2), 1});
   for (int k : {-30, 0, 30})
-    expect_no_witness_beyond_bound(scaled(base, k),
-                                   named({"textbook", "stable", "stable-fma", "textbook-f32", "stable-f32", "stable-fma-f32"}),
-                                   100000, "spheres at 2^" + std::to_string(k), 16);
+    expect_no_witness_beyond_bound(
+        scaled(base, k), named({"textbook", "stable", "stable-fma", "textbook-f32", "stable-f32", "stable-fma-f32"}),
+        100000, "spheres at 2^" + std::to_string(k), 16);
 }
 
 // Exits from inside a robust slab's box overshoot the far face by its widening 1 + 2γ(3): the
@@ -260,7 +260,8 @@ TEST(Offsets, CommandWritesItsFilesAndTheCasesReplay) {
   const nlohmann::json j = nlohmann::json::parse(in);
   ASSERT_EQ(j["variants"].size(), 2u);
   const auto& prim = j["variants"][0]["primitives"][0];
-  for (const char* key : {"mesh", "index", "shape", "bound", "witness", "bracket"}) EXPECT_TRUE(prim.contains(key)) << key;
+  for (const char* key : {"mesh", "index", "shape", "bound", "witness", "bracket"})
+    EXPECT_TRUE(prim.contains(key)) << key;
   EXPECT_EQ(j["variants"][0]["rules"][2]["verdict"], "safe");
   // Every unsafe witness is a case `check` reads and replays.
   std::ifstream cases(dir + "/offsets-cases.jsonl");

@@ -138,7 +138,9 @@ struct RunningBound {
     return {add(mul(a[1], b[2]), mul(a[2], b[1])), add(mul(a[2], b[0]), mul(a[0], b[2])),
             add(mul(a[0], b[1]), mul(a[1], b[0]))};
   }
-  Bounded dot(const BVec& a, const BVec& b) const { return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2])); }
+  Bounded dot(const BVec& a, const BVec& b) const {
+    return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]));
+  }
 };
 BVec inputs(const Vec3& mags) {
   return {RunningBound::input(mags[0]), RunningBound::input(mags[1]), RunningBound::input(mags[2])};
@@ -320,16 +322,17 @@ std::optional<OffsetProof> box_proof(Precision p, bool robust, const Box& input,
   double exit = gamma_up(p, 3);
   if (robust) {
     // K̃ as robust_slab computes it in its own precision.
-    const double widen = p == Precision::f32 ? double(1.0f + 2 * (3 * 0x1p-24f / (1 - 3 * 0x1p-24f)))
-                                             : 1 + 2 * gamma(3);
+    const double widen =
+        p == Precision::f32 ? double(1.0f + 2 * (3 * 0x1p-24f / (1 - 3 * 0x1p-24f))) : 1 + 2 * gamma(3);
     exit = up(up(widen - 1) + up(widen * gamma_up(p, 5)));
   }
   auto bound_for = [&](const Bounds& points) {
     const Vec3 point_abs = largest_abs(points);
     double worst = 0;
     for (int i = 0; i < 3; ++i) {
-      const double from_scene = up(std::max(std::max(std::abs(own.lo[i] - box.lo[i]), std::abs(box.hi[i] - own.lo[i])),
-                                            std::max(std::abs(own.hi[i] - box.lo[i]), std::abs(box.hi[i] - own.hi[i]))));
+      const double from_scene =
+          up(std::max(std::max(std::abs(own.lo[i] - box.lo[i]), std::abs(box.hi[i] - own.lo[i])),
+                      std::max(std::abs(own.hi[i] - box.lo[i]), std::abs(box.hi[i] - own.hi[i]))));
       const double from_inside = up(own.hi[i] - own.lo[i]);
       const double along = std::max(up(entry * from_scene), up(exit * from_inside));
       worst = std::max(worst, up(along + up(u * point_abs[i] / down(1 - u))));
@@ -361,17 +364,17 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   BVec oc;
   for (int i = 0; i < 3; ++i) oc[i] = A.difference(f_mag[i]);
   const Bounded C = A.add(A.dot(oc, oc), A.mul(RunningBound::input(R), RunningBound::input(R)));
-  const double Fb = up(F * (1 + g4));                                                      // |β̃|/|d|
+  const double Fb = up(F * (1 + g4));                                                     // |β̃|/|d|
   const double delta_D = up(kappa * up(up(Fb * Fb / down(1 - g3)) + up(C.mag + C.err)));  // |δ_D|/ã
-  const double C_hat = up(up(C.mag + C.err) + delta_D);                                    // |Ĉ|
-  const double Sd = up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50));             // √D̃/|d|
+  const double C_hat = up(up(C.mag + C.err) + delta_D);                                   // |Ĉ|
+  const double Sd = up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50));           // √D̃/|d|
   auto bound_for = [&](const Bounds& points) {
     const Vec3 w = travel(box, points);
-    const double Lt = up(w.norm() * (1 + 0x1p-50));  // |t̃·d|
-    const Bounded a = A.dot(inputs(w), inputs(w));    // E_a·t̃² (homogeneity)
-    const Bounded beta = A.dot(inputs(w), oc);        // E_β·|t̃|
+    const double Lt = up(w.norm() * (1 + 0x1p-50));                                   // |t̃·d|
+    const Bounded a = A.dot(inputs(w), inputs(w));                                    // E_a·t̃² (homogeneity)
+    const Bounded beta = A.dot(inputs(w), oc);                                        // E_β·|t̃|
     const double f_minus_G = up(up(up(a.err + up(2 * beta.err)) + C.err) + delta_D);  // (4)
-    const double Q = up(up(up(Lt * (1 + g3)) + Fb) + Sd);                           // (ã|t̃| + |β̃| + √D̃)/|d|
+    const double Q = up(up(up(Lt * (1 + g3)) + Fb) + Sd);                             // (ã|t̃| + |β̃| + √D̃)/|d|
     double G;
     if (formula == SphereFormula::textbook) {
       const double E0 = up(u * up(Sd + up(up((1 + u) * (1 + u)) * up(Fb + Sd))) / down(1 - g3));  // |e|/(2ã)·|d|
@@ -396,9 +399,10 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   proof.point_box = widened(own, coarse);
   proof.point = std::min(coarse, bound_for(proof.point_box));
   // Re-hits from origins within point + reach of the surface: F′ = R + point + reach.
-  const double coef = formula == SphereFormula::textbook
-                          ? up(kappa * up((1 + g4) * (1 + g4)) / down(down(1 - g3) * down(1 - kappa)))
-                          : up(up(g4 * g4) * up(up((1 + kappa) * (1 + g4) * (1 + g4)) / down(down(1 - kappa) * down(1 - g3))));
+  const double coef =
+      formula == SphereFormula::textbook
+          ? up(kappa * up((1 + g4) * (1 + g4)) / down(down(1 - g3) * down(1 - kappa)))
+          : up(up(g4 * g4) * up(up((1 + kappa) * (1 + g4) * (1 + g4)) / down(down(1 - kappa) * down(1 - g3))));
   const double k2 = up(g6 + coef), F0 = up(R + proof.point), two_R = down(2 * R);
   proof.rehit_base = up(up(up(k2 * up(F0 * F0)) + up(g6 * up(R * R))) / two_R);
   proof.rehit_per_reach = up(up(2 * up(k2 * F0)) / two_R);
@@ -457,8 +461,7 @@ std::optional<OffsetProof> offset_proof(const Variant& v, const Shape& shape, co
         return sphere_proof(p, f, *sp, scene_box);
       }
       break;
-    case Formula::none:
-      break;
+    case Formula::none: break;
   }
   return std::nullopt;
 }
@@ -536,8 +539,7 @@ template <class T>
 Vec3 apply_in(const OffsetRule& rule, const Vec3& p_in, const Vec3& n_in, double proved) {
   const T p[3] = {T(p_in.x()), T(p_in.y()), T(p_in.z())};  // p is already in T (the variant's point)
   T n[3];
-  for (int i = 0; i < 3; ++i)
-    n[i] = std::is_same_v<T, float> ? T(to_nearest_float(n_in[i])) : T(n_in[i]);
+  for (int i = 0; i < 3; ++i) n[i] = std::is_same_v<T, float> ? T(to_nearest_float(n_in[i])) : T(n_in[i]);
   T out[3];
   switch (rule.kind) {
     case OffsetRule::Kind::fixed:

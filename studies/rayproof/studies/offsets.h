@@ -36,18 +36,18 @@ std::string_view to_string(OffsetVerdict v);
 
 // A ray of the search and the point the variant computed for it.
 struct OffsetWitness {
-  Ray ray;   // as the variant saw it (rounded to float for a float variant)
+  Ray ray;  // as the variant saw it (rounded to float for a float variant)
   double t = 0;
-  Vec3 point;            // o + t·d in the variant's precision
-  double distance = 0;   // its exact signed distance to the surface, rounded: > 0 on the side the ray came from
-  Vec3 normal;           // the unit normal toward that side
+  Vec3 point;           // o + t·d in the variant's precision
+  double distance = 0;  // its exact signed distance to the surface, rounded: > 0 on the side the ray came from
+  Vec3 normal;          // the unit normal toward that side
 };
 
 struct PrimitiveOffsets {
   std::int32_t primitive = 0;  // the scene's primitive id (SceneIndex)
   std::optional<OffsetProof> proof;
-  double proved_offset = INFINITY;  // the smallest offset `proved` may use, along the normal
-  double required_ulps = INFINITY;  // proved_offset in ulps of the point's largest coordinate, at its smallest
+  double proved_offset = INFINITY;        // the smallest offset `proved` may use, along the normal
+  double required_ulps = INFINITY;        // proved_offset in ulps of the point's largest coordinate, at its smallest
   std::optional<OffsetWitness> farthest;  // the largest |distance| found
   std::optional<OffsetWitness> deepest;   // the most negative distance (behind the surface)
   std::uint64_t rays = 0, hits = 0, outside_domain = 0;

@@ -61,8 +61,7 @@ std::vector<OffsetRule> default_offset_rules();
 // The origin a renderer computing in `precision` spawns from: p moved along n (unit, toward the
 // outgoing side) by the rule, every number in that precision. `proved_offset`: the primitive's
 // proved offset, used by the `proved` rule.
-Vec3 apply_offset_rule(const OffsetRule& rule, Precision precision, const Vec3& p, const Vec3& n,
-                       double proved_offset);
+Vec3 apply_offset_rule(const OffsetRule& rule, Precision precision, const Vec3& p, const Vec3& n, double proved_offset);
 
 // Bounds on how far the rule moves a point of `points` along the true unit normal n_true, where
 // `n` is the normal the renderer uses (within 2^-40 of n_true per coordinate).
