@@ -283,5 +283,26 @@ TEST(Offsets, CommandWritesItsFilesAndTheCasesReplay) {
   EXPECT_NE(missing.err.find("nothing.off"), std::string::npos) << missing.err;
 }
 
+// `audit` says what the proof needs and, with --offset proved, spawns its shadow rays there: no
+// acne left for the variants whose formula is derived (the terrain lit at a grazing angle).
+TEST(Offsets, AuditSpawnsFromTheProvedOffset) {
+  const std::string dir = test_dir() + "/audit";
+  const auto ran = run_cli("audit " + kScenes + "/audit/terrain-grazing.json -o " + dir +
+                           " --variants moller-trumbore,moller-trumbore-f32,stable --offset proved --threads 2");
+  ASSERT_EQ(ran.status, 0) << ran.err;
+  EXPECT_NE(ran.err.find("spawn offset: moller-trumbore needs"), std::string::npos) << ran.err;
+  std::ifstream in(dir + "/audit.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  int seen = 0;
+  for (const auto& v : j["variants"]) {
+    SCOPED_TRACE(v["name"].get<std::string>());
+    ASSERT_TRUE(v.contains("proved_offset_ulps"));
+    EXPECT_GT(v["proved_offset_ulps"].get<double>(), 0);
+    EXPECT_EQ(v["acne"], 0);
+    ++seen;
+  }
+  EXPECT_EQ(seen, 3);
+}
+
 }  // namespace
 }  // namespace rayproof
