@@ -10,6 +10,36 @@
 
 namespace rayproof {
 
+DecimalNumber parse_decimal(std::string_view text) {
+  DecimalNumber out;
+  double x = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+  if (end != text.data() + text.size() || (ec != std::errc() && ec != std::errc::result_out_of_range)) return out;
+  if (ec == std::errc()) {
+    out.status = DecimalNumber::Status::ok, out.value = x;
+    return out;
+  }
+  // Out of range: strtod (correctly rounded in glibc) tells an overflow (±HUGE_VAL) from a
+  // subnormal result (kept) and from an underflow to zero.
+  const std::string copy(text);
+  const double y = std::strtod(copy.c_str(), nullptr);
+  if (std::isinf(y))
+    out.status = DecimalNumber::Status::overflow;
+  else if (y == 0)
+    out.status = DecimalNumber::Status::underflow;
+  else
+    out.status = DecimalNumber::Status::ok, out.value = y;
+  return out;
+}
+
+std::string_view decimal_problem(DecimalNumber::Status status) {
+  switch (status) {
+    case DecimalNumber::Status::overflow: return "is beyond the double range";
+    case DecimalNumber::Status::underflow: return "underflows to zero in double";
+    default: return "is not a number";
+  }
+}
+
 std::optional<double> parse_hex_double(std::string_view text) {
   // Grammar: [+-] 0x|0X hexdigits [. hexdigits] p|P [+-] digits — strictly, no spaces.
   size_t i = 0;

@@ -39,14 +39,13 @@ std::vector<std::string_view> tokens_of(std::string_view line) {
 
 // A finite double, correctly rounded from decimal text (from_chars); errors name file and line.
 double coordinate(std::string_view text, const std::string& path, long line) {
-  double x = 0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
-  if (ec == std::errc::result_out_of_range)
-    fail(path, line, "coordinate '" + printable(text) + "' is beyond the double range");
-  if (ec != std::errc() || end != text.data() + text.size())
+  const DecimalNumber n = parse_decimal(text);
+  if (n.status == DecimalNumber::Status::not_a_number)
     fail(path, line, "expected a number, got '" + printable(text) + "'");
-  if (!std::isfinite(x)) fail(path, line, "coordinate '" + printable(text) + "' is not finite");
-  return x;
+  if (n.status != DecimalNumber::Status::ok)
+    fail(path, line, "coordinate '" + printable(text) + "' " + std::string(decimal_problem(n.status)));
+  if (!std::isfinite(n.value)) fail(path, line, "coordinate '" + printable(text) + "' is not finite");
+  return n.value;
 }
 
 long long integer(std::string_view text, const std::string& path, long line, const char* what) {
@@ -234,6 +233,10 @@ Mesh load_mesh(const std::string& path, double scale, const Vec3& translate) {
 
 Mesh parse_ply_mesh(const std::string& bytes, const std::string& name) {
   return mesh_of_soup(name, mesh_detail::parse_ply(name, bytes), 1, Vec3::Zero());
+}
+
+Mesh parse_stl_mesh(const std::string& bytes, const std::string& name) {
+  return mesh_of_soup(name, mesh_detail::parse_stl(name, bytes), 1, Vec3::Zero());
 }
 
 }  // namespace rayproof

@@ -13,6 +13,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -245,13 +246,13 @@ class PlyReader {
         if (x < lo || x > hi) fail(what + ": " + std::string(text) + " does not fit the declared type");
         return static_cast<double>(x);
       }
-      double x = 0;
-      const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
-      if (ec == std::errc::result_out_of_range) fail(what + ": '" + printable(text) + "' is beyond the double range");
-      if (ec != std::errc() || end != text.data() + text.size())
+      const DecimalNumber n = parse_decimal(text);
+      if (n.status == DecimalNumber::Status::not_a_number)
         fail(what + ": expected a number, got '" + printable(text) + "'");
+      if (n.status != DecimalNumber::Status::ok)
+        fail(what + ": '" + printable(text) + "' " + std::string(decimal_problem(n.status)));
       // A property declared float holds a float: its decimal text names the nearest float.
-      return t == PlyType::f32 ? static_cast<double>(to_nearest_float(x)) : x;
+      return t == PlyType::f32 ? static_cast<double>(to_nearest_float(n.value)) : n.value;
     }
     switch (t) {
       case PlyType::i8: return binary_value<std::int8_t>(what);
@@ -334,8 +335,13 @@ class PlyReader {
         face.reserve(n);
         for (std::uint64_t j = 0; j < n; ++j) {
           const double idx = value(p.value_type, what + " vertex index");
-          if (!(idx >= 0) || idx != std::floor(idx))
-            fail(what + ": vertex index " + std::to_string(idx) + " is not an index");
+          // A float- or double-typed list may hold inf or 1e20: casting those to an integer is
+          // undefined, so anything but a whole number below 2^32 is refused first.
+          if (!(idx >= 0 && idx < 0x1p32) || idx != std::floor(idx)) {
+            char text[32];
+            std::snprintf(text, sizeof text, "%.17g", idx);
+            fail(what + ": vertex index " + text + " is not an index");
+          }
           face.push_back(static_cast<std::size_t>(idx));
         }
         soup.faces.push_back(std::move(face));

@@ -14,8 +14,9 @@ struct Soup {
   std::vector<long> face_lines;                 // each face's line in a text file (empty for binary files)
 };
 
-// STL through CGAL (mesh_cgal.cpp).
+// STL, binary or ASCII (mesh_stl.cpp): from a file, or from its bytes (`name` in errors).
 Soup read_stl(const std::string& path);
+Soup parse_stl(const std::string& name, const std::string& bytes);
 
 // PLY, ASCII or binary (mesh_ply.cpp): from a file, or from its bytes (`name` in errors).
 Soup read_ply(const std::string& path);

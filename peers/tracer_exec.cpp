@@ -3,6 +3,7 @@
 // ray, in order. A scene owns one running command for its lifetime; the command goes back to the
 // pool when the scene is released after answering well.
 #include <atomic>
+#include <cctype>
 #include <cmath>
 #include <deque>
 #include <mutex>
@@ -48,6 +49,18 @@ std::uint32_t read_triangle(const json& j, const std::string& field) {
   return static_cast<std::uint32_t>(j.get<std::uint64_t>());
 }
 
+// A hit's t: a number, or the text "nan" (any case, signed: JSON cannot hold a NaN), which is
+// judged as the tracer's error it is. Any other text ("banana") is an unreadable line.
+double read_hit_t(const json& t) {
+  if (t.is_string()) {
+    std::string text = t.get<std::string>();
+    if (!text.empty() && (text[0] == '-' || text[0] == '+')) text.erase(0, 1);
+    for (char& c : text) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (text == "nan") return NAN;
+  }
+  return read_number(t, "t");
+}
+
 struct ExecTracerState : StopReason {
   std::string command;
   ExternalOptions options;
@@ -75,7 +88,7 @@ class ExecTracerScene final : public TracerScene {
       if (out[i].hit()) {
         if (!a.contains("t")) throw FieldError("t", "missing for a hit");
         const json& t = a.at("t");
-        out[i].t = t.is_string() && std::string(t).find_first_of("nN") != std::string::npos ? NAN : read_number(t, "t");
+        out[i].t = read_hit_t(t);
       }
     }
   }
@@ -146,7 +159,7 @@ class ExecTracerScene final : public TracerScene {
             if (!a.at("triangle").is_null()) {
               if (!a.contains("t")) throw FieldError("t", "missing for a hit");
               const json& t = a.at("t");
-              if (!(t.is_string() && std::string(t).find_first_of("nN") != std::string::npos)) read_number(t, "t");
+              read_hit_t(t);
             }
           }
         }

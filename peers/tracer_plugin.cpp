@@ -122,6 +122,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
     if (is_forked_copy()) ::_exit(0);
   };
   std::vector<std::uint32_t> buffer(64);
+  std::uint64_t built_triangles = 0;  // the built mesh's: bounds an any-hit list (below)
   std::vector<double> kept_vertices;  // the built scene's mesh, alive until its release
   std::vector<std::uint32_t> kept_indices;
   char byte;
@@ -145,6 +146,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
         kept_indices.assign(ix, ix + 3 * h->triangle_count);
         const rayproof_mesh mesh{kept_vertices.data(), static_cast<std::uint32_t>(h->vertex_count), kept_indices.data(),
                                  static_cast<std::uint32_t>(h->triangle_count)};
+        built_triangles = h->triangle_count;
         scene = t.build(&mesh);
         leave_if_copy();
         scene_of = &t;
@@ -170,13 +172,18 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
         std::uint64_t used = 0, i = 0;
         for (; i < h->ray_count; ++i) {
           h->progress.store(i, std::memory_order_relaxed);
+          // A list longer than the mesh has triangles repeats one or names one it does not have:
+          // a tracer error, judged from its first triangles + 1 entries. Room beyond that is never
+          // made (10^6 claimed hits on 15 triangles once cost 517 MB a batch).
+          const std::size_t most = static_cast<std::size_t>(built_triangles) + 1;
           std::size_t n = t.all_hits(scene, rays + i, buffer.data(), buffer.size());
           leave_if_copy();
-          if (n > buffer.size()) {  // the spec: called again with room for all
-            buffer.resize(n);
-            n = std::min(buffer.size(), t.all_hits(scene, rays + i, buffer.data(), buffer.size()));
+          if (n > buffer.size() && buffer.size() < most) {  // the spec: called again with room for all
+            buffer.resize(std::min(n, most));
+            n = t.all_hits(scene, rays + i, buffer.data(), buffer.size());
             leave_if_copy();
           }
+          n = std::min({n, buffer.size(), most});
           if (used + n > h->hits_capacity) break;
           std::copy(buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(n), flat + used);
           counts[i] = n, used += n;
@@ -317,8 +324,8 @@ AnswerFailure failure_of(bool timed_out, bool forked = false) {
 
 class PluginTracerScene final : public TracerScene {
  public:
-  PluginTracerScene(PluginTracerState& state, std::unique_ptr<TracerWorker> worker)
-      : state_(state), worker_(std::move(worker)) {}
+  PluginTracerScene(PluginTracerState& state, std::unique_ptr<TracerWorker> worker, std::uint64_t triangles)
+      : state_(state), worker_(std::move(worker)), triangles_(triangles) {}
   ~PluginTracerScene() override {
     if (!worker_) return;
     worker_->header().op = Op::release;
@@ -364,12 +371,32 @@ class PluginTracerScene final : public TracerScene {
       auto* wire = reinterpret_cast<rayproof_ray*>(worker_->data());
       for (std::size_t i = 0; i < n; ++i) wire[i] = to_wire(rays[done + i]);
       bool timed_out = false;
-      const std::string why = worker_->run(state_.options.case_timeout_seconds, timed_out);
-      const std::size_t answered = why.empty() ? h.answered : std::min<std::size_t>(h.progress.load(), n);
+      // Everything read back from the worker is untrusted: the tracer's code shares its memory
+      // and may have written over the counts (issue 42). A count beyond the mesh + 1, a list
+      // past the room given, or more answers than rays asked is the tracer's crash, on that ray.
+      std::string why = worker_->run(state_.options.case_timeout_seconds, timed_out);
+      std::size_t answered =
+          why.empty() ? std::min<std::size_t>(h.answered, n) : std::min<std::size_t>(h.progress.load(), n);
+      if (why.empty() && h.answered > n) {
+        why = "its answer in shared memory is corrupt: " + std::to_string(h.answered) + " answers to " +
+              std::to_string(n) + " rays (the tracer wrote outside its buffers)";
+        answered = 0;  // nothing it wrote is trusted
+      }
       const auto* counts = reinterpret_cast<const std::uint64_t*>(worker_->data() + n * sizeof(rayproof_ray));
       const auto* flat = reinterpret_cast<const std::uint32_t*>(worker_->data() + n * (sizeof(rayproof_ray) + 8));
-      for (std::size_t i = 0, at = 0; i < answered; at += counts[i], ++i)
-        out[done + i] = {{flat + at, flat + at + counts[i]}};
+      std::uint64_t at = 0;
+      for (std::size_t i = 0; i < answered; ++i) {
+        const std::uint64_t c = counts[i];
+        if (c > triangles_ + 1 || c > capacity - at) {
+          why = "its answer in shared memory is corrupt: ray " + std::to_string(done + i) + " has " +
+                std::to_string(c) + " hits on a mesh of " + std::to_string(triangles_) +
+                " triangles (the tracer wrote outside its buffers)";
+          answered = i;
+          break;
+        }
+        out[done + i] = {{flat + at, flat + at + c}};
+        at += c;
+      }
       done += answered;
       if (!why.empty()) {
         std::vector<TraceAnswer> unused(rays.size() - done);
@@ -399,6 +426,7 @@ class PluginTracerScene final : public TracerScene {
   }
   PluginTracerState& state_;
   std::unique_ptr<TracerWorker> worker_;
+  std::uint64_t triangles_;  // the mesh's: no any-hit count the worker writes may exceed it + 1
   std::mutex mutex_;
 };
 
@@ -422,7 +450,7 @@ BuiltScene build_plugin_scene(PluginTracerState& state, const TriangleMesh& mesh
     state.library->workers.give_back(std::move(worker));
     return {nullptr, AnswerFailure::none, "build returned NULL"};
   }
-  return {std::make_unique<PluginTracerScene>(state, std::move(worker))};
+  return {std::make_unique<PluginTracerScene>(state, std::move(worker), mesh.triangle_count())};
 }
 
 }  // namespace

@@ -2,6 +2,9 @@
 // double, fans, degenerate triangles, and every bad file named with its line.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdint>
+
 #include <algorithm>
 #include <bit>
 #include <cstdlib>
@@ -253,6 +256,62 @@ TEST(Meshes, BadFilesAreErrorsNamingFileAndLine) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("missing.off: cannot open mesh file"), std::string::npos) << e.what();
   }
+}
+
+// Issue 42: what CGAL's STL reader and a float-to-integer cast let through, and messages that
+// said the wrong thing.
+TEST(Meshes, HostileFilesRoundFour) {
+  const std::string ply_head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+      "element face 1\nproperty list uchar float vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+  auto binary_stl = [](std::uint32_t header_count, int triangles, float poison) {
+    std::string b(80, ' ');
+    b.append(reinterpret_cast<const char*>(&header_count), 4);
+    for (int t = 0; t < triangles; ++t) {
+      const float f[12] = {0, 0, 1, 0, 0, 0, poison, 0, float(t), 0, 1, float(t)};
+      b.append(reinterpret_cast<const char*>(f), sizeof f);
+      b.append(2, '\0');
+    }
+    return b;
+  };
+  struct Bad {
+    std::string name, text, expected;
+  };
+  const Bad cases[] = {
+      {"inf.ply", ply_head + "3 0 1 inf\n", "inf.ply:13: face 0: vertex index inf is not an index"},
+      {"big.ply", ply_head + "3 0 1 1e20\n", "big.ply:13: face 0: vertex index 1.0000000200408773e+20 is not an index"},
+      {"tiny.obj", "v 0 0 0\nv 1e-400 0 0\n", "tiny.obj:2: coordinate '1e-400' underflows to zero in double"},
+      {"nan.stl",
+       "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex nan 0 0\nvertex 0 1 0\n"
+       "endloop\nendfacet\nendsolid t\n",
+       "nan.stl:5: coordinate 'nan' is not finite"},
+      {"nanb.stl", binary_stl(1, 1, NAN), "nanb.stl: triangle 0, corner 1: coordinate 0 is not finite"},
+      {"count.stl", binary_stl(1, 2, 1),
+       "count.stl: binary STL header says 1 triangles (134 bytes), but the file has 184"},
+      {"zero.stl", binary_stl(0, 0, 1), "zero.stl: binary STL with 0 triangles"},
+      {"empty.stl", "", "empty.stl: empty file"},
+      {"short.stl", std::string(40, 'x'), "short.stl: truncated binary STL: 40 bytes"},
+      {"open.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n",
+       "open.stl:6: truncated: a facet with 2 of 3 vertices"},
+      {"noend.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n",
+       "noend.stl:7: truncated ASCII STL: no endsolid"},
+  };
+  for (const Bad& c : cases) {
+    const std::string path = write(c.name, c.text);
+    try {
+      load_mesh(path);
+      ADD_FAILURE() << c.name << ": no error";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << c.name << ": " << e.what();
+    }
+  }
+  // A binary file whose header starts with "solid" is still binary (its size decides), and two
+  // triangles with a shared corner share a vertex.
+  std::string solid_header = binary_stl(2, 2, 1);
+  solid_header.replace(0, 5, "solid");
+  const Mesh m = load_mesh(write("solid-binary.stl", solid_header));
+  EXPECT_EQ(m.triangles.size(), 2u);
+  EXPECT_EQ(m.corners[0][0], m.corners[1][0]);
 }
 
 TEST(Meshes, SceneMeshObjectsResolvePathsAndRejectUnknownKeys) {

@@ -358,6 +358,29 @@ TEST(TracerBadInput, MisbehavingTracersAreCountedOrReportedNeverFatal) {
   EXPECT_TRUE(crash && timeout);
 }
 
+// Issue 42, items 1 and 2: what a worker writes back is untrusted input. A tracer that writes
+// over the per-ray counts is that tracer's crash (the others go on, nothing is lost); one that
+// claims 10^6 any-hits on a few triangles is a tracer error, never given room beyond the mesh.
+TEST(TracerBadInput, SharedMemoryIsUntrusted) {
+  const std::string dir = test_dir();
+  const auto run = run_cli(std::string("fuzz --tracer ") + MISBEHAVING_TRACER +
+                           " --tracers bad-corrupts-counts,bad-huge-any-hit,bvh-watertight --no-shrink "
+                           "--families shared-edges --count 192 --threads 1 --case-timeout 5 -o " +
+                           dir + "/f.jsonl --summary " + dir + "/s.json");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
+  auto n = [&](const std::string& key, const char* kind) { return t.at(key).value(kind, 0); };
+  EXPECT_EQ(n("shared-edges-any\tbad-corrupts-counts", "crash"), 1) << t.dump();
+  EXPECT_EQ(n("shared-edges-any\tbad-huge-any-hit", "tracer_errors"), 192) << t.dump();
+  EXPECT_EQ(n("shared-edges\tbvh-watertight", "cases"), 192);
+  EXPECT_EQ(n("shared-edges-any\tbvh-watertight", "cases"), 192);
+  bool corrupt = false;
+  for (const json& f : read_lines(dir + "/f.jsonl"))
+    if (f.at("found").at("tracer") == "bad-corrupts-counts" && f.at("found").at("kind") == "crash")
+      corrupt = f.at("found").at("reason").get<std::string>().find("corrupt") != std::string::npos;
+  EXPECT_TRUE(corrupt);
+}
+
 TEST(TracerBadInput, ExecTracersThatMisbehave) {
   const std::string dir = test_dir();
   auto script = [&](const std::string& name, const std::string& body) {
@@ -395,6 +418,37 @@ TEST(TracerBadInput, ExecTracersThatMisbehave) {
       escaped = f.at("found").at("reason").get<std::string>().find("\\xff") != std::string::npos;
   EXPECT_TRUE(escaped);
   EXPECT_EQ(t.at("fans\tbvh-watertight").at("cases"), 128);
+}
+
+// Issue 42, item 14: "t": "banana" is an unreadable line (a protocol error that stops the
+// tracer once), where "nan" is the tracer's NaN, judged ray by ray as a bad t.
+TEST(TracerBadInput, ExecTUnreadableIsNotNaN) {
+  const std::string dir = test_dir();
+  auto script = [&](const std::string& name, const std::string& t) {
+    // Echoes each ray's id back with a hit on triangle 0 at t (the text given).
+    std::ofstream(dir + "/" + name) << R"SH(#!/bin/sh
+read mesh
+while read line; do
+  id=$(echo "$line" | sed 's/^{"id":"\([^"]*\)".*/\1/')
+  printf '{"id": "%s", "triangle": 0, "t": ")SH"
+                                    << t << R"SH("}\n' "$id"
+done
+)SH";
+    return "sh " + dir + "/" + name;
+  };
+  const auto run = run_cli("fuzz --tracer-exec banana=\"" + script("banana.sh", "banana") + "\" --tracer-exec nan=\"" +
+                           script("nan.sh", "NaN") +
+                           "\" --tracers bvh-watertight --families fans --count 64 --case-timeout 5 --threads 1 -o " +
+                           dir + "/f.jsonl --summary " + dir + "/s.json");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
+  EXPECT_EQ(t.at("fans\tbanana").value("tracer_errors", 0), 1) << t.dump();
+  EXPECT_GT(t.at("fans\tnan").value("tracer_errors", 0), 1) << t.dump();
+  bool unreadable = false;
+  for (const json& f : read_lines(dir + "/f.jsonl"))
+    if (f.at("found").at("tracer") == "banana")
+      unreadable = unreadable || f.at("found").at("reason").get<std::string>().find("banana") != std::string::npos;
+  EXPECT_TRUE(unreadable);
 }
 
 TEST(TracerBadInput, BadMeshCasesNameTheirField) {

@@ -1,5 +1,5 @@
 // libFuzzer harness: every reader of text and bytes from users, on arbitrary input — case files,
-// scenes, PLY meshes (list counts before their data), campaign summaries as `merge` reads them,
+// scenes, PLY and STL meshes (counts before their data), campaign summaries as `merge` reads them,
 // and exec answer lines. A malformed input must end in the readers' own error types (FieldError,
 // std::runtime_error, nlohmann's json exceptions), never a crash, a hang or any other exception.
 // Built for libFuzzer (-DRAYPROOF_LIBFUZZER=ON) and, with replay_main.cpp, as a test that
@@ -35,6 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, size_t size) {
   });
   expect_only_reader_errors([&] { rayproof::parse_scene(text, "fuzz-input"); });
   expect_only_reader_errors([&] { rayproof::parse_ply_mesh(text, "fuzz-input.ply"); });
+  expect_only_reader_errors([&] { rayproof::parse_stl_mesh(text, "fuzz-input.stl"); });
   expect_only_reader_errors([&] {
     const rayproof::json j = rayproof::parse_json_text(text);
     if (j.is_object() && j.value("kind", "") == "tracers") {

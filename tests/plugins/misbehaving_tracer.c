@@ -3,6 +3,7 @@
 #include <math.h>
 #include <signal.h>
 #include <stddef.h>
+#include <string.h>
 #include <unistd.h>
 
 #include "rayproof/tracer.h"
@@ -69,6 +70,21 @@ static size_t all_many(void* s, const struct rayproof_ray* ray, uint32_t* out, s
   return 100;
 }
 
+/* Any-hit writes 64 bytes of 0xff past the ray it was given: into the next rays, or, for the
+   batch's last ray, over the per-ray counts rayproof reads back (issue 42). */
+static size_t all_corrupts(void* s, const struct rayproof_ray* ray, uint32_t* out, size_t capacity) {
+  (void)s, (void)out, (void)capacity;
+  memset((char*)(ray + 1), 0xff, 64);
+  return 0;
+}
+/* Any-hit claims 10^6 hits (on meshes of a few triangles), all triangle 0: never more room than
+   the mesh's triangles + 1 may be made for it (issue 42). */
+static size_t all_huge(void* s, const struct rayproof_ray* ray, uint32_t* out, size_t capacity) {
+  (void)s, (void)ray;
+  for (size_t i = 0; i < capacity && i < 1000000; ++i) out[i] = 0;
+  return 1000000;
+}
+
 static const struct rayproof_tracer kTracers[] = {
     {"bad-build-crash", "double", "test: segfaults in build", build_crash, nearest_nan, NULL, release},
     {"bad-build-null", "double", "test: build returns NULL", build_null, nearest_nan, NULL, release},
@@ -78,6 +94,9 @@ static const struct rayproof_tracer kTracers[] = {
     {"bad-crash-later", "double", "test: aborts on its third call", build_ok, nearest_crash_later, NULL, release},
     {"bad-hang", "double", "test: never answers", build_ok, nearest_hang, NULL, release},
     {"bad-forks", "double", "test: forks on every call", build_ok, nearest_forks, NULL, release},
+    {"bad-corrupts-counts", "double", "test: any-hit writes past its ray", build_ok, nearest_out_of_range, all_corrupts,
+     release},
+    {"bad-huge-any-hit", "double", "test: any-hit claims 10^6 hits", build_ok, nearest_out_of_range, all_huge, release},
 };
 
 const struct rayproof_tracer* rayproof_tracers(int abi, int* count) {

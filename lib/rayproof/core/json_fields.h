@@ -25,6 +25,18 @@ struct FieldError : std::runtime_error {
 
 // Parses a C99 hexadecimal float exactly ("0x1.8p+1"); nullopt when the text is not one.
 std::optional<double> parse_hex_double(std::string_view text);
+// A decimal number of a text file (meshes), correctly rounded (from_chars). `value` is set for
+// `ok`, which includes subnormal results; `overflow` is beyond ±DBL_MAX; `underflow` is a
+// non-zero number below the smallest subnormal (it would round to zero, silently moving the
+// geometry); `not_a_number` is anything else, trailing characters included.
+struct DecimalNumber {
+  enum class Status { ok, not_a_number, overflow, underflow } status = Status::not_a_number;
+  double value = 0;
+};
+DecimalNumber parse_decimal(std::string_view text);
+// "is beyond the double range", "underflows to zero in double", "is not a number".
+std::string_view decimal_problem(DecimalNumber::Status status);
+
 // The hex form of a double as printf's %a writes it ("0x1p+1", "-0x0p+0", "inf").
 std::string hex_double(double x);
 // A JSON value for x: a plain number when a short decimal names it exactly, else a hex string.

@@ -21,14 +21,17 @@ struct Mesh {
 };
 
 // Reads the mesh at `path` by its extension (.off, .obj, .ply, .stl, any case). OFF and OBJ are
-// read here, line by line, numbers by std::from_chars (correctly rounded); PLY and STL (ASCII or
-// binary) by CGAL's polygon-soup readers, which store doubles. Faces with more than three
+// read line by line, numbers by std::from_chars (correctly rounded); PLY and STL (ASCII or
+// binary) by rayproof's own readers (mesh_ply.cpp, mesh_stl.cpp), which store doubles and trust
+// no count before the bytes that back it. Faces with more than three
 // vertices are fanned from their first vertex. Throws std::runtime_error naming the file and,
 // for text formats, the line: missing or unreadable file, unknown format, a face index out of
 // range, a NaN or infinite coordinate, a file with no triangles.
 Mesh load_mesh(const std::string& path, double scale = 1, const Vec3& translate = Vec3::Zero());
-// A PLY file's bytes as load_mesh reads them (`name` names it in errors): the parser harness's door.
+// A PLY or STL file's bytes as load_mesh reads them (`name` names it in errors): the parser
+// harness's doors.
 Mesh parse_ply_mesh(const std::string& bytes, const std::string& name);
+Mesh parse_stl_mesh(const std::string& bytes, const std::string& name);
 
 // Whether two triangles of a mesh share a vertex (the acne test's "adjacent").
 inline bool share_a_vertex(const std::array<std::uint32_t, 3>& a, const std::array<std::uint32_t, 3>& b) {
