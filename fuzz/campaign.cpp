@@ -187,7 +187,7 @@ json fingerprint(const CampaignOptions& o) {
   for (const Variant& x : all_variants())
     if (std::any_of(o.shapes.begin(), o.shapes.end(), [&](ShapeKind k) { return x.handles(k); }) &&
         (o.variants.empty() ? !x.is_oracle : std::find(o.variants.begin(), o.variants.end(), &x) != o.variants.end()))
-      judged.push_back(std::string(x.name) + " " + std::string(x.origin));
+      judged.push_back(std::string(x.name) + " " + code_identity(std::string(x.origin)));
   return {{"families", f},
           {"constructions", c},
           {"shapes", s},

@@ -472,9 +472,11 @@ json ranges_of(const TracerCampaignOptions& o) {
 json fingerprint(const TracerCampaignOptions& o) {
   json f = json::array(), t = json::array();
   for (TracerFamily x : o.families) f.push_back(std::string(to_string(x)));
-  for (const Tracer* x : o.tracers) t.push_back(x->name);
+  json code = json::array();  // where each tracer's code comes from, a plugin's bytes hashed
+  for (const Tracer* x : o.tracers) t.push_back(x->name), code.push_back(code_identity(x->origin));
   return {{"families", f},
           {"tracers", t},
+          {"code", code},
           {"count", o.count},
           {"seed", o.seed},
           {"shard", o.shard},

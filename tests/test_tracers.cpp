@@ -283,6 +283,23 @@ TEST(TracerCampaign, ExampleTracersBugsAreFoundShrunkAndReplayed) {
         << f.dump();
 }
 
+// Issue 42, item 11: a resume with another build of the library under the same path and tracer
+// name is refused (the fingerprint hashes the plugin's bytes), as another option would be.
+TEST(TracerCampaign, ResumeRefusesAnotherBuildOfTheTracer) {
+  const std::string dir = test_dir();
+  const std::string so = dir + "/tracer.so";
+  std::filesystem::copy_file(MISBEHAVING_TRACER, so);
+  const std::string common = "fuzz --tracer " + so +
+                             " --tracers bad-nan-t --families shared-edges --count 640 "
+                             "--threads 1 --no-shrink -o " +
+                             dir + "/cut.jsonl ";
+  EXPECT_NE(run_cli(common + "--crash-after-batches 0").status, 0);
+  std::ofstream(so, std::ios::app | std::ios::binary) << '\0';  // the same library, one byte more
+  const auto resumed = run_cli(common + "--resume");
+  EXPECT_NE(resumed.status, 0);
+  EXPECT_NE(resumed.err.find("other options"), std::string::npos) << resumed.err;
+}
+
 TEST(TracerCampaign, ExecTracerSpeaksTheProtocolInBothModes) {
   const std::string dir = test_dir();
   const auto run = run_cli("fuzz --tracer-exec py-brute=" + std::string(RAYPROOF_SOURCE_DIR) +

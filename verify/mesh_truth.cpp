@@ -41,9 +41,16 @@ const CrossingPoint* MeshTruth::first_required() const {
 }
 
 const MeshContact* MeshTruth::contact_of(std::uint32_t triangle) const {
-  for (const MeshContact& c : contacts)
-    if (c.triangle == triangle) return &c;
-  return nullptr;
+  const auto it = std::lower_bound(by_triangle.begin(), by_triangle.end(), std::pair{triangle, std::uint32_t{0}});
+  return it != by_triangle.end() && it->first == triangle ? &contacts[it->second] : nullptr;
+}
+
+void MeshTruth::index_contacts() {
+  by_triangle.clear();
+  by_triangle.reserve(contacts.size());
+  for (std::size_t i = 0; i < contacts.size(); ++i)
+    by_triangle.emplace_back(contacts[i].triangle, static_cast<std::uint32_t>(i));
+  std::sort(by_triangle.begin(), by_triangle.end());
 }
 
 std::optional<double> MeshTruth::t_star() const {
@@ -266,17 +273,17 @@ MeshTruth MeshOracle::truth(const TracerRay& r, bool complete) {
     const int c = compare_t(r.ray, a, b);
     return c != 0 ? c < 0 : a.triangle < b.triangle;
   });
+  truth.index_contacts();
+  const MeshContact* point_start = nullptr;  // the first contact of the last point
   for (std::size_t i = 0; i < truth.contacts.size(); ++i) {
     const MeshContact& c = truth.contacts[i];
     if (!c.crossing) continue;
-    if (!truth.points.empty()) {
-      const MeshContact& last = *truth.contact_of(truth.points.back().triangles.front());
-      if (compare_t(r.ray, last, c) == 0) {
-        truth.points.back().triangles.push_back(c.triangle);
-        continue;
-      }
+    if (point_start && compare_t(r.ray, *point_start, c) == 0) {
+      truth.points.back().triangles.push_back(c.triangle);
+      continue;
     }
     truth.points.push_back({{c.triangle}, c.t});
+    point_start = &c;
   }
   for (CrossingPoint& p : truth.points) analyse_point(r.ray, p, truth);
   if (!complete) {  // drop what lies beyond the first required point
@@ -286,6 +293,7 @@ MeshTruth MeshOracle::truth(const TracerRay& r, bool complete) {
       std::erase_if(truth.contacts,
                     [&](const MeshContact& c) { return !std::isnan(c.t) && compare_t(r.ray, c, limit) > 0; });
       truth.points.resize(static_cast<std::size_t>(req - truth.points.data()) + 1);
+      truth.index_contacts();
     }
   }
   return truth;

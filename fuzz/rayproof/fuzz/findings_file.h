@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -32,6 +33,21 @@ struct FindingsHash {
     for (unsigned char c : bytes) value = (value ^ c) * 0x100000001b3ull;
   }
 };
+
+// Where a variant's or tracer's code comes from, for a campaign's fingerprint: its origin ("built-in",
+// "exec: COMMAND", a library) and, where the origin is a file (a plugin), the FNV-1a hash of its
+// bytes — another build of the library under the same path and name changes the findings as
+// surely as an option does (issue 42).
+inline std::string code_identity(const std::string& origin) {
+  std::ifstream in(origin, std::ios::binary);
+  if (!in) return origin;
+  FindingsHash h;
+  char buffer[1 << 16];
+  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) h.add(std::string_view(buffer, std::size_t(in.gcount())));
+  char hex[20];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h.value));
+  return origin + " fnv1a:" + hex;
+}
 
 // The findings file, locked for the campaign (flock: a second campaign on the same output is
 // refused instead of interleaving with this one).
