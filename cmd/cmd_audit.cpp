@@ -124,6 +124,12 @@ void add_audit_command(CLI::App& app, int& exit_code) {
                    headroom.c_str());
     }
     for (const studies::VariantAudit& va : audit.variants)
+      if (va.counts.tracer_errors > 0)
+        std::fprintf(stderr,
+                     "%s: %ld pixels answered with a NaN or non-positive t or a triangle out of range (tracer "
+                     "errors, not counted as holes)\n",
+                     va.label.c_str(), va.counts.tracer_errors);
+    for (const studies::VariantAudit& va : audit.variants)
       if (va.proved_offset_ulps)
         std::fprintf(stderr, "spawn offset: %s needs %.3g ulps for this scene, proved (rayproof offsets)%s\n",
                      va.label.c_str(), *va.proved_offset_ulps,

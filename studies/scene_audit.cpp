@@ -28,6 +28,7 @@ Vec3 headroom_offset(int k) { return std::ldexp(1.0, k) * Vec3(1, 0.75, 0.5); }
 
 PixelCounts& PixelCounts::operator+=(const PixelCounts& o) {
   wrong += o.wrong, holes += o.holes, false_hits += o.false_hits, shadow_wrong += o.shadow_wrong, acne += o.acne;
+  tracer_errors += o.tracer_errors;
   wrongly_shadowed += o.wrongly_shadowed, wrongly_lit += o.wrongly_lit;
   return *this;
 }
@@ -372,7 +373,12 @@ class Auditor {
     return out;
   }
   SceneHit scene_hit(const TracerOnScene& on, const TraceAnswer& a) const {
-    if (!a.hit() || a.failure != AnswerFailure::none || a.triangle >= on.primitive_of.size() || !(a.t > 0)) return {};
+    if (!a.hit() || a.failure != AnswerFailure::none) return {};
+    if (a.triangle >= on.primitive_of.size() || !(a.t > 0)) {
+      SceneHit invalid;
+      invalid.invalid = true;
+      return invalid;
+    }
     const std::int32_t id = on.primitive_of[a.triangle];
     return {index_.primitive(id).object, id, Hit{HitClass::hit, a.t}};
   }
@@ -540,8 +546,9 @@ class Auditor {
       }
     }
     const int exact_object = object_of(index_, e.visible);
-    const bool wrong = visible.object != exact_object;
+    const bool wrong = visible.object != exact_object && !mine.invalid;
     bool hole = false, false_hit = false;
+    if (mine.invalid) ++counts.tracer_errors;  // not a hole: an answer no ray can have
     if (wrong) {
       ++counts.wrong;
       false_hit = exact_object < 0 || (visible.object >= 0 && visible.hit.t < e.visible.t);

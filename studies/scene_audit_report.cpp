@@ -180,6 +180,7 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
               {"acne", va.counts.acne},
               {"wrongly_shadowed", va.counts.wrongly_shadowed},
               {"wrongly_lit", va.counts.wrongly_lit},
+              {"tracer_errors", va.counts.tracer_errors},
               {"exact_for_scene", va.exact_for_scene()},
               {"origin", va.origin},
               {"render", stems[i] + ".png"},

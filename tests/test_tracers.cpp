@@ -547,6 +547,28 @@ TEST(TracerAudit, BvhTracerRowsEqualTheirVariantsRows) {
   EXPECT_TRUE(a.at("headroom").contains("naive-float-bvh"));
 }
 
+// Issue 42, item 13: answers no ray can have (NaN t, a triangle out of range, t below tmin) are
+// the tracer's errors in an audit, never holes.
+TEST(TracerAudit, InvalidAnswersAreTracerErrorsNotHoles) {
+  const std::string dir = test_dir();
+  const auto run = run_cli(std::string("audit ") + RAYPROOF_SOURCE_DIR + "/scenes/audit/edge-grid.json -o " + dir +
+                           "/a --variants moller-trumbore --tracer " + MISBEHAVING_TRACER +
+                           " --tracers bad-nan-t,bad-out-of-range,bad-t-outside --threads 2");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const json a = json::parse(std::ifstream(dir + "/a/audit.json"));
+  int seen = 0;
+  for (const json& v : a.at("variants")) {
+    if (v.at("name").get<std::string>().rfind("bad-", 0) != 0) continue;
+    SCOPED_TRACE(v.at("name").get<std::string>());
+    ++seen;
+    EXPECT_GT(v.at("tracer_errors").get<long>(), 0);
+    EXPECT_EQ(v.at("holes"), 0);
+    EXPECT_EQ(v.at("exact_for_scene"), false);
+  }
+  EXPECT_EQ(seen, 3);
+  EXPECT_NE(run.err.find("tracer errors, not counted as holes"), std::string::npos) << run.err;
+}
+
 TEST(TracerCli, VariantsListsTracersWithShapeMesh) {
   const auto run = run_cli("variants");
   ASSERT_EQ(run.status, 0);

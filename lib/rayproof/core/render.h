@@ -50,6 +50,9 @@ struct SceneHit {
   int object = -1;
   int primitive = -1;
   Hit hit;
+  // A whole tracer's answer no ray can have (a NaN or non-positive t, a triangle the mesh lacks):
+  // the tracer's error, counted apart from holes (audit --tracer).
+  bool invalid = false;
 };
 // The nearest hit among the primitives of one kind, by that kind's variant (`reach`: scene_rays.h).
 SceneHit trace_kind(const SceneIndex& index, ShapeKind kind, const Variant& variant, HitRule rule, const Ray& ray,

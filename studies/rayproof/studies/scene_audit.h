@@ -46,9 +46,12 @@ struct PixelCounts {
   // shadow_wrong by direction (a pixel with two lights may be both): the variant's shadow ray
   // blocked where the exact one reaches the light, and the reverse.
   long wrongly_shadowed = 0, wrongly_lit = 0;
+  // A whole tracer's pixels whose answer no ray can have (NaN or non-positive t, a triangle out of
+  // range): its errors, never counted as holes (issue 42).
+  long tracer_errors = 0;
   PixelCounts& operator+=(const PixelCounts& o);
-  // Pixels with anything wrong (wrong and shadow_wrong never count the same pixel).
-  long any_wrong() const { return wrong + shadow_wrong; }
+  // Pixels with anything wrong (wrong, shadow_wrong and tracer_errors never count the same pixel).
+  long any_wrong() const { return wrong + shadow_wrong + tracer_errors; }
 };
 
 // A wrong pixel as a case (docs/spec/cases.md), so `rayproof check` replays what decided it: the
