@@ -763,8 +763,12 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
   } else {
     c.expect = f.expect;
   }
+  // Shrinking kept only probes that showed f.kind, so a re-judgement of the case it kept that
+  // shows another kind is the tracer answering one ray two ways: the kind written is the one of
+  // the answer written, and the finding says so (issue 42).
+  const bool nondeterministic = shrunk && now.kind != f.kind;
   c.found = {{"tracer", t.name},
-             {"kind", std::string(to_string(f.kind))},
+             {"kind", std::string(to_string(nondeterministic ? now.kind : f.kind))},
              {"family", std::string(to_string(family))},
              {"mode", f.all ? "any-hit" : "nearest"},
              {"reported", reported_json(now, f.all)},
@@ -781,6 +785,10 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
   add_verdict_fields(c.found, same_verdict || f.outcome.level == Level::rounding ? now : f.outcome);
   if (!same_verdict && now.kind == f.kind && f.outcome.level == Level::bug)
     c.found["level_of_shrunk_case"] = std::string(to_string(now.level));
+  if (nondeterministic) {
+    c.found["nondeterministic"] = true;
+    c.found["kind_found"] = std::string(to_string(f.kind));
+  }
   if (!now.reason.empty()) c.found["reason"] = now.reason;
   if (!f.outcome.reason.empty() && now.reason.empty()) c.found["reason"] = f.outcome.reason;
   return json_text(mesh_case_to_json(c)) + "\n";

@@ -398,6 +398,28 @@ TEST(TracerBadInput, SharedMemoryIsUntrusted) {
   EXPECT_TRUE(corrupt);
 }
 
+// Issue 42, item 9: a tracer that answers one ray two ways never gets a finding whose kind
+// contradicts the answer written; the finding says it is nondeterministic.
+TEST(TracerBadInput, NondeterministicTracerFindingsAreConsistent) {
+  const std::string dir = test_dir();
+  const auto run = run_cli(std::string("fuzz --tracer ") + MISBEHAVING_TRACER +
+                           " --tracers bad-flaky --families shared-edges --count 64 --threads 1 -o " + dir +
+                           "/f.jsonl --summary " + dir + "/s.json");
+  ASSERT_EQ(run.status, 0) << run.err;
+  int nondeterministic = 0, findings = 0;
+  for (const json& f : read_lines(dir + "/f.jsonl")) {
+    const json& found = f.at("found");
+    ++findings;
+    const bool reported_nothing = found.at("reported").at("triangle").is_null();
+    if (found.at("kind") == "hole") EXPECT_TRUE(reported_nothing) << found.dump();
+    if (found.at("kind") == "false_hit" || found.at("kind") == "not_nearest")
+      EXPECT_FALSE(reported_nothing) << found.dump();
+    nondeterministic += found.value("nondeterministic", false);
+  }
+  EXPECT_GT(findings, 0);
+  EXPECT_GT(nondeterministic, 0);
+}
+
 TEST(TracerBadInput, ExecTracersThatMisbehave) {
   const std::string dir = test_dir();
   auto script = [&](const std::string& name, const std::string& body) {

@@ -85,6 +85,17 @@ static size_t all_huge(void* s, const struct rayproof_ray* ray, uint32_t* out, s
   return 1000000;
 }
 
+/* Answers one ray two ways: triangle 0 at tmin + 1 on every third call, else a miss (issue 42). */
+static int flaky_calls;
+static void nearest_flaky(void* s, const struct rayproof_ray* rays, size_t n, struct rayproof_trace* out) {
+  (void)s;
+  const int hit = ++flaky_calls % 3 == 0;
+  for (size_t i = 0; i < n; ++i) {
+    out[i].triangle = hit ? 0 : RAYPROOF_NO_TRIANGLE;
+    out[i].t = rays[i].tmin + 1;
+  }
+}
+
 static const struct rayproof_tracer kTracers[] = {
     {"bad-build-crash", "double", "test: segfaults in build", build_crash, nearest_nan, NULL, release},
     {"bad-build-null", "double", "test: build returns NULL", build_null, nearest_nan, NULL, release},
@@ -97,6 +108,7 @@ static const struct rayproof_tracer kTracers[] = {
     {"bad-corrupts-counts", "double", "test: any-hit writes past its ray", build_ok, nearest_out_of_range, all_corrupts,
      release},
     {"bad-huge-any-hit", "double", "test: any-hit claims 10^6 hits", build_ok, nearest_out_of_range, all_huge, release},
+    {"bad-flaky", "double", "test: answers one ray two ways", build_ok, nearest_flaky, NULL, release},
 };
 
 const struct rayproof_tracer* rayproof_tracers(int abi, int* count) {
