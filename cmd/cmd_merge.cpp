@@ -134,6 +134,7 @@ int run_merge(const MergeOptions& o) {
   fuzz::CampaignReport merged;
   fuzz::TracerCampaignReport merged_tracers;
   bool tracers = false;  // the shards are of a tracer campaign (their summaries say "kind": "tracers")
+  std::uint64_t tracer_findings_summarized = 0, findings_read = 0;
   std::vector<std::pair<std::string, fuzz::ShardOf>> shards;
   bool variants = false;
   for (const std::string& path : o.summaries) {
@@ -143,6 +144,7 @@ int run_merge(const MergeOptions& o) {
       const auto shard = report_of<fuzz::TracerCampaignReport>(j, path, "tracer campaign");
       shards.emplace_back(path, shard.shard_of);
       merged_tracers.merge(shard);
+      tracer_findings_summarized += shard.findings_written;
       continue;
     }
     variants = true;
@@ -191,11 +193,13 @@ int run_merge(const MergeOptions& o) {
             const MeshCase c = read_mesh_case(j);
             findings.emplace(of_campaign(mesh_key_of(c.id, path, line), path, line),
                              std::pair{text, rounding_level(c.found)});
+            ++findings_read;
             continue;
           }
         }
         const Case c = parse_case(text);
         findings.emplace(of_campaign(key_of(c, path, line), path, line), std::pair{text, rounding_level(c.found)});
+        ++findings_read;
       } catch (const json::parse_error& e) {
         ++bad;
         std::cerr << "rayproof: " << CaseError{path, line, "", std::string("malformed JSON: ") + e.what()}.to_string()
@@ -205,6 +209,17 @@ int run_merge(const MergeOptions& o) {
         std::cerr << "rayproof: " << CaseError{path, line, e.field, e.what()}.to_string() << "\n";
       }
     }
+  }
+  // A tracer campaign's shards said how many findings each wrote: a findings file given twice
+  // or left out shows (issue 42).
+  if (tracers && !o.findings.empty() && bad == 0) {
+    if (findings_read != findings.size())
+      throw std::runtime_error("merge: " + std::to_string(findings_read - findings.size()) +
+                               " findings appear twice (a findings file given twice?)");
+    if (findings.size() != tracer_findings_summarized)
+      throw std::runtime_error("merge: the summaries say " + std::to_string(tracer_findings_summarized) +
+                               " findings were written, the findings files hold " + std::to_string(findings.size()) +
+                               " (a shard's findings file missing?)");
   }
   merged.findings_written = merged_tracers.findings_written = findings.size();
   if (out) {  // bug-level findings before rounding-level ones (verdicts.md §4), each in campaign order

@@ -61,6 +61,30 @@ TracerCampaignReport TracerCampaignReport::from_json(const json& j) {
     r.rays[it.key()] = read_count(it.value(), "rays." + it.key());
   r.findings_written = read_count(j.at("findings_written"), "findings_written");
   r.shard_of = ShardOf::read_from(j);
+  // What no campaign can have written (issue 42): a tally of a tracer or family the campaign does
+  // not list, more cases than the family's rays, an any-hit kind in a nearest tally.
+  const json& campaign = r.shard_of.campaign;
+  auto listed = [&](const char* what, const std::string& name) {
+    if (!campaign.is_object() || !campaign.contains(what) || !campaign.at(what).is_array()) return true;
+    for (const json& x : campaign.at(what))
+      if (x.is_string() && x.get<std::string>() == name) return true;
+    return false;
+  };
+  for (const auto& [k, t] : r.tallies) {
+    const std::string where = "tallies." + printable_prefix(k.to_string(), 60);
+    const bool any_hit = k.family.size() > 4 && k.family.ends_with("-any");
+    const std::string family = any_hit ? k.family.substr(0, k.family.size() - 4) : k.family;
+    if (!listed("families", family)) throw FieldError(where, "a family the campaign does not list");
+    if (!listed("tracers", k.name)) throw FieldError(where, "a tracer the campaign does not list");
+    const auto rays = r.rays.find(family);
+    const std::uint64_t traced = rays == r.rays.end() ? 0 : rays->second;
+    if (t.cases > traced)
+      throw FieldError(where + ".cases", std::to_string(t.cases) + " cases, but the campaign traced " +
+                                             std::to_string(traced) + " rays of " + family);
+    if (!any_hit)
+      for (const char* kind : {"double_hit", "missed_in_any_hit", "unsupported"})
+        if (t.count(kind) > 0) throw FieldError(where + "." + kind, "an any-hit kind in a nearest tally");
+  }
   return r;
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <set>
 #include <sstream>
@@ -298,6 +299,64 @@ TEST(TracerCampaign, ResumeRefusesAnotherBuildOfTheTracer) {
   const auto resumed = run_cli(common + "--resume");
   EXPECT_NE(resumed.status, 0);
   EXPECT_NE(resumed.err.find("other options"), std::string::npos) << resumed.err;
+}
+
+// Issue 42, item 4: merging a tracer campaign's shards refuses tallies no campaign can write
+// (more cases than rays, a tracer or family it does not list, an any-hit kind in a nearest tally)
+// and findings files given twice or left out.
+TEST(TracerCampaign, MergeRefusesImpossibleTracerShards) {
+  const std::string dir = test_dir();
+  const std::string common =
+      "fuzz --tracers bvh-moller-trumbore --families shared-edges --count 256 --threads 1 "
+      "--no-shrink ";
+  for (int i = 0; i < 2; ++i)
+    ASSERT_EQ(run_cli(common + "--shard " + std::to_string(i) + "/2 -o " + dir + "/s" + std::to_string(i) +
+                      ".jsonl --summary " + dir + "/s" + std::to_string(i) + ".json")
+                  .status,
+              0);
+  const std::string s0 = dir + "/s0", s1 = dir + "/s1";
+  const auto good = run_cli("merge --summaries " + s0 + ".json " + s1 + ".json --findings " + s0 + ".jsonl " + s1 +
+                            ".jsonl --summary " + dir + "/m.json -o " + dir + "/m.jsonl");
+  ASSERT_EQ(good.status, 0) << good.err;
+  const auto twice = run_cli("merge --summaries " + s0 + ".json " + s1 + ".json --findings " + s0 + ".jsonl " + s0 +
+                             ".jsonl " + s1 + ".jsonl -o " + dir + "/m.jsonl");
+  EXPECT_NE(twice.status, 0);
+  EXPECT_NE(twice.err.find("appear twice"), std::string::npos) << twice.err;
+  const auto missing =
+      run_cli("merge --summaries " + s0 + ".json " + s1 + ".json --findings " + s1 + ".jsonl -o " + dir + "/m.jsonl");
+  EXPECT_NE(missing.status, 0);
+  EXPECT_NE(missing.err.find("findings file missing"), std::string::npos) << missing.err;
+  const json summary = json::parse(std::ifstream(s0 + ".json"));
+  const std::string key = "shared-edges\tbvh-moller-trumbore";
+  struct Bad {
+    std::function<void(json&)> edit;
+    std::string message;
+  };
+  const std::vector<Bad> bad = {
+      {[&](json& j) {
+         json& t = j["tallies"][key];  // the kinds still count the cases: only the rays contradict them
+         t["right"] = t["right"].get<long>() + 14096 - t["cases"].get<long>();
+         t["cases"] = 14096;
+       },
+       "rays of shared-edges"},
+      {[&](json& j) { j["tallies"]["shared-edges\tnobody"] = j["tallies"][key]; },
+       "a tracer the campaign does not list"},
+      {[&](json& j) { j["tallies"]["needles\tbvh-moller-trumbore"] = j["tallies"][key]; }, "a family the campaign"},
+      {[&](json& j) {
+         json& t = j["tallies"][key];
+         t["right"] = t["right"].get<long>() - 1;
+         t["double_hit"] = 1, t["double_hit_bugs"] = 1;  // with its level, as a real tally would have it
+       },
+       "an any-hit kind in a nearest tally"},
+  };
+  for (const Bad& b : bad) {
+    json edited = summary;
+    b.edit(edited);
+    std::ofstream(dir + "/bad.json") << edited.dump();
+    const auto run = run_cli("merge --summaries " + dir + "/bad.json " + s1 + ".json --summary " + dir + "/m.json");
+    EXPECT_NE(run.status, 0) << b.message;
+    EXPECT_NE(run.err.find(b.message), std::string::npos) << run.err;
+  }
 }
 
 TEST(TracerCampaign, ExecTracerSpeaksTheProtocolInBothModes) {
