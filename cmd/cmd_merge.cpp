@@ -135,6 +135,7 @@ int run_merge(const MergeOptions& o) {
   fuzz::TracerCampaignReport merged_tracers;
   bool tracers = false;  // the shards are of a tracer campaign (their summaries say "kind": "tracers")
   std::uint64_t tracer_findings_summarized = 0, findings_read = 0;
+  std::map<std::string, std::set<std::string>> stopped_in;  // tracer → the shards it crashed or hung in
   std::vector<std::pair<std::string, fuzz::ShardOf>> shards;
   bool variants = false;
   for (const std::string& path : o.summaries) {
@@ -145,6 +146,8 @@ int run_merge(const MergeOptions& o) {
       shards.emplace_back(path, shard.shard_of);
       merged_tracers.merge(shard);
       tracer_findings_summarized += shard.findings_written;
+      for (const auto& [k, t] : shard.tallies)
+        if (t.count("crash") + t.count("timeout") > 0) stopped_in[k.name].insert(path);
       continue;
     }
     variants = true;
@@ -228,10 +231,15 @@ int run_merge(const MergeOptions& o) {
         if (finding.second == rounding) out->stream() << finding.first << "\n";
     out->commit();
   }
-  if (tracers)
-    fuzz::print_tracer_report(merged_tracers, *table_format_from_string(o.format), std::cerr);
-  else
-    fuzz::print_report(merged, 1, *table_format_from_string(o.format), std::cerr);
+  if (tracers) fuzz::print_tracer_report(merged_tracers, *table_format_from_string(o.format), std::cerr);
+  for (const auto& [name, paths] : stopped_in)  // README: crash budgets are per shard
+    if (paths.size() > 1)
+      std::cerr << "note: " << printable(name) << " stopped (crash or timeout) in " << paths.size()
+                << " shards: each shard stops a tracer at its own first crash, the unsharded campaign at the first of "
+                   "all, so the merged counts hold up to "
+                << paths.size() << " crashes and the rays judged after the first\n";
+    else
+      fuzz::print_report(merged, 1, *table_format_from_string(o.format), std::cerr);
   if (summary_out) {
     summary_out->stream() << json_text(tracers ? merged_tracers.to_json() : merged.to_json(), 2) << "\n";
     summary_out->commit();

@@ -520,6 +520,9 @@ struct Checkpoint {
   std::uintmax_t findings_bytes = 0;
   FindingsHash findings_hash;
   TracerCampaignReport report;
+  // The tracers that crashed or hung so far: a resumed campaign never asks them again, as the
+  // uninterrupted one would not (issue 42).
+  std::set<std::string> stopped;
 };
 
 void save(const std::string& path, const TracerCampaignOptions& o, const Checkpoint& c) {
@@ -530,6 +533,7 @@ void save(const std::string& path, const TracerCampaignOptions& o, const Checkpo
                     {"findings_in", c.findings_in},
                     {"findings_bytes", c.findings_bytes},
                     {"findings_hash", c.findings_hash.value},
+                    {"stopped", c.stopped},
                     {"report", c.report.to_json()}});
 }
 
@@ -539,6 +543,7 @@ Checkpoint load(const std::string& path, const TracerCampaignOptions& o) {
     c.family = j.at("family"), c.next_mesh = j.at("next_mesh"), c.family_started = j.at("family_started");
     c.findings_in = j.at("findings_in").get<std::map<std::string, std::uint64_t>>();
     c.findings_bytes = j.at("findings_bytes"), c.findings_hash.value = j.at("findings_hash");
+    c.stopped = j.at("stopped").get<std::set<std::string>>();
     c.report = TracerCampaignReport::from_json(j.at("report"));
     return c;
   });
@@ -833,6 +838,7 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
   std::ofstream out;
   Checkpoint cp = open_findings(o, checkpoint_path, out);
   std::vector<TracerState> states(o.tracers.size());
+  for (std::size_t ti = 0; ti < o.tracers.size(); ++ti) states[ti].stopped = cp.stopped.contains(o.tracers[ti]->name);
   const int threads = std::max(1, o.threads);
   long batches_done = 0;
   for (; cp.family < o.families.size(); ++cp.family, cp.family_started = false) {
@@ -890,6 +896,8 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
       cp.report.seconds[std::string(to_string(family))] += batch_watch.seconds();
       cp.report.rays[std::string(to_string(family))] += rays;
       cp.next_mesh = end;
+      for (std::size_t ti = 0; ti < o.tracers.size(); ++ti)
+        if (states[ti].stopped.load()) cp.stopped.insert(o.tracers[ti]->name);
       cp.findings_bytes = std::filesystem::file_size(o.output);
       save(checkpoint_path, o, cp);
       if (o.progress) o.progress(family, end - lo, hi - lo);

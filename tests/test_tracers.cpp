@@ -359,6 +359,26 @@ TEST(TracerCampaign, MergeRefusesImpossibleTracerShards) {
   }
 }
 
+// Issue 42, item 3: a tracer that crashed stays stopped across a resume: the resumed campaign's
+// report and findings are the uninterrupted one's.
+TEST(TracerCampaign, ResumeRemembersAStoppedTracer) {
+  const std::string dir = test_dir();
+  const std::string common = std::string("fuzz --tracer ") + MISBEHAVING_TRACER +
+                             " --tracers bad-crash-later,bvh-watertight --families shared-edges --count 4096 "
+                             "--threads 1 --no-shrink ";
+  ASSERT_EQ(run_cli(common + "-o " + dir + "/whole.jsonl --summary " + dir + "/whole.json").status, 0);
+  EXPECT_NE(run_cli(common + "-o " + dir + "/cut.jsonl --crash-after-batches 2").status, 0);
+  const auto resumed = run_cli(common + "-o " + dir + "/cut.jsonl --resume --summary " + dir + "/cut.json");
+  ASSERT_EQ(resumed.status, 0) << resumed.err;
+  const json a = json::parse(std::ifstream(dir + "/whole.json")).at("tallies");
+  const json b = json::parse(std::ifstream(dir + "/cut.json")).at("tallies");
+  const std::string key = "shared-edges\tbad-crash-later";
+  EXPECT_EQ(a.at(key).at("crash"), 1);
+  for (const char* kind : {"cases", "crash", "right"})
+    EXPECT_EQ(b.at(key).value(kind, 0), a.at(key).value(kind, 0)) << kind;
+  EXPECT_EQ(read_lines(dir + "/cut.jsonl").size(), read_lines(dir + "/whole.jsonl").size());
+}
+
 TEST(TracerCampaign, ExecTracerSpeaksTheProtocolInBothModes) {
   const std::string dir = test_dir();
   const auto run = run_cli("fuzz --tracer-exec py-brute=" + std::string(RAYPROOF_SOURCE_DIR) +
