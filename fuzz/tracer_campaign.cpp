@@ -297,9 +297,10 @@ std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c) {
 
 namespace {
 TraceKind kind_of_failure(AnswerFailure f) {
-  return f == AnswerFailure::timeout ? TraceKind::timeout
-         : f == AnswerFailure::crash ? TraceKind::crash
-                                     : TraceKind::tracer_error;
+  return f == AnswerFailure::timeout         ? TraceKind::timeout
+         : f == AnswerFailure::crash         ? TraceKind::crash
+         : f == AnswerFailure::build_refused ? TraceKind::build_failed
+                                             : TraceKind::tracer_error;
 }
 }  // namespace
 
@@ -703,6 +704,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
     for (std::size_t i : live) rays.push_back(*s.rays[i]);
     // Nearest mode.
     std::vector<TraceAnswer> answers(rays.size());
+    bool refused = false;  // the tracer refused this mesh (counted for both modes)
     const Stopwatch nearest_watch;
     built.scene->nearest(rays, answers);
     near.seconds += nearest_watch.seconds();
@@ -712,6 +714,12 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       TracerOutcome out;
       out.answer = answers[k];
       if (out.answer.failure == AnswerFailure::stopped) break;
+      if (out.answer.failure == AnswerFailure::build_refused) {  // as a build() that returned NULL
+        for (std::size_t n = live.size(); n > 0; --n)
+          count(near, TraceKind::build_failed), count(any, TraceKind::build_failed);
+        refused = true;
+        break;
+      }
       if (out.answer.failure != AnswerFailure::none) {  // a per-ray error goes on; a crash or hang stops the tracer
         out.kind = kind_of_failure(out.answer.failure), out.reason = t.stop_reason();
         count(near, out.kind);
@@ -731,7 +739,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       if (out.judgement.ulp) near.ulps.add(*out.judgement.ulp);
       if (is_disagreement(out.kind)) finding(i, false, out.kind, out);
     }
-    if (states[ti].stopped.load()) continue;
+    if (states[ti].stopped.load() || refused) continue;
     // Any-hit mode.
     if (!t.has_all_hits) {
       for (std::size_t k = 0; k < live.size(); ++k) count(any, TraceKind::unsupported);

@@ -32,6 +32,7 @@ std::string_view to_string(AnswerFailure f) {
     case AnswerFailure::protocol: return "protocol error";
     case AnswerFailure::not_representable: return "not_representable";
     case AnswerFailure::stopped: return "stopped";
+    case AnswerFailure::build_refused: return "build refused";
   }
   return "?";
 }

@@ -80,7 +80,8 @@ class ExecTracerScene final : public TracerScene {
     const AnswerFailure f = exchange(rays, false, answers);
     for (std::size_t i = 0; i < rays.size(); ++i) {
       if (i >= answers.size()) {
-        out[i] = {kNoTriangle, NAN, i == answers.size() ? f : AnswerFailure::stopped};
+        const bool blamed = i == answers.size() || f == AnswerFailure::build_refused;
+        out[i] = {kNoTriangle, NAN, blamed ? f : AnswerFailure::stopped};
         continue;
       }
       const json& a = answers[i];
@@ -99,7 +100,7 @@ class ExecTracerScene final : public TracerScene {
     for (std::size_t i = 0; i < rays.size(); ++i) {
       out[i] = {};
       if (i >= answers.size()) {
-        out[i].failure = i == answers.size() ? f : AnswerFailure::stopped;
+        out[i].failure = i == answers.size() || f == AnswerFailure::build_refused ? f : AnswerFailure::stopped;
         continue;
       }
       const json& a = answers[i];
@@ -116,6 +117,7 @@ class ExecTracerScene final : public TracerScene {
   // before a failure are kept; the failure is returned for the ray it is blamed on.
   AnswerFailure exchange(std::span<const TracerRay> rays, bool all, std::vector<json>& answers) {
     std::lock_guard lock(mutex_);
+    if (refused_) return AnswerFailure::build_refused;
     if (state_.stopped || !healthy_) return AnswerFailure::stopped;
     std::string payload;
     if (!process_) {
@@ -140,7 +142,7 @@ class ExecTracerScene final : public TracerScene {
         if (!a.is_object()) throw FieldError("", "an answer line is a JSON object");
         if (a.contains("error") && !a.contains("id")) {
           why = "could not read the mesh: " + printable(a.at("error").dump());
-          kind = AnswerFailure::bad_answer;  // counted as tracer errors for this mesh's rays
+          kind = AnswerFailure::build_refused;  // every ray of this mesh, as a build() returning NULL
           break;
         }
         if (!a.contains("id") || !a.at("id").is_string() || a.at("id").get<std::string>() != ids[i])
@@ -174,7 +176,8 @@ class ExecTracerScene final : public TracerScene {
     if (why.empty()) why = ended;
     if (why.empty()) return AnswerFailure::none;
     healthy_ = false;  // never handed back
-    if (kind == AnswerFailure::bad_answer) {
+    if (kind == AnswerFailure::build_refused) {
+      refused_ = true, answers.clear();
       state_.note(why);
       return kind;
     }
@@ -186,6 +189,7 @@ class ExecTracerScene final : public TracerScene {
   std::string mesh_line_;
   std::unique_ptr<ExecProcess> process_;
   bool healthy_ = true;
+  bool refused_ = false;  // the command could not read the mesh: every ray is build_refused
   std::mutex mutex_;
 };
 

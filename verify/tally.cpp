@@ -85,7 +85,8 @@ void Tally::add(HitClass case_exact, const VariantOutcome& o) {
     case AnswerFailure::stopped: return;  // counted once, as what stopped it
     case AnswerFailure::bad_answer:
     case AnswerFailure::nan_t:
-    case AnswerFailure::t_unwritten: ++plugin_errors; return;
+    case AnswerFailure::t_unwritten:
+    case AnswerFailure::build_refused: ++plugin_errors; return;  // (whole tracers only: never a variant's)
   }
   const HitClass exact = o.own_exact ? o.own_exact->cls : case_exact;
   ++cases;

@@ -23,6 +23,8 @@ enum class AnswerFailure : std::uint8_t {
   protocol,           // exec: an unreadable line or a wrong id
   not_representable,  // a float variant's case overflows float or rounds to a degenerate one
   stopped,            // the code failed earlier: it is not asked again
+  build_refused,      // a whole tracer refused the mesh (an exec tracer's {"error": ...}): as a build
+                      // that returned NULL, every ray of that mesh is build_failed
 };
 std::string_view to_string(AnswerFailure f);
 inline bool is_plugin_error(AnswerFailure f) {
