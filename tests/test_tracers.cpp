@@ -490,13 +490,37 @@ TEST(TracerBadInput, NondeterministicTracerFindingsAreConsistent) {
     const json& found = f.at("found");
     ++findings;
     const bool reported_nothing = found.at("reported").at("triangle").is_null();
-    if (found.at("kind") == "hole") EXPECT_TRUE(reported_nothing) << found.dump();
-    if (found.at("kind") == "false_hit" || found.at("kind") == "not_nearest")
+    if (found.at("kind") == "hole") {
+      EXPECT_TRUE(reported_nothing) << found.dump();
+    }
+    if (found.at("kind") == "false_hit" || found.at("kind") == "not_nearest") {
       EXPECT_FALSE(reported_nothing) << found.dump();
+    }
     nondeterministic += found.value("nondeterministic", false);
   }
   EXPECT_GT(findings, 0);
   EXPECT_GT(nondeterministic, 0);
+}
+
+// Issue 42, item 15: a tracer that keeps the mesh's pointers from build() and reads the vertices
+// only while tracing sees the mesh it was given, batch after batch (tracer.md: valid and
+// unchanged until release).
+TEST(TracerBadInput, ZeroCopyTracerSeesItsMeshUntilRelease) {
+  const std::string dir = test_dir();
+  const auto run = run_cli(std::string("fuzz --tracer ") + MISBEHAVING_TRACER +
+                           " --tracers zero-copy,bvh-moller-trumbore --families shared-edges,needles --count 1024 "
+                           "--threads 2 --no-shrink -o " +
+                           dir + "/f.jsonl --summary " + dir + "/s.json");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const json t = json::parse(std::ifstream(dir + "/s.json")).at("tallies");
+  for (const char* family : {"shared-edges", "needles"}) {
+    const json& z = t.at(std::string(family) + "\tzero-copy");
+    EXPECT_EQ(z.value("crash", 0) + z.value("timeout", 0) + z.value("tracer_errors", 0), 0) << z.dump();
+    EXPECT_EQ(z.at("cases"), 1024);
+    // Brute force in double: right wherever the BVH tracer with the same test is, give or take edges.
+    const json& b = t.at(std::string(family) + "\tbvh-moller-trumbore");
+    EXPECT_GE(z.value("right", 0) + 64, b.value("right", 0)) << z.dump() << b.dump();
+  }
 }
 
 TEST(TracerBadInput, ExecTracersThatMisbehave) {

@@ -96,6 +96,40 @@ static void nearest_flaky(void* s, const struct rayproof_ray* rays, size_t n, st
   }
 }
 
+/* Zero-copy: keeps the mesh's pointers from build() and reads the vertices only while tracing
+   (brute force, Möller–Trumbore in double). Right only if the mesh stays valid and unchanged
+   until release(), as tracer.md promises (issue 42, item 15). */
+static struct rayproof_mesh kept;
+static void* build_keep(const struct rayproof_mesh* mesh) {
+  kept = *mesh; /* the pointers, not the data */
+  return &kept;
+}
+static void nearest_zero_copy(void* s, const struct rayproof_ray* rays, size_t n, struct rayproof_trace* out) {
+  const struct rayproof_mesh* m = (const struct rayproof_mesh*)s;
+  for (size_t r = 0; r < n; ++r) {
+    const double* o = rays[r].origin;
+    const double* d = rays[r].direction;
+    out[r].triangle = RAYPROOF_NO_TRIANGLE, out[r].t = rays[r].tmax;
+    for (uint32_t k = 0; k < m->triangle_count; ++k) {
+      const double* a = m->vertices + 3 * m->indices[3 * k];
+      const double* b = m->vertices + 3 * m->indices[3 * k + 1];
+      const double* c = m->vertices + 3 * m->indices[3 * k + 2];
+      double e1[3], e2[3], p[3], sv[3], q[3];
+      for (int i = 0; i < 3; ++i) e1[i] = b[i] - a[i], e2[i] = c[i] - a[i], sv[i] = o[i] - a[i];
+      p[0] = d[1] * e2[2] - d[2] * e2[1], p[1] = d[2] * e2[0] - d[0] * e2[2], p[2] = d[0] * e2[1] - d[1] * e2[0];
+      const double det = e1[0] * p[0] + e1[1] * p[1] + e1[2] * p[2];
+      if (det == 0) continue;
+      const double u = (sv[0] * p[0] + sv[1] * p[1] + sv[2] * p[2]) / det;
+      if (u < 0 || u > 1) continue;
+      q[0] = sv[1] * e1[2] - sv[2] * e1[1], q[1] = sv[2] * e1[0] - sv[0] * e1[2], q[2] = sv[0] * e1[1] - sv[1] * e1[0];
+      const double v = (d[0] * q[0] + d[1] * q[1] + d[2] * q[2]) / det;
+      if (v < 0 || u + v > 1) continue;
+      const double t = (e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) / det;
+      if (t > rays[r].tmin && t < out[r].t) out[r].triangle = k, out[r].t = t;
+    }
+  }
+}
+
 static const struct rayproof_tracer kTracers[] = {
     {"bad-build-crash", "double", "test: segfaults in build", build_crash, nearest_nan, NULL, release},
     {"bad-build-null", "double", "test: build returns NULL", build_null, nearest_nan, NULL, release},
@@ -109,6 +143,7 @@ static const struct rayproof_tracer kTracers[] = {
      release},
     {"bad-huge-any-hit", "double", "test: any-hit claims 10^6 hits", build_ok, nearest_out_of_range, all_huge, release},
     {"bad-flaky", "double", "test: answers one ray two ways", build_ok, nearest_flaky, NULL, release},
+    {"zero-copy", "double", "test: reads the mesh only while tracing", build_keep, nearest_zero_copy, NULL, release},
 };
 
 const struct rayproof_tracer* rayproof_tracers(int abi, int* count) {
