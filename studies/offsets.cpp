@@ -306,7 +306,7 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
   SearchRay r;
   // A unit direction, as renderers use: a long one would overflow float's products (b² of a far
   // sphere at 2^30), outside the proofs' domain.
-  r.ray = Ray(origin, normalized(target - origin));
+  r.ray = Ray{origin, normalized(target - origin)};
   r.ok = all_finite(r.ray.direction) && r.ray.direction != Vec3::Zero() && inside(box, origin);
   return r;
 }
@@ -432,7 +432,7 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
           Stream s{options.seed * 0x9e3779b97f4a7c15ull + std::uint64_t(ids[j]) * 0x100000001b3ull + k};
           SearchRay sr = search_ray(shape, report.box, listed, k, s);
           if (!sr.ok) continue;
-          Ray ray(to_precision(prec, sr.ray.origin), to_precision(prec, sr.ray.direction));
+          Ray ray{to_precision(prec, sr.ray.origin), to_precision(prec, sr.ray.direction)};
           if (ray.direction == Vec3::Zero() || !all_finite(ray.direction)) continue;
           ++po.rays;
           const Answer a = v->intersect(ray, shape, options.rule);
@@ -488,7 +488,7 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
                                             std::isfinite(po.proved_offset) ? po.proved_offset : 0);
           if (!all_finite(o2)) continue;
           for (const Vec3& d2 : outgoing_directions(from->ray.direction, from->normal)) {
-            const Ray spawned(o2, to_precision(prec, d2));
+            const Ray spawned{o2, to_precision(prec, d2)};
             if (spawned.direction == Vec3::Zero()) continue;
             const Answer again = v->intersect(spawned, shape, options.rule);
             if (again.failed() || !reports_hit(again)) continue;
@@ -559,7 +559,7 @@ std::optional<Vec3> proved_spawn_origin(const Variant& v, const Shape& shape, co
   if (!proof) return std::nullopt;
   const auto offset = proved_offset_and_ulps(*proof, prec, shape);
   if (!std::isfinite(offset.first)) return std::nullopt;
-  const Ray seen(to_precision(prec, ray.origin), to_precision(prec, ray.direction));
+  const Ray seen{to_precision(prec, ray.origin), to_precision(prec, ray.direction)};
   return apply_offset_rule(OffsetRule{OffsetRule::Kind::proved, 0, "proved"}, prec, computed_point(prec, seen, t), n,
                            offset.first);
 }
