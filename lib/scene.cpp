@@ -228,81 +228,70 @@ Scene load_scene(const std::string& path) {
   return parse_scene(buf.str(), path == "-" ? name : path);
 }
 
-Scene scaled(const Scene& scene, int log2) {
-  auto by = [log2](const Vec3& v) {
-    return Vec3(std::ldexp(v.x(), log2), std::ldexp(v.y(), log2), std::ldexp(v.z(), log2));
-  };
+namespace {
+// The scene with every point moved by `point` (camera eye, lights, mesh vertices) and every other
+// shape by `shape`, each coordinate rounded to double; mesh triangles the move makes degenerate
+// are dropped and counted in `warnings` (`how` says which move: "translated", "scaled").
+template <class Point, class MoveShape>
+Scene moved(const Scene& scene, Point point, MoveShape shape, const char* how) {
   Scene out = scene;
   out.warnings.clear();
-  out.camera.eye = by(scene.camera.eye);
-  for (PointLight& light : out.lights) light.position = by(light.position);
+  out.camera.eye = point(scene.camera.eye);
+  for (PointLight& light : out.lights) light.position = point(light.position);
   for (SceneObject& obj : out.objects) {
-    if (obj.mesh) {
-      auto mesh = std::make_shared<Mesh>();
-      mesh->vertex_count = obj.mesh->vertex_count;
-      for (size_t e = 0; e < obj.mesh->triangles.size(); ++e) {
-        Triangle tri = obj.mesh->triangles[e];
-        for (Vec3& v : tri.v) v = by(v);
-        if (degenerate_reason(tri)) {
-          ++mesh->degenerate_skipped;
-          continue;
-        }
-        mesh->triangles.push_back(tri);
-        mesh->corners.push_back(obj.mesh->corners[e]);
-      }
-      if (mesh->degenerate_skipped > 0)
-        out.warnings.push_back(obj.file + ": " + std::to_string(mesh->degenerate_skipped) +
-                               " triangles became degenerate when scaled and were dropped");
-      obj.mesh = std::move(mesh);
+    if (!obj.mesh) {
+      shape(obj.shape);
       continue;
     }
-    obj.shape = rayproof::scaled(obj.shape, std::ldexp(1.0, log2));
+    auto mesh = std::make_shared<Mesh>();
+    mesh->vertex_count = obj.mesh->vertex_count;
+    for (size_t e = 0; e < obj.mesh->triangles.size(); ++e) {
+      Triangle tri = obj.mesh->triangles[e];
+      for (Vec3& v : tri.v) v = point(v);
+      if (degenerate_reason(tri)) {
+        ++mesh->degenerate_skipped;
+        continue;
+      }
+      mesh->triangles.push_back(tri);
+      mesh->corners.push_back(obj.mesh->corners[e]);
+    }
+    if (mesh->degenerate_skipped > 0)
+      out.warnings.push_back(obj.file + ": " + std::to_string(mesh->degenerate_skipped) +
+                             " triangles became degenerate when " + how + " and were dropped");
+    obj.mesh = std::move(mesh);
   }
   return out;
 }
+}  // namespace
+
+Scene scaled(const Scene& scene, int log2) {
+  return moved(
+      scene,
+      [log2](const Vec3& v) { return Vec3(std::ldexp(v.x(), log2), std::ldexp(v.y(), log2), std::ldexp(v.z(), log2)); },
+      [log2](Shape& s) { s = rayproof::scaled(s, std::ldexp(1.0, log2)); }, "scaled");
+}
 
 Scene translated(const Scene& scene, const Vec3& by) {
-  Scene out = scene;
-  out.warnings.clear();
-  out.camera.eye = scene.camera.eye + by;
-  for (PointLight& light : out.lights) light.position += by;
-  for (SceneObject& obj : out.objects) {
-    if (obj.mesh) {
-      auto mesh = std::make_shared<Mesh>();
-      mesh->vertex_count = obj.mesh->vertex_count;
-      for (size_t e = 0; e < obj.mesh->triangles.size(); ++e) {
-        Triangle tri = obj.mesh->triangles[e];
-        for (Vec3& v : tri.v) v += by;
-        if (degenerate_reason(tri)) {
-          ++mesh->degenerate_skipped;
-          continue;
-        }
-        mesh->triangles.push_back(tri);
-        mesh->corners.push_back(obj.mesh->corners[e]);
-      }
-      if (mesh->degenerate_skipped > 0)
-        out.warnings.push_back(obj.file + ": " + std::to_string(mesh->degenerate_skipped) +
-                               " triangles became degenerate when translated and were dropped");
-      obj.mesh = std::move(mesh);
-      continue;
-    }
-    std::visit(
-        [&](auto& s) {
-          using S = std::decay_t<decltype(s)>;
-          if constexpr (std::is_same_v<S, Sphere>)
-            s.center += by;
-          else if constexpr (std::is_same_v<S, Plane>)
-            s.offset = s.offset + dot(s.normal, by);
-          else if constexpr (std::is_same_v<S, Triangle>)
-            for (Vec3& v : s.v) v += by;
-          else {
-            s.min += by;
-            s.max += by;
-          }
-        },
-        obj.shape);
-  }
-  return out;
+  return moved(
+      scene, [&by](const Vec3& v) { return Vec3(v + by); },
+      [&by](Shape& shape) {
+        std::visit(
+            [&](auto& s) {
+              using S = std::decay_t<decltype(s)>;
+              if constexpr (std::is_same_v<S, Sphere>)
+                s.center += by;
+              else if constexpr (std::is_same_v<S, Plane>)
+                s.offset = s.offset + dot(s.normal, by);
+              else if constexpr (std::is_same_v<S, Triangle>)
+                for (Vec3& v : s.v) v += by;
+              else {
+                s.min += by;
+                s.max += by;
+              }
+            },
+            shape);
+      },
+      "translated");
 }
 
 }  // namespace rayproof

@@ -15,6 +15,7 @@
 #include "rayproof/core/fp.h"
 #include "rayproof/core/parallel.h"
 #include "rayproof/core/render.h"
+#include "rayproof/fuzz/generators.h"
 #include "rayproof/studies/markup.h"
 #include "rayproof/verify/certified.h"
 // GCC takes Expansion's c_[i] (read only for i < n_) for uninitialized when it inlines the merge.
@@ -49,18 +50,9 @@ double VariantOffsets::needs_ulps_at_most() const {
 
 namespace {
 
-// SplitMix64 (Steele, Lea & Flood 2014): one small, seedable stream per ray.
-struct Stream {
-  std::uint64_t state;
-  std::uint64_t next() {
-    std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  }
-  double unit() { return double(next() >> 11) * 0x1p-53; }  // [0, 1)
-  int below(int n) { return int(next() % std::uint64_t(n)); }
-};
+// One seeded stream per ray (fuzz's SplitMix64), and a draw below n.
+using Stream = fuzz::SplitMix64;
+int below(Stream& s, int n) { return int(s.next() % std::uint64_t(n)); }
 
 double to_precision(Precision p, double x) { return p == Precision::f32 ? double(to_nearest_float(x)) : x; }
 Vec3 to_precision(Precision p, const Vec3& v) {
@@ -236,12 +228,12 @@ std::pair<Vec3, Vec3> target_on(const Shape& shape, const Bounds& box, int patte
   if (const auto* t = std::get_if<Triangle>(&shape)) {
     double b[3];
     if (pattern == 1) {  // near a vertex
-      const int a = s.below(3);
-      const double eps = std::ldexp(1.0, -1 - s.below(40));
+      const int a = below(s, 3);
+      const double eps = std::ldexp(1.0, -1 - below(s, 40));
       for (int i = 0; i < 3; ++i) b[i] = i == a ? 1 - eps : eps / 2;
     } else if (pattern == 2) {  // near an edge
-      const int c = s.below(3);
-      const double eps = std::ldexp(1.0, -1 - s.below(40)), x = s.unit();
+      const int c = below(s, 3);
+      const double eps = std::ldexp(1.0, -1 - below(s, 40)), x = s.unit();
       b[c] = eps;
       b[(c + 1) % 3] = (1 - eps) * x;
       b[(c + 2) % 3] = (1 - eps) * (1 - x);
@@ -266,7 +258,7 @@ std::pair<Vec3, Vec3> target_on(const Shape& shape, const Bounds& box, int patte
     return {sp->center + sp->radius * u, u};
   }
   const Box& b = std::get<Box>(shape);
-  const int axis = s.below(3), hi = s.below(2);
+  const int axis = below(s, 3), hi = below(s, 2);
   Vec3 p = random_in({b.min, b.max}, s);
   p[axis] = hi ? b.max[axis] : b.min[axis];
   Vec3 n = Vec3::Zero();
@@ -294,7 +286,7 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
     const double angle = 2 * M_PI * s.unit();
     const Vec3 dir = std::cos(angle) * along + std::sin(angle) * side;
     double reach = (box.hi - box.lo).norm() * (0.05 + s.unit());
-    const double lift = std::ldexp(s.next() & 1 ? 1.0 : -1.0, -8 - s.below(40));
+    const double lift = std::ldexp(s.next() & 1 ? 1.0 : -1.0, -8 - below(s, 40));
     for (int tries = 0; tries < 60; ++tries, reach /= 2) {
       const Vec3 o = target + reach * (dir + lift * n);
       if (inside(box, o)) {
@@ -310,8 +302,6 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
   r.ok = all_finite(r.ray.direction) && r.ray.direction != Vec3::Zero() && inside(box, origin);
   return r;
 }
-
-const Vec3& eye_of(const Scene& scene) { return scene.camera.eye; }
 
 // Whether a ray starts inside a solid (box, sphere): its hit is an exit, and a new ray leaving to
 // that side is inside the solid, which it meets again by definition.
@@ -357,7 +347,7 @@ Bounds offsets_scene_box(const SceneIndex& index) {
   for (const Primitive& p : index.primitives())
     if (!std::holds_alternative<Plane>(p.shape)) box.grow(bounds_of(p.shape));
   const Scene& scene = index.scene();
-  if (scene.camera.width > 0) box.grow(eye_of(scene));
+  if (scene.camera.width > 0) box.grow(scene.camera.eye);
   for (const PointLight& l : scene.lights) box.grow(l.position);
   if (box.empty())
     throw std::runtime_error("the scene has no bounded primitive, camera or light: no domain for offsets");
@@ -372,7 +362,7 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
   report.box = offsets_scene_box(index);
   const Scene& scene = index.scene();
   std::vector<Vec3> listed;  // the scene's own origins first
-  if (scene.camera.width > 0) listed.push_back(eye_of(scene));
+  if (scene.camera.width > 0) listed.push_back(scene.camera.eye);
   for (const PointLight& l : scene.lights) listed.push_back(l.position);
   for (int c = 0; c < 8; ++c)
     listed.emplace_back(c & 1 ? report.box.hi.x() : report.box.lo.x(), c & 2 ? report.box.hi.y() : report.box.lo.y(),

@@ -190,6 +190,17 @@ TEST(Meshes, DegenerateTrianglesAreSkippedAndCountedWithAWarning) {
 }
 
 // Each bad file: the error names the file and (text formats) the line.
+// Loading `text` saved as `name` fails with a message holding `expected` (file and line included).
+void expect_load_error(const std::string& name, const std::string& text, const std::string& expected) {
+  const std::string path = write(name, text);
+  try {
+    load_mesh(path);
+    ADD_FAILURE() << name << ": no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << name << ": " << e.what();
+  }
+}
+
 struct BadMesh {
   const char* name;
   const char* text;
@@ -235,15 +246,7 @@ TEST(Meshes, BadFilesAreErrorsNamingFileAndLine) {
        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n",
        "range.ply:13: face 0: vertex index 9 out of range (3 vertices)"},
   };
-  for (const BadMesh& c : cases) {
-    const std::string path = write(c.name, c.text);
-    try {
-      load_mesh(path);
-      ADD_FAILURE() << c.name << ": no error";
-    } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << c.name << ": " << e.what();
-    }
-  }
+  for (const BadMesh& c : cases) expect_load_error(c.name, c.text, c.expected);
   try {
     load_mesh("/dev/zero");
     ADD_FAILURE() << "/dev/zero: no error";
@@ -296,15 +299,7 @@ TEST(Meshes, HostileFilesRoundFour) {
       {"noend.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n",
        "noend.stl:7: truncated ASCII STL: no endsolid"},
   };
-  for (const Bad& c : cases) {
-    const std::string path = write(c.name, c.text);
-    try {
-      load_mesh(path);
-      ADD_FAILURE() << c.name << ": no error";
-    } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << c.name << ": " << e.what();
-    }
-  }
+  for (const Bad& c : cases) expect_load_error(c.name, c.text, c.expected);
   // A binary file whose header starts with "solid" is still binary (its size decides), and two
   // triangles with a shared corner share a vertex.
   std::string solid_header = binary_stl(2, 2, 1);
