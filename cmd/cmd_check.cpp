@@ -4,8 +4,9 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
-#include <set>
 #include <memory>
+#include <set>
+#include <sstream>
 
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
@@ -47,16 +48,16 @@ json summary_json(const CheckSummary& summary) {
   return j;
 }
 
+// Nothing when the oracle answered no query (a run of mesh cases only).
 void print_oracle_stats(std::ostream& out, const Oracle& oracle) {
-  out << "oracle: ";
   bool first = true;
   for (ShapeKind k : kAllShapeKinds) {
     const OracleStats& s = oracle.stats(k);
     if (s.queries == 0) continue;
-    out << (first ? "" : "\n        ") << to_string(k) << ": " << s.describe();
+    out << (first ? "oracle: " : "\n        ") << to_string(k) << ": " << s.describe();
     first = false;
   }
-  out << "\n";
+  if (!first) out << "\n";
 }
 
 json oracle_stats_json(const Oracle& oracle) {
@@ -321,16 +322,28 @@ int run_check(const CheckOptions& opts) {
     file->commit();
   else
     std::cout.flush();
-  print_summary_table(run.summary, *table_format_from_string(opts.format), std::cerr);
-  for (const auto& [name, kinds] : run.tracer_kinds) {  // mesh cases: one line per tracer
-    std::cerr << "tracer " << name << ":";
-    for (const auto& [kind, n] : kinds) std::cerr << " " << kind << " " << n;
-    if (run.tracer_levels.contains(name))
-      for (const auto& [level, n] : run.tracer_levels.at(name)) std::cerr << " (" << level << "-level " << n << ")";
-    std::cerr << "\n";
+  if (opts.format == "json") {  // one JSON array and nothing else: the variants' rows, then the tracers'
+    std::ostringstream rows;
+    print_summary_table(run.summary, TableFormat::json, rows);
+    json all = json::parse(rows.str());
+    for (const auto& [name, kinds] : run.tracer_kinds) {
+      json row{{"tracer", name}, {"shape", "mesh"}, {"kinds", kinds}};
+      if (run.tracer_levels.contains(name)) row["levels"] = run.tracer_levels.at(name);
+      all.push_back(row);
+    }
+    std::cerr << json_text(all, 2) << "\n";
+  } else {
+    print_summary_table(run.summary, *table_format_from_string(opts.format), std::cerr);
+    for (const auto& [name, kinds] : run.tracer_kinds) {  // mesh cases: one line per tracer
+      std::cerr << "tracer " << name << ":";
+      for (const auto& [kind, n] : kinds) std::cerr << " " << kind << " " << n;
+      if (run.tracer_levels.contains(name))
+        for (const auto& [level, n] : run.tracer_levels.at(name)) std::cerr << " (" << level << "-level " << n << ")";
+      std::cerr << "\n";
+    }
+    print_digest(std::cerr, run.disagreements, run.variants);
+    print_oracle_stats(std::cerr, run.oracle);
   }
-  if (opts.format != "json") print_digest(std::cerr, run.disagreements, run.variants);
-  print_oracle_stats(std::cerr, run.oracle);
   for (const std::string& id : run.ids)
     if (!run.ids_seen.count(id))
       ++run.unreadable, std::cerr << "rayproof: --id " << printable(id) << ": no case has this id\n";
@@ -338,8 +351,9 @@ int run_check(const CheckOptions& opts) {
     if (v->external && !v->external->stop_reason().empty())
       std::cerr << "rayproof check: variant " << v->name << " stopped (" << v->external->stop_reason()
                 << "); its later cases say \"stopped\"\n";
-  std::cerr << "rayproof check: " << run.cases << " cases, " << run.unreadable << " unreadable, " << run.contradicted
-            << " expectations contradicted by the exact oracle\n";
+  if (opts.format != "json")  // JSON readers get the counts from --summary
+    std::cerr << "rayproof check: " << run.cases << " cases, " << run.unreadable << " unreadable, " << run.contradicted
+              << " expectations contradicted by the exact oracle\n";
   if (summary_file) {
     AtomicFile& s = *summary_file;
     s.stream() << json_text(json{{"cases", run.cases},

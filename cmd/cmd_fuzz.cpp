@@ -15,6 +15,7 @@
 #include "rayproof/core/json_fields.h"
 #include "rayproof/fuzz/campaign.h"
 #include "rayproof/fuzz/tracer_campaign.h"
+#include "rayproof/core/parallel.h"
 
 namespace rayproof::cli {
 
@@ -128,6 +129,13 @@ int run_tracer_fuzz(const FuzzOptions& opts) {
   o.crash_after_batches = opts.crash_after;
   std::unique_ptr<AtomicFile> summary;
   if (!opts.summary.empty()) summary = std::make_unique<AtomicFile>(opts.summary);
+  if (opts.format != "json") {  // what runs, defaults included, before any wait
+    std::string families, tracers;
+    for (fuzz::TracerFamily f : o.families) families += (families.empty() ? "" : ",") + std::string(to_string(f));
+    for (const Tracer* t : o.tracers) tracers += (tracers.empty() ? "" : ",") + t->name;
+    std::cerr << "rayproof fuzz: " << o.count << " rays per family and tracer (--count), seed " << o.seed << ", "
+              << threads_text(o.threads) << "\n  families " << families << "\n  tracers " << tracers << "\n";
+  }
   Progress progress("fuzz");
   std::optional<fuzz::TracerFamily> current;
   o.progress = [&](fuzz::TracerFamily family, std::uint64_t done, std::uint64_t total) {
@@ -145,7 +153,8 @@ int run_tracer_fuzz(const FuzzOptions& opts) {
   std::uint64_t rays = 0;
   for (const auto& [family, s] : report.seconds) seconds += s, rays += report.rays.at(family);
   std::cerr << "rayproof fuzz: " << rays << " rays per tracer in " << std::fixed << std::setprecision(1) << seconds
-            << " s (" << o.threads << " threads), " << report.findings_written << " findings in " << o.output << "\n"
+            << " s (" << threads_text(o.threads) << "), " << report.findings_written << " findings in " << o.output
+            << "\n"
             << std::defaultfloat;
   if (summary) {
     summary->stream() << json_text(report.to_json(), 2) << "\n";
@@ -168,6 +177,15 @@ int run_fuzz(const FuzzOptions& opts) {
   fuzz::CampaignOptions o = campaign_options(opts);
   std::unique_ptr<AtomicFile> summary;  // before the work: a path that cannot be written fails now
   if (!opts.summary.empty()) summary = std::make_unique<AtomicFile>(opts.summary);
+  if (opts.format != "json") {  // what runs, defaults included, before any wait
+    std::string families, shapes;
+    for (fuzz::Family f : o.families) families += (families.empty() ? "" : ",") + std::string(to_string(f));
+    for (ShapeKind k : o.shapes) shapes += (shapes.empty() ? "" : ",") + std::string(to_string(k));
+    std::cerr << "rayproof fuzz: " << o.count << " cases per family and shape (--count), seed " << o.seed << ", "
+              << threads_text(o.threads) << ", construction " << opts.construction << "\n  families " << families
+              << "; shapes " << shapes << "; variants "
+              << (o.variants.empty() ? "all but certified-*" : std::to_string(o.variants.size()) + " chosen") << "\n";
+  }
   Progress progress("fuzz");
   std::optional<std::pair<fuzz::Family, ShapeKind>> current;
   o.progress = [&](fuzz::Family family, ShapeKind shape, std::uint64_t done, std::uint64_t total) {
@@ -205,7 +223,8 @@ int run_fuzz(const FuzzOptions& opts) {
       return holes;
     });
   }
-  std::cerr << "rayproof fuzz: " << report.findings_written << " findings in " << o.output << "\n";
+  if (opts.format != "json")
+    std::cerr << "rayproof fuzz: " << report.findings_written << " findings in " << o.output << "\n";
   if (!opts.spawn_csv.empty()) {
     // Near-origin hits raise the question users ask most: which t_min / offset? Answer it.
     std::vector<int> scales;
@@ -243,7 +262,8 @@ void add_fuzz_command(CLI::App& app, int& exit_code) {
                   "exact (small integers, nudged), full (53-bit mantissas, features computed in double) or both "
                   "(default; tallied apart as FAMILY and FAMILY-full)")
       ->check(CLI::IsMember({"exact", "full", "both"}));
-  add_count_flag(cmd, opts->count, "cases per family and shape (before sharding)", std::uint64_t(1) << 50);
+  add_count_flag(cmd, opts->count, "cases per family and shape, or rays per tracer family, before sharding",
+                 std::uint64_t(1) << 50);
   add_seed_flag(cmd, opts->seed);
   cmd->add_option("--shard", opts->shard,
                   "this run's share: i/n (0-based), auto (Slurm job arrays) or auto/N (Kubernetes Indexed Jobs)");

@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdint>
+#include <chrono>
 #include <functional>
 #include <ostream>
 #include <string>
@@ -111,7 +112,8 @@ int thread_count(int flag);  // 0: every hardware thread
 // and, when built, peer libraries.
 std::vector<studies::Contender> trade_contenders();
 
-// A progress line on stderr, only when stderr is a terminal.
+// Progress on stderr: done/total, rate and time left. On a terminal one line rewritten in place;
+// otherwise (a log, CI) a line every 30 s, so no long run is silent (issue 41).
 class Progress {
  public:
   explicit Progress(std::string label);
@@ -120,8 +122,9 @@ class Progress {
 
  private:
   std::string label_;
-  bool enabled_;
-  long last_percent_ = -1;
+  bool terminal_;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now(), last_shown_ = start_;
+  bool shown_ = false;
 };
 
 }  // namespace rayproof::cli

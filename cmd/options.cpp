@@ -25,7 +25,9 @@ void add_shapes_flag(CLI::App* cmd, std::vector<std::string>& names) {
 }
 void add_families_flag(CLI::App* cmd, std::vector<std::string>& names) {
   cmd->add_option("--families,--family", names,
-                  "families, comma separated: random, tangent, grazing, near-origin, exit-entry, extremes, all");
+                  "families, comma separated (default: all): for variants random, tangent, grazing, near-origin, "
+                  "exit-entry, extremes; for tracers (with --tracer, --tracer-exec or --tracers) shared-edges, fans, "
+                  "axis-planes, needles, spawned, shells, far, random");
 }
 void add_rule_flag(CLI::App* cmd, std::string& rule) {
   cmd->add_option("--rule", rule, "hit rule: nearest (first contact) or enter-only")
@@ -82,7 +84,7 @@ void add_format_flag(CLI::App* cmd, std::string& format) {
       ->check(CLI::IsMember({"table", "markdown", "json"}));
 }
 void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what, std::uint64_t most) {
-  cmd->add_option("--count", count, what)->transform(whole_number(most));
+  cmd->add_option("--count", count, what + " (default " + std::to_string(count) + ")")->transform(whole_number(most));
 }
 
 void add_external_flags(CLI::App* cmd, ExternalFlags& flags) {
@@ -148,7 +150,8 @@ void add_tracer_flags(CLI::App* cmd, TracerFlags& flags) {
   cmd->add_option("--tracer-exec", flags.execs,
                   "NAME=COMMAND: a whole tracer over pipes (docs/spec/tracer.md); repeatable");
   cmd->add_option("--tracers", flags.names,
-                  "tracers to judge, comma list or `all` (default: all; see `rayproof variants`)");
+                  "tracers to judge, comma list or `all` (default: those --tracer and --tracer-exec loaded, else the "
+                  "built-in bvh-*; peers such as cgal-aabb only when named or `all`; see `rayproof variants`)");
   cmd->add_option("--tracer-precision", flags.precision,
                   "double, or float: --tracer-exec commands get float-rounded meshes and rays")
       ->check(CLI::IsMember({"double", "float"}));
@@ -280,7 +283,18 @@ std::vector<const Tracer*> parse_tracers(const std::vector<std::string>& names) 
     if (const Tracer* t = find_tracer(name)) return t;
     return std::nullopt;
   };
-  std::vector<const Tracer*> chosen = parse_named<const Tracer*>(names, every, "--tracers", "tracer", lookup, known);
+  // Unnamed, the tracers the user loaded (--tracer, --tracer-exec) are judged, else the built-in
+  // bvh-* ones; peers (Embree, CGAL) only when named or `all` (issue 41: one exec tracer also ran
+  // the peers, silently, for minutes).
+  auto loaded_by_user = [](const Tracer* t) { return t->origin != "built-in" && !t->origin.starts_with("peer"); };
+  std::vector<const Tracer*> defaults;
+  for (const Tracer* t : every)
+    if (loaded_by_user(t)) defaults.push_back(t);
+  if (defaults.empty())
+    for (const Tracer* t : every)
+      if (t->origin == "built-in") defaults.push_back(t);
+  std::vector<const Tracer*> chosen =
+      names.empty() ? defaults : parse_named<const Tracer*>(names, every, "--tracers", "tracer", lookup, known);
   for (const Tracer* t : every)  // --tracer-exec tracers are always judged (tracer.md)
     if (t->always_judged && std::find(chosen.begin(), chosen.end(), t) == chosen.end()) chosen.push_back(t);
   return chosen;
@@ -309,24 +323,34 @@ std::vector<studies::Contender> trade_contenders() {
   return all;
 }
 
-Progress::Progress(std::string label) : label_(std::move(label)), enabled_(isatty(2)) {}
+Progress::Progress(std::string label) : label_(std::move(label)), terminal_(isatty(2)) {}
 
 void Progress::update(long done, long total) {
-  if (!enabled_) return;
-  if (total <= 0) {  // unknown total (a case file read as it streams): a count every 10,000
-    if (done % 10000 == 0) std::fprintf(stderr, "\r%s: %ld done", label_.c_str(), done), last_percent_ = 0;
-    return;
+  const auto now = std::chrono::steady_clock::now();
+  const double since_shown = std::chrono::duration<double>(now - last_shown_).count();
+  if (since_shown < (terminal_ ? 0.25 : 30.0)) return;
+  last_shown_ = now;
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  const double rate = elapsed > 0 ? done / elapsed : 0;
+  char line[256];
+  if (total <= 0) {  // unknown total (a case file read as it streams)
+    std::snprintf(line, sizeof line, "%s: %ld done, %.0f/s", label_.c_str(), done, rate);
+  } else {
+    const double left = rate > 0 ? (total - done) / rate : 0;
+    std::snprintf(line, sizeof line, "%s: %ld/%ld (%ld%%), %.0f/s, %.0f s left", label_.c_str(), done, total,
+                  done * 100 / total, rate, left);
   }
-  const long percent = done * 100 / total;
-  if (percent == last_percent_) return;
-  last_percent_ = percent;
-  std::fprintf(stderr, "\r%s: %ld/%ld (%ld%%)\033[K", label_.c_str(), done, total,
-               percent);  // cleared to the line's end
+  if (terminal_)
+    std::fprintf(stderr, "\r%s\033[K", line);  // rewritten in place, cleared to the line's end
+  else
+    std::fprintf(stderr, "%s\n", line);
   std::fflush(stderr);
+  shown_ = true;
 }
 
 void Progress::finish() {
-  if (enabled_ && last_percent_ >= 0) std::fprintf(stderr, "\n");
+  if (terminal_ && shown_) std::fprintf(stderr, "\n");
+  shown_ = false;
 }
 
 void print_digest(std::ostream& out, const std::vector<Disagreement>& all, const std::vector<const Variant*>& selected,

@@ -758,8 +758,8 @@ void print_report(const CampaignReport& r, int threads, TableFormat format, std:
     const double shrink = shrinking != r.shrink_seconds.end() ? shrinking->second : 0;
     out << "throughput " << k.family << "/" << k.name << ": " << n << " cases checked in " << std::fixed
         << std::setprecision(2) << seconds << " s, " << std::setprecision(0)
-        << (seconds > 0 ? n / seconds / threads : 0) << " cases/s per core (" << threads
-        << " threads); findings shrunk and written in " << std::setprecision(2) << shrink << " s\n"
+        << (seconds > 0 ? n / seconds / threads : 0) << " cases/s per core (" << threads_text(threads)
+        << "); findings shrunk and written in " << std::setprecision(2) << shrink << " s\n"
         << std::defaultfloat;
   }
   if (r.findings_unshrunk > 0)

@@ -268,13 +268,15 @@ struct Builder {
   }
 
   // Secondary rays from a variant's own computed hit point (the built-in variants take turns by
-  // index), leaving the surface outward, and rays from points exactly on the surface. Only
-  // built-in code spawns: case i must be a pure function of (seed, family, shape, i), whatever
-  // plugins or exec commands are loaded (issue 25: an extra plugin changed this family's cases).
+  // index), leaving the surface outward, and rays from points exactly on the surface. Only the
+  // compile-time built-ins spawn, never the registry: case i must be a pure function of (seed,
+  // family, shape, i), whatever a program registers (issue 25: a plugin changed this family's
+  // cases; issue 41: so did the certified variants `main` registers).
   GeneratedCase near_origin(ShapeKind kind, std::uint64_t index) {
-    auto variants = variants_for(kind);
-    std::erase_if(variants, [](const Variant* v) { return v->kernel == nullptr || v->external != nullptr; });
-    const Variant& v = *variants[index % variants.size()];
+    std::vector<const Variant*> spawners;
+    for (const Variant& v : builtin_variants())
+      if (v.handles(kind)) spawners.push_back(&v);
+    const Variant& v = *spawners[index % spawners.size()];
     for (int attempt = 0; attempt < 64; ++attempt) {
       const int k = static_cast<int>(rng.integer(-40, 40));
       const GeneratedCase primary = at_scale(random(kind), k);

@@ -429,6 +429,7 @@ std::vector<Variant>& registry() {
 }
 
 std::span<const Variant> all_variants() { return registry(); }
+std::span<const Variant> builtin_variants() { return kVariants; }
 
 std::string_view to_string(Precision p) { return p == Precision::f32 ? "float" : "double"; }
 

@@ -146,8 +146,8 @@ class Auditor {
       : scene_(scene),
         index_(scene),
         options_(options),
-        threads_(std::clamp(options.threads > 0 ? options.threads : default_threads(), 1, 256)),
-        offsets_box_(offsets_scene_box(index_)) {}
+        offsets_box_(offsets_scene_box(index_)),
+        threads_(std::clamp(options.threads > 0 ? options.threads : default_threads(), 1, 256)) {}
 
   const Bounds& offsets_box() const { return offsets_box_; }
 

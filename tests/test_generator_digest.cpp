@@ -15,6 +15,7 @@
 #include "rayproof/fuzz/generators.h"
 #include "rayproof/fuzz/tracer_families.h"
 #include "rayproof/studies/stability.h"
+#include "rayproof/verify/certified.h"
 
 namespace rayproof::fuzz {
 namespace {
@@ -78,6 +79,34 @@ TEST(Generators, EveryFamilyBuildsTheSameCasesOnEveryCompiler) {
   };
   for (const auto& p : pinned)
     EXPECT_EQ(family_digest(p.family, p.construction), p.digest) << family_label(p.family, p.construction);
+}
+
+// The CLI registers the oracle's certified variants before any command (cmd/main.cpp) and users
+// register their own; neither may change a case (issue 41: near-origin spawned from the live
+// registry, so `rayproof fuzz` and the installed library wrote different cases under one id). The
+// registering runs in a child process, so the rest of this binary sees the built-ins alone.
+TEST(GeneratorsDeathTest, RegisteringVariantsChangesNoFamilysCases) {
+  std::vector<std::string> before;
+  for (Family f : kAllFamilies)
+    for (Construction c : {Construction::exact, Construction::full}) before.push_back(family_digest(f, c));
+  EXPECT_EXIT(
+      {
+        register_certified_variants();
+        for (ShapeKind shape : {ShapeKind::sphere, ShapeKind::plane, ShapeKind::triangle, ShapeKind::box}) {
+          const Variant& builtin = default_variant(shape);
+          Variant extra = builtin;
+          static std::string names[4];
+          names[static_cast<int>(shape)] = "registered-first-" + std::string(to_string(shape));
+          extra.name = names[static_cast<int>(shape)];
+          register_variant(extra);
+        }
+        std::size_t k = 0;
+        for (Family f : kAllFamilies)
+          for (Construction c : {Construction::exact, Construction::full})
+            if (family_digest(f, c) != before[k++]) std::exit(1);
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(0), "");
 }
 
 TEST(Generators, EveryTracerFamilyBuildsTheSameMeshesOnEveryCompiler) {

@@ -358,8 +358,9 @@ TEST(Plugins, TheWorkerTracesWithTheReachItIsGiven) {
     trace_scene_rays(*plugin, triangles, HitRule::nearest_contact, rays, there, nullptr, reach);
     for (size_t i = 0; i < rays.size(); ++i) {
       ASSERT_EQ(there[i].primitive, here[i].primitive) << "reach " << reach << ", pixel " << i;
-      if (here[i].primitive >= 0)
+      if (here[i].primitive >= 0) {
         EXPECT_EQ(there[i].answer.t, here[i].answer.t) << "reach " << reach << ", pixel " << i;
+      }
     }
     by_reach.push_back(here);
   }

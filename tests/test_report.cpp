@@ -39,7 +39,7 @@ std::string hints_of(const std::vector<Disagreement>& all) {
   std::vector<const Disagreement*> ptrs;
   for (const Disagreement& d : all) ptrs.push_back(&d);
   std::string out;
-  for (const std::string& h : diagnose(ptrs, Precision::f64)) out += h + "\n";
+  for (const Hint& h : diagnose(ptrs, Precision::f64)) out += h.text + "\n";
   return out;
 }
 

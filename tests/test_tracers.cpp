@@ -233,8 +233,8 @@ TEST(TracerCampaign, BuiltInAndPeerTracersOnEveryFamily) {
   EXPECT_EQ(s.at("tallies").at("fans-any\tbvh-watertight-top-left").at("hole"), 0);
   EXPECT_EQ(s.at("tallies").at("shared-edges-any\tbvh-watertight-top-left").at("double_hit"), 0);
   EXPECT_GT(s.at("tallies").at("fans-any\tbvh-moller-trumbore").at("double_hit"), 0);
-  // Every finding replays with the kind it was found with.
-  const auto check = run_cli("check " + dir + "/f.jsonl -o " + dir + "/c.jsonl");
+  // Every finding replays with the kind it was found with (peers judged when named: `all`).
+  const auto check = run_cli("check " + dir + "/f.jsonl --tracers all -o " + dir + "/c.jsonl");
   EXPECT_EQ(check.status, 0) << check.err;
   std::map<std::string, json> replayed;
   for (const json& j : read_lines(dir + "/c.jsonl")) replayed[j.at("id")] = j;
@@ -281,7 +281,16 @@ TEST(TracerCampaign, ExampleTracersBugsAreFoundShrunkAndReplayed) {
   for (const json& f : findings)
     EXPECT_EQ(replayed.at(f.at("id")).at("tracers").at(f.at("found").at("tracer").get<std::string>()).at("kind"),
               f.at("found").at("kind"))
-        << f.dump();
+        << f.dump();  // --format json: standard error is one JSON array, the tracers' rows in it (issue 41: it was
+  // `[]`, then the tracer lines as text).
+  const auto as_json =
+      run_cli("check " + dir + "/f.jsonl --tracer " + kExampleTracers + " --format json -o " + dir + "/c2.jsonl");
+  EXPECT_EQ(as_json.status, 0) << as_json.err;
+  const json rows = json::parse(as_json.err, nullptr, false);
+  ASSERT_TRUE(rows.is_array()) << as_json.err;
+  std::size_t tracer_rows = 0;
+  for (const json& r : rows) tracer_rows += r.contains("tracer") && r.at("kinds").is_object();
+  EXPECT_GE(tracer_rows, 5u) << as_json.err;
 }
 
 // Issue 42, item 11: a resume with another build of the library under the same path and tracer

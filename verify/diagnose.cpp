@@ -167,7 +167,7 @@ struct Explained {
   }
 };
 Explained near_contacts_dropped(const std::vector<const Disagreement*>& ds, Precision precision,
-                                std::vector<std::string>& hints) {
+                                std::vector<Hint>& hints) {
   std::vector<double> ts, distances, relative;
   for (const Disagreement* d : ds)
     if (contact_missed(*d, precision)) {
@@ -189,11 +189,12 @@ Explained near_contacts_dropped(const std::vector<const Disagreement*>& ds, Prec
   const std::string edge =
       number(e.threshold) + ", only " + std::to_string(e.just_above) + " between that and 10x more";
   if (best == 2) {
-    hints.push_back(counts + " have their contact within " + number(e.threshold) +
-                    " x the shape's size of the origin (only " + std::to_string(e.just_above) +
-                    " between that and 10x more): the " + (p == 24 ? "float" : "double") +
-                    " rounding of the origin (2^-" + std::to_string(p) +
-                    " relative) decides them: rays spawned from a surface need an offset (see rayproof spawn)?");
+    hints.push_back({"the origin's rounding: a spawn offset is needed",
+                     counts + " have their contact within " + number(e.threshold) +
+                         " x the shape's size of the origin (only " + std::to_string(e.just_above) +
+                         " between that and 10x more): the " + (p == 24 ? "float" : "double") +
+                         " rounding of the origin (2^-" + std::to_string(p) +
+                         " relative) decides them: rays spawned from a surface need an offset (see rayproof spawn)?"});
     return {0, e.threshold};
   }
   std::string hint = counts + " have exact " + (best == 1 ? "distance t*|d|" : "t") + " <= " + edge + ": a minimum " +
@@ -207,14 +208,14 @@ Explained near_contacts_dropped(const std::vector<const Disagreement*>& ds, Prec
       hint += " Their distances t*|d| run from " + number(lo) + " to " + number(hi) +
               ": a t_min on t is not scaled with the direction's length.";
   }
-  hints.push_back(hint);
+  hints.push_back({"a minimum t or distance drops near contacts", hint});
   return {best == 0 ? e.threshold : 0, 0};
 }
 
 // H2 (triangles): contacts dropped where the determinant e1·(d×e2) is small — an absolute
 // "parallel" epsilon, not scaled with the triangle's size and the direction's length.
 void small_determinants_dropped(const std::vector<const Disagreement*>& ds, Precision precision,
-                                std::vector<std::string>& hints) {
+                                std::vector<Hint>& hints) {
   std::vector<double> dets;
   std::size_t missed = 0;
   for (const Disagreement* d : ds) {
@@ -227,18 +228,19 @@ void small_determinants_dropped(const std::vector<const Disagreement*>& ds, Prec
   }
   const auto edge = sharp_upper_edge(dets, 1e-13, 1e-2);
   if (!edge) return;
-  hints.push_back(std::to_string(edge->below) + " of " + std::to_string(missed) +
-                  " enter->miss/exit->miss findings have |e1.(d x e2)| <= " + number(edge->threshold) + ", only " +
-                  std::to_string(edge->just_above) +
-                  " between that and 10x more: an absolute epsilon on the determinant (the \"parallel\" test) drops "
-                  "small triangles and short directions?");
+  hints.push_back(
+      {"an absolute epsilon on the determinant",
+       std::to_string(edge->below) + " of " + std::to_string(missed) +
+           " enter->miss/exit->miss findings have |e1.(d x e2)| <= " + number(edge->threshold) + ", only " +
+           std::to_string(edge->just_above) +
+           " between that and 10x more: an absolute epsilon on the determinant (the \"parallel\" test) drops "
+           "small triangles and short directions?"});
 }
 
 // H3: float code on numbers whose rounding to float moves them by 1/16 of the shape or more:
 // the case itself changes before any arithmetic (the float-rounded case's own verdict is what
 // `check` shows as the variant's `exact`).
-void inputs_rounded_away(const std::vector<const Disagreement*>& ds, Precision precision,
-                         std::vector<std::string>& hints) {
+void inputs_rounded_away(const std::vector<const Disagreement*>& ds, Precision precision, std::vector<Hint>& hints) {
   if (precision != Precision::f32) return;
   std::map<std::string, std::pair<std::size_t, std::size_t>> by_kind;  // kind → (rounded away, all)
   for (const Disagreement* d : ds) {
@@ -251,16 +253,16 @@ void inputs_rounded_away(const std::vector<const Disagreement*>& ds, Precision p
   for (const auto& [kind, n] : by_kind)
     if (n.first >= 10 && 4 * n.first >= 3 * n.second)
       hints.push_back(
-          std::to_string(n.first) + " of " + std::to_string(n.second) + " " + kind +
-          " findings have coordinates whose rounding to float (2^-24 of their magnitude) is 1/16 of the shape "
-          "or more: the case changes before any arithmetic; translate the scene near the origin, or compute in "
-          "double?");
+          {"float rounding of the inputs moves the shape",
+           std::to_string(n.first) + " of " + std::to_string(n.second) + " " + kind +
+               " findings have coordinates whose rounding to float (2^-24 of their magnitude) is 1/16 of the shape "
+               "or more: the case changes before any arithmetic; translate the scene near the origin, or compute in "
+               "double?"});
 }
 
 // H4: overflow or underflow: most findings of one kind have numbers beyond a magnitude where
 // squares and products of three or four of them leave the format.
-void magnitudes_beyond(const std::vector<const Disagreement*>& ds, Precision precision,
-                       std::vector<std::string>& hints) {
+void magnitudes_beyond(const std::vector<const Disagreement*>& ds, Precision precision, std::vector<Hint>& hints) {
   std::map<std::string, std::vector<std::pair<double, double>>> by_kind;
   for (const Disagreement* d : ds) by_kind[d->kind()].push_back(magnitudes(d->c));
   const bool f32 = precision == Precision::f32;
@@ -277,18 +279,21 @@ void magnitudes_beyond(const std::vector<const Disagreement*>& ds, Precision pre
       if (lo < INFINITY && std::ilogb(lo) <= small) ++little, little_hi = std::max(little_hi, lo);
     }
     if (4 * large >= 3 * ms.size() && large >= 2)
-      hints.push_back(std::to_string(large) + " of " + std::to_string(ms.size()) + " " + kind +
-                      " findings have numbers of magnitude 2^" + std::to_string(std::ilogb(large_lo)) +
-                      " or more: their squares and products overflow " + type + "; scale the ray and shape first?");
+      hints.push_back({std::string("overflow of ") + type, std::to_string(large) + " of " + std::to_string(ms.size()) +
+                                                               " " + kind + " findings have numbers of magnitude 2^" +
+                                                               std::to_string(std::ilogb(large_lo)) +
+                                                               " or more: their squares and products overflow " + type +
+                                                               "; scale the ray and shape first?"});
     else if (4 * little >= 3 * ms.size() && little >= 2)
-      hints.push_back(std::to_string(little) + " of " + std::to_string(ms.size()) + " " + kind +
-                      " findings have numbers as small as 2^" + std::to_string(std::ilogb(little_hi)) +
-                      ": their squares and products underflow " + tiny + " (a d.d of 0, a division by it)?");
+      hints.push_back({std::string("underflow of ") + tiny,
+                       std::to_string(little) + " of " + std::to_string(ms.size()) + " " + kind +
+                           " findings have numbers as small as 2^" + std::to_string(std::ilogb(little_hi)) +
+                           ": their squares and products underflow " + tiny + " (a d.d of 0, a division by it)?"});
   }
 }
 
 // H5: contacts answered at t = 0 (or below) where the exact answer is miss: t >= 0 where t > 0 is meant.
-void contacts_at_zero(const std::vector<const Disagreement*>& ds, std::vector<std::string>& hints) {
+void contacts_at_zero(const std::vector<const Disagreement*>& ds, std::vector<Hint>& hints) {
   std::size_t zero = 0, total = 0;
   for (const Disagreement* d : ds)
     if (d->failure.empty() && d->exact == HitClass::miss && d->answered != HitClass::miss) {
@@ -296,16 +301,17 @@ void contacts_at_zero(const std::vector<const Disagreement*>& ds, std::vector<st
       if (d->answered_t && *d->answered_t <= 0) ++zero;
     }
   if (zero >= 2 && 2 * zero >= total)
-    hints.push_back(std::to_string(zero) + " of " + std::to_string(total) +
-                    " contacts answered where the exact answer is miss are at t <= 0: the ray's origin is counted "
-                    "(t >= 0 where t > 0 is meant)?");
+    hints.push_back({"the origin counted (t >= 0)",
+                     std::to_string(zero) + " of " + std::to_string(total) +
+                         " contacts answered where the exact answer is miss are at t <= 0: the ray's origin is counted "
+                         "(t >= 0 where t > 0 is meant)?"});
 }
 
 // H6 (spheres): exits missed from inside with the centre always behind the origin (none ahead):
 // an early "centre behind the ray: miss" test (tca < 0) made before asking whether the origin is
 // inside. Exits already explained (a t_min, the origin's rounding) are left out.
 void exits_missed_centre_behind(const std::vector<const Disagreement*>& ds, Precision precision,
-                                const Explained& explained, std::vector<std::string>& hints) {
+                                const Explained& explained, std::vector<Hint>& hints) {
   std::size_t behind = 0, ahead = 0;
   for (const Disagreement* d : ds) {
     if (!contact_missed(*d, precision) || d->exact != HitClass::exit || explained.covers(*d)) continue;
@@ -315,26 +321,28 @@ void exits_missed_centre_behind(const std::vector<const Disagreement*>& ds, Prec
   }
   if (behind >= 10 && ahead == 0)
     hints.push_back(
-        "all " + std::to_string(behind) +
-        " exit->miss findings start inside the sphere with its centre behind the origin (none with it ahead): "
-        "an early \"centre behind the ray: miss\" test (tca < 0) rejects rays that leave the sphere?");
+        {"an early centre-behind test",
+         "all " + std::to_string(behind) +
+             " exit->miss findings start inside the sphere with its centre behind the origin (none with it ahead): "
+             "an early \"centre behind the ray: miss\" test (tca < 0) rejects rays that leave the sphere?"});
 }
 
 // H7 (triangles): holes where the ray crosses an edge the case's fan shares (the campaign counts
 // them): not watertight.
-void shared_edge_holes_found(std::uint64_t holes, std::vector<std::string>& hints) {
+void shared_edge_holes_found(std::uint64_t holes, std::vector<Hint>& hints) {
   if (holes > 0)
     hints.push_back(
-        std::to_string(holes) +
-        " holes where the ray crosses an edge shared with another triangle of the case's fan: not watertight "
-        "(both triangles can miss their shared edge); see the watertight variants");
+        {"not watertight",
+         std::to_string(holes) +
+             " holes where the ray crosses an edge shared with another triangle of the case's fan: not watertight "
+             "(both triangles can miss their shared edge); see the watertight variants"});
 }
 
 }  // namespace
 
-std::vector<std::string> diagnose(const std::vector<const Disagreement*>& of_variant, Precision precision,
-                                  std::uint64_t shared_edge_holes) {
-  std::vector<std::string> hints;
+std::vector<Hint> diagnose(const std::vector<const Disagreement*>& of_variant, Precision precision,
+                           std::uint64_t shared_edge_holes) {
+  std::vector<Hint> hints;
   const Explained explained = near_contacts_dropped(of_variant, precision, hints);
   small_determinants_dropped(of_variant, precision, hints);
   exits_missed_centre_behind(of_variant, precision, explained, hints);
@@ -405,15 +413,33 @@ void print_examples_and_hints(std::ostream& out, const std::vector<Disagreement>
   std::map<std::string, std::vector<const Disagreement*>> by_variant;
   for (const Disagreement& d : all)
     if (shown(d.variant)) by_variant[d.variant].push_back(&d);
-  bool header = false;
+  // One line per cause (issue 41: one overflow sentence was printed 27 times, once per variant and
+  // kind): the variants it applies to, then the first one's numbers.
+  struct Cause {
+    std::vector<std::string> variants;
+    std::string example;  // "VARIANT: the hint's sentence"
+  };
+  std::vector<std::pair<std::string, Cause>> causes;  // in order of first appearance
   for (const auto& [name, ds] : by_variant) {
     const Variant* v = find_variant(name);
-    const std::vector<std::string> hints =
-        diagnose(ds, v ? v->precision : Precision::f64, shared_edge_holes ? shared_edge_holes(name) : 0);
-    for (const std::string& h : hints) {
-      if (!header) out << "diagnosis (from the findings; each with the numbers behind it):\n", header = true;
-      out << "  " << name << ": " << h << "\n";
+    for (const Hint& h :
+         diagnose(ds, v ? v->precision : Precision::f64, shared_edge_holes ? shared_edge_holes(name) : 0)) {
+      auto at = std::find_if(causes.begin(), causes.end(), [&](const auto& c) { return c.first == h.cause; });
+      if (at == causes.end()) at = causes.insert(causes.end(), {h.cause, Cause{{}, name + ": " + h.text}});
+      if (std::find(at->second.variants.begin(), at->second.variants.end(), name) == at->second.variants.end())
+        at->second.variants.push_back(name);
     }
+  }
+  if (causes.empty()) return;
+  out << "diagnosis (from the findings; one line per cause, the variants it applies to, the numbers behind it):\n";
+  for (const auto& [cause, c] : causes) {
+    if (c.variants.size() == 1) {
+      out << "  " << c.example << "\n";
+      continue;
+    }
+    std::string names;
+    for (const std::string& n : c.variants) names += (names.empty() ? "" : ", ") + n;
+    out << "  " << cause << " (" << c.variants.size() << " variants: " << names << "), e.g. " << c.example << "\n";
   }
 }
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <exception>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -10,6 +11,10 @@ namespace rayproof {
 
 // Every hardware thread (at least one): the default of every command's --threads.
 inline int default_threads() { return static_cast<int>(std::max(1u, std::thread::hardware_concurrency())); }
+// "1 thread", "2 threads": how every report says it.
+inline std::string threads_text(int threads) {
+  return std::to_string(threads) + (threads == 1 ? " thread" : " threads");
+}
 
 // Runs work(w) for w = 0 … threads − 1 in parallel and returns when all have finished. Work is
 // split by the callee (a stride over w, or a shared counter), so results never depend on timing.

@@ -125,6 +125,9 @@ std::string shapes_answered(const Variant& v);
 
 // Every variant: the built-ins above, then those registered at run time.
 std::span<const Variant> all_variants();
+// The built-in variants alone, fixed at compile time: what registration cannot change (the
+// near-origin family spawns from these, so its cases do not depend on what a program registers).
+std::span<const Variant> builtin_variants();
 // Adds a variant from a higher layer (the oracle's certified front ends, plugins) before any
 // command starts; `name`, `source` must outlive the process. Throws on a duplicate name.
 const Variant& register_variant(const Variant& v);

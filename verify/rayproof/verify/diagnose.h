@@ -47,10 +47,16 @@ struct KindExample {
 // Per variant and kind: how many, and the first in the order given; most frequent first.
 std::vector<KindExample> examples_by_kind(const std::vector<Disagreement>& all);
 
+// One hint: its cause (a short name shared by every variant it applies to, so a report can print
+// one line per cause) and the sentence with the numbers behind it.
+struct Hint {
+  std::string cause, text;
+};
+
 // Hints about one variant, from its disagreements (in any order); `precision` sets which
 // magnitudes overflow; `shared_edge_holes` from its tally (0 when unknown).
-std::vector<std::string> diagnose(const std::vector<const Disagreement*>& of_variant, Precision precision,
-                                  std::uint64_t shared_edge_holes = 0);
+std::vector<Hint> diagnose(const std::vector<const Disagreement*>& of_variant, Precision precision,
+                           std::uint64_t shared_edge_holes = 0);
 
 // The block printed after the table: at most `max_examples` examples (each a line describing the
 // case and a line `replay(example)`), then the hints of each variant shown. `variants`: only
