@@ -134,13 +134,23 @@ void add_audit_command(CLI::App& app, int& exit_code) {
         std::fprintf(stderr, "spawn offset: %s needs %.3g ulps for this scene, proved (rayproof offsets)%s\n",
                      va.label.c_str(), *va.proved_offset_ulps,
                      opts->offset == "proved" ? "; its shadow rays started there" : "; --offset proved spawns there");
+    // With --headroom, each name carries its k: the cheapest exact code may be a float one that
+    // stops being exact far sooner than the double ones beside it (issue 41).
+    auto named = [&](const studies::VariantAudit& va) {
+      if (!audit.headroom) return va.label;
+      return va.label + " (k " +
+             (va.exact_up_to_log2_translate ? std::to_string(*va.exact_up_to_log2_translate) : std::string("none")) +
+             ")";
+    };
     for (const auto& r : audit.recommendation) {
       std::cerr << "recommendation: " << to_string(r.shape) << ": "
-                << (r.best ? r.best->name
+                << (r.best ? named(*r.best)
                            : std::string(r.audited ? "none exact for this scene" : "no variant of this shape audited"));
-      for (size_t i = 0; i < r.close.size(); ++i) std::cerr << (i == 0 ? " (within 10%: " : ", ") << r.close[i]->label;
-      std::cerr << (r.close.empty() ? "\n" : ")\n");
+      for (size_t i = 0; i < r.close.size(); ++i) std::cerr << (i == 0 ? "; within 10%: " : ", ") << named(*r.close[i]);
+      std::cerr << "\n";
     }
+    if (audit.headroom && !audit.recommendation.empty())
+      std::cerr << "  (k: exact up to a translation of 2^k; the cheapest exact code first, whatever its k)\n";
     for (const std::string& v : studies::users_code_verdicts(audit)) std::cerr << "your code: " << printable(v) << "\n";
     const std::vector<std::string> stems = studies::audit_file_stems(audit);
     for (std::size_t i = 0; i < audit.variants.size(); ++i) {
