@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """What rayproof finds in the code people copy: each example of examples/ fuzzed on every family,
-its disagreement rates and one shrunk failing case, as the markdown README shows.
+its disagreement rates and one shrunk failing case, as docs/results/copied-code.md shows.
 
 Usage: scripts/copied-code.py [BUILD_DIR] [COUNT]   (default build, 20000 cases per family)
 Each row is reproducible with the command printed beside it. One thread: where the crash budget
@@ -25,17 +25,19 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FAMILIES = ["random", "tangent", "grazing", "near-origin", "exit-entry", "extremes"]
 
 
-def markdown(build, count):
-    """README's block: the table, a blank line, one bullet per example (scripts/readme-numbers.py
-    --full compares README's with it line by line)."""
+def markdown(build, count, shown="build"):
+    """docs/results/copied-code.md's block: the table, a blank line, one bullet per example
+    (scripts/readme-numbers.py --full compares the page's with it line by line). The commands
+    run in BUILD and are printed with `shown` in its place (the docs say `build/`, whatever
+    folder this build is in)."""
     rows, cases = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for name, shape, load in EXAMPLES:
-            load = load.format(b=build)
             out = os.path.join(tmp, name + ".jsonl")
-            command = (f"{build}/rayproof fuzz {load} --variants {name} --shapes {shape} --count {count} "
-                       f"--seed 1 --threads 1 -o {name}.jsonl --summary {name}.json")
-            run = command.replace(f"-o {name}.jsonl", f"-o {out}").replace(f"--summary {name}.json", f"--summary {out}.json")
+            command = (f"{shown}/rayproof fuzz {load.format(b=shown)} --variants {name} --shapes {shape} "
+                       f"--count {count} --seed 1 --threads 1 -o {name}.jsonl --summary {name}.json")
+            run = (f"{build}/rayproof fuzz {load.format(b=build)} --variants {name} --shapes {shape} "
+                   f"--count {count} --seed 1 --threads 1 -o {out} --summary {out}.json")
             # From the repository's root, where README's reproduce lines are run (examples/exec/...).
             subprocess.run(run, shell=True, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                            cwd=ROOT)

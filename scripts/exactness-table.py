@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""README's "What exactness costs" table, built from one `make bench` run (build/bench.json).
+"""docs/results/oracle-costs.md's table, built from one `make bench` run (build/bench.json).
 
 Per shape and family: the fastest scalar double variant (the certified ones aside), the oracle's
 class alone, class + correctly rounded t (filtered), the same forced through rationals, and the

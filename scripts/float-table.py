@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""README's "float or double?" table from a campaign summary (rayproof fuzz --summary FILE).
+"""docs/results/float-or-double.md's table from a campaign summary (rayproof fuzz --summary FILE).
 
 Per shape and family, each formula's disagreement rate in double beside its float twin's
 (NAME-f32, judged on the case rounded to float), and the cases float could not hold.

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""README's fuzzing tables from a campaign summary (rayproof fuzz --summary FILE).
+"""docs/results/fuzz.md's tables from a campaign summary (rayproof fuzz --summary FILE).
 
 Percent of cases wrong / cannot tell per variant and family (in parentheses: the percent of cases
 whose disagreement is bug-level, verdicts.md; holes on grazing triangles), then

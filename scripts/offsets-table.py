@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""README's "Which offset does my scene need?" table: `rayproof offsets` on the bundled bunny
+"""docs/results/offsets.md's table: `rayproof offsets` on the bundled bunny
 scene scaled by 2^k, k = -30 ... 30 in steps of 10, for Möller–Trumbore in double and float.
 Prints the Markdown rows (k values with identical rows merged) and the bracket distribution.
 Usage: scripts/offsets-table.py BUILD_DIR [--count N]   (about a minute on 2 cores)

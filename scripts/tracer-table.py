@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""README's tracer tables from a tracer campaign summary (rayproof fuzz --tracer... --summary FILE).
+"""docs/results/tracers.md's tables from a tracer campaign summary (rayproof fuzz --tracer... --summary FILE).
 
 Per family and tracer, nearest mode then any-hit mode, the bug-level disagreements as
 "hole/false/not-nearest" and "hole/false/double/missed" per 100,000 rays judged, the

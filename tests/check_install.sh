@@ -8,6 +8,10 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cmake --install "$build" --prefix "$work/prefix" > "$work/install.log"
 test -f "$work/prefix/include/rayproof/plugin.h"
+# The installed headers are exactly the ones README lists as the public API (issue 41).
+(cd "$work/prefix" && find include -name '*.h' | sort) > "$work/installed-headers"
+grep -oE '^include/rayproof/[a-z_/]+\.h' "$source/README.md" | sort > "$work/readme-headers"
+diff "$work/readme-headers" "$work/installed-headers" || { echo "README's public headers differ from those installed"; exit 1; }
 test -x "$work/prefix/bin/rayproof"
 # The bundled cases, scenes and examples come along, and the installed rayproof reads them.
 test -f "$work/prefix/share/rayproof/cases/sphere.jsonl"
