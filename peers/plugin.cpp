@@ -41,6 +41,7 @@
 #include "rayproof/peers/library_table.h"
 #include "rayproof/peers/process_pool.h"
 #include "rayproof/peers/loaded_code.h"
+#include "rayproof/peers/worker_channel.h"
 #include "rayproof/plugin.h"
 
 namespace rayproof::peers {
@@ -49,8 +50,7 @@ namespace {
 
 // ---------------------------------------------------------------- the shared-memory protocol
 constexpr std::size_t kBatchCapacity = 4096;
-constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;  // the worker's fixed descriptors
-constexpr const char* kWorkerEnv = "RAYPROOF_PLUGIN_WORKER";         // "table:PATH" or "serve:PATH"
+constexpr const char* kWorkerEnv = "RAYPROOF_PLUGIN_WORKER";  // "table:PATH" or "serve:PATH"
 
 struct WireQuery {
   double numbers[6 + kMaxShapeNumbers];  // ray, then the shape's numbers (cases.md order)
@@ -68,8 +68,7 @@ struct WireAnswer {
 // (core/scene_rays.h).
 enum class BatchMode : std::uint32_t { cases, scene_shapes, trace };
 struct SharedBatch {
-  std::atomic<std::uint32_t> progress;  // the index of the case (ray) the worker is on
-  std::atomic<std::uint32_t> forked;    // set by the worker when the plugin forked (library_table.h)
+  ChannelHeader channel;  // progress: the index of the case (ray) the worker is on
   BatchMode mode;
   std::uint32_t scene_kind, scene_offset, scene_total;
   std::uint32_t variant, count;
@@ -113,21 +112,11 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
   std::string error;
   const rayproof_variant* table = load_library_table<rayproof_variant>(
       start.path, "rayproof_plugin", RAYPROOF_PLUGIN_ABI, "rayproof/plugin.h", "variants", count, error);
-  if (is_forked_copy()) ::_exit(0);  // a copy forked at load time says nothing
-  if (start.table_only) {
-    json rows = json::array();
-    for (int i = 0; table && i < count; ++i)
-      rows.push_back({{"name", describe_string(table[i].name)},
-                      {"shape", describe_string(table[i].shape)},
-                      {"rule", describe_string(table[i].rule)},
-                      {"source", describe_string(table[i].source)},
-                      {"f64", table[i].f64 != nullptr},
-                      {"f32", table[i].f32 != nullptr}});
-    report_table_and_exit(start.report_fd, error, "variants", rows);
-  }
-  auto* shared =
-      static_cast<SharedBatch*>(::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0));
-  if (!table || shared == MAP_FAILED) ::_exit(3);
+  report_table_or_go_on(start, table, count, error, "variants", [](const rayproof_variant& v) {
+    return json{{"name", describe_string(v.name)}, {"shape", describe_string(v.shape)},
+                {"rule", describe_string(v.rule)}, {"source", describe_string(v.source)},
+                {"f64", v.f64 != nullptr},         {"f32", v.f32 != nullptr}};
+  });
   double unwritten64;
   float unwritten32;
   std::memcpy(&unwritten64, &kUnwrittenF64, sizeof unwritten64);
@@ -135,8 +124,8 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
   std::vector<std::int32_t> scene_ids;  // the scene being sent, then its index
   std::vector<Shape> scene_shapes;
   KindIndex scene;
-  char byte;
-  while (::read(kRequestFd, &byte, 1) == 1) {
+  serve_requests([&](char* file) {
+    auto* shared = reinterpret_cast<SharedBatch*>(file);
     const rayproof_variant& v = table[shared->variant];
     const int n = shape_number_count(*shape_kind_from_string(v.shape));
     auto call = [&](const double* numbers) {
@@ -163,7 +152,7 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
       with_best_box_lanes([&](auto lanes) {
         for (std::uint32_t pass = 0; pass < repeats; ++pass) {
           for (std::uint32_t i = 0; i < shared->count; ++i) {
-            shared->progress.store(i, std::memory_order_relaxed);
+            shared->channel.progress.store(i, std::memory_order_relaxed);
             const double* x = shared->queries[i].numbers;
             if (shared->mode == BatchMode::cases) {
               shared->answers[i] = call(x);
@@ -187,105 +176,25 @@ WireAnswer call_checked(Fn fn, const double* numbers, int shape_numbers, Real un
       });
       shared->inner_seconds = watch.seconds() / repeats;
     }
-    if (library_forked()) shared->forked.store(1);  // told before the answer, so this batch is never judged
-    if (::write(kResponseFd, &byte, 1) != 1) break;
-  }
-  ::_exit(0);
+  });
 }
 
-// Becomes a worker before main when asked to (peers/external.h says why this is a static initializer).
-[[maybe_unused]] const bool kIsWorker = [] {
-  if (const char* setting = std::getenv(kWorkerEnv)) run_worker(setting);
-  return false;
-}();
+[[maybe_unused]] const bool kIsWorker = become_worker_if_asked(kWorkerEnv, run_worker);
 
 // ---------------------------------------------------------------- the rayproof side
-// One worker process and its shared batch.
+// One worker process and its shared batch (the channel's file is one SharedBatch).
 class WorkerProcess {
  public:
-  explicit WorkerProcess(const std::string& plugin_path) {
-    int request[2], response[2];
-    if (::pipe2(request, O_CLOEXEC) != 0 || ::pipe2(response, O_CLOEXEC) != 0)
-      throw std::runtime_error("cannot create pipes for a plugin worker: " + std::string(std::strerror(errno)));
-    const int shared_fd = ::memfd_create("rayproof-batch", MFD_CLOEXEC);
-    if (shared_fd < 0 || ::ftruncate(shared_fd, sizeof(SharedBatch)) != 0)
-      throw std::runtime_error("cannot create shared memory for a plugin worker");
-    shared_ = static_cast<SharedBatch*>(
-        ::mmap(nullptr, sizeof(SharedBatch), PROT_READ | PROT_WRITE, MAP_SHARED, shared_fd, 0));
-    if (shared_ == MAP_FAILED) throw std::runtime_error("cannot map shared memory for a plugin worker");
-    try {
-      pid_ = spawn_worker(kWorkerEnv, "serve:" + plugin_path, "rayproof-plugin-worker",
-                          {{request[0], kRequestFd}, {response[1], kResponseFd}, {shared_fd, kSharedFd}},
-                          "a plugin worker");
-    } catch (...) {
-      for (int fd : {request[0], request[1], response[0], response[1], shared_fd}) ::close(fd);
-      throw;
-    }
-    ::close(request[0]), ::close(response[1]), ::close(shared_fd);
-    request_ = request[1], response_ = response[0];
-  }
-  ~WorkerProcess() {
-    ::close(request_), ::close(response_);           // the worker reads EOF and exits
-    if (pid_ > 0 && !reaped_) end_child(pid_, 1.0);  // bounded; whatever the plugin left running goes too
-    ::munmap(shared_, sizeof(SharedBatch));
-  }
-  WorkerProcess(const WorkerProcess&) = delete;
-
-  SharedBatch& batch() { return *shared_; }
-  bool forked() const { return forked_; }  // the last run() stopped because the plugin forked
+  explicit WorkerProcess(const std::string& plugin_path)
+      : channel_(kWorkerEnv, plugin_path, "rayproof-plugin-worker", "plugin", sizeof(SharedBatch)) {}
+  SharedBatch& batch() { return *reinterpret_cast<SharedBatch*>(channel_.shared()); }
+  // Runs the batch in shared memory (worker_channel.h says how a stop is blamed).
+  WorkerChannel::Outcome run(double case_timeout) { return channel_.run(case_timeout); }
   // The KindIndex::serial() of the scene this worker holds (0: none).
   std::uint64_t scene_serial = 0;
 
-  // Runs the batch in shared memory. Returns "" when answered, else why it stopped, with
-  // `stopped_at` the case and `timed_out` whether it hung (the worker is then dead).
-  std::string run(double case_timeout, std::uint32_t& stopped_at, bool& timed_out) {
-    shared_->progress.store(0, std::memory_order_relaxed);
-    const char byte = 1;
-    timed_out = false;
-    if (::write(request_, &byte, 1) != 1) return finish(stopped_at);
-    std::uint32_t last = 0;
-    auto last_change = std::chrono::steady_clock::now();
-    const int slice_ms = static_cast<int>(std::clamp(case_timeout * 250, 1.0, 100.0));
-    for (;;) {
-      pollfd p{response_, POLLIN, 0};
-      const int ready = ::poll(&p, 1, slice_ms);
-      if (ready > 0) {
-        char got;
-        if (::read(response_, &got, 1) != 1) return finish(stopped_at);
-        if (shared_->forked.load() != 0) {
-          stopped_at = 0;
-          ::kill(-pid_, SIGKILL);
-          finish(stopped_at);
-          stopped_at = 0;  // no answer of this batch is judged: another process wrote beside the worker
-          forked_ = true;
-          return "the plugin forked: a copy of the worker returned from a plugin call (plugins must not fork)";
-        }
-        return "";
-      }
-      const std::uint32_t now_at = shared_->progress.load(std::memory_order_relaxed);
-      const auto now = std::chrono::steady_clock::now();
-      if (now_at != last)
-        last = now_at, last_change = now;
-      else if (std::chrono::duration<double>(now - last_change).count() > case_timeout) {
-        ::kill(-pid_, SIGKILL);
-        finish(stopped_at);
-        timed_out = true;
-        return "no answer within " + std::to_string(case_timeout) + " s (--case-timeout)";
-      }
-    }
-  }
-
  private:
-  // The worker's end, bounded: one that closed its pipe but runs on is killed (its group too).
-  std::string finish(std::uint32_t& stopped_at) {
-    reaped_ = true;
-    stopped_at = shared_->progress.load(std::memory_order_relaxed);
-    return end_worker(pid_);
-  }
-  pid_t pid_ = -1;
-  int request_ = -1, response_ = -1;
-  bool reaped_ = false, forked_ = false;
-  SharedBatch* shared_ = nullptr;
+  WorkerChannel channel_;
 };
 
 // One loaded plugin: its workers, shared by its variants (one per thread at a time).
@@ -327,10 +236,8 @@ class PluginVariant final : public ExternalIntersector {
     b.mode = BatchMode::cases, b.variant = index_, b.count = 1, b.repeats = 1;
     put_ray(q.ray, b.queries[0].numbers);
     shape_numbers(q.shape, b.queries[0].numbers + 6);
-    std::uint32_t stopped_at = 0;
-    bool timed_out = false;
-    if (!worker.run(options_.case_timeout_seconds, stopped_at, timed_out).empty())
-      return Answer::failure_of(why_stopped(worker, timed_out));
+    if (const auto run = worker.run(options_.case_timeout_seconds); !run.answered())
+      return Answer::failure_of(run.failure());
     Answer a = Hit{b.answers[0].cls, b.answers[0].t};
     a.failure = b.answers[0].failure;
     return a;
@@ -361,10 +268,6 @@ class PluginVariant final : public ExternalIntersector {
   static void put_ray(const Ray& ray, double* numbers) {
     for (int k = 0; k < 3; ++k) numbers[k] = ray.origin[k], numbers[3 + k] = ray.direction[k];
   }
-  // Why a worker's run stopped, as the failure blamed on the item it was on.
-  static AnswerFailure why_stopped(const WorkerProcess& worker, bool timed_out) {
-    return worker.forked() ? AnswerFailure::protocol : timed_out ? AnswerFailure::timeout : AnswerFailure::crash;
-  }
 
   // Items 0..count−1 in batches through the pool's workers (a scene first sent to a worker that
   // lacks it): put(slot, i) writes item i, take(answer, i) keeps its answer, fail(i, why) marks
@@ -384,30 +287,29 @@ class PluginVariant final : public ExternalIntersector {
         break;
       }
       std::unique_ptr<WorkerProcess> worker = plugin_.take();
-      std::uint32_t stopped_at = 0;
-      bool timed_out = false;
-      std::string why = scene && worker->scene_serial != scene->serial() ? send_scene(*worker, *scene, timed_out) : "";
+      WorkerChannel::Outcome run =
+          scene && worker->scene_serial != scene->serial() ? send_scene(*worker, *scene) : WorkerChannel::Outcome{};
       std::size_t answered = 0;
-      if (why.empty()) {
+      if (run.answered()) {
         SharedBatch& b = worker->batch();
         b.mode = mode, b.variant = index_, b.count = static_cast<std::uint32_t>(n),
         b.repeats = timing ? static_cast<std::uint32_t>(std::max(1, timing->repeats)) : 1;
         for (std::size_t i = 0; i < n; ++i) put(b.queries[i], start + i);
-        why = worker->run(options_.case_timeout_seconds, stopped_at, timed_out);
-        answered = why.empty() ? n : std::min<std::size_t>(stopped_at, n);
+        run = worker->run(options_.case_timeout_seconds);
+        answered = run.answered() ? n : std::min<std::size_t>(run.at, n);
         for (std::size_t i = 0; i < answered; ++i) take(b.answers[i], start + i);
         inside += b.inner_seconds;
       }
-      if (why.empty()) {
+      if (run.answered()) {
         plugin_.give_back(std::move(worker));
         start += n;
         continue;
       }
-      fail(start + answered, why_stopped(*worker, timed_out));
-      if (worker->forked())
-        budget_.stop(why);
+      fail(start + answered, run.failure());
+      if (run.forked)
+        budget_.stop(run.reason);
       else
-        budget_.spend(why);
+        budget_.spend(run.reason);
       inside = -1;  // a batch with a crash times nothing
       start += answered + 1;
     }
@@ -415,8 +317,8 @@ class PluginVariant final : public ExternalIntersector {
   }
 
   // Sends the scene's primitives in id order (the worker builds the same KindIndex from them);
-  // "" when it holds them, else why the worker died on the way.
-  std::string send_scene(WorkerProcess& worker, const KindIndex& scene, bool& timed_out) {
+  // answered when it holds them, else why the worker died on the way.
+  WorkerChannel::Outcome send_scene(WorkerProcess& worker, const KindIndex& scene) {
     std::vector<std::size_t> by_id(scene.size());
     for (std::size_t i = 0; i < by_id.size(); ++i) by_id[i] = i;
     const auto ids = scene.ids_in_leaf_order();
@@ -432,12 +334,10 @@ class PluginVariant final : public ExternalIntersector {
         x[0] = ids[by_id[start + i]];
         shape_numbers(scene.shapes_in_leaf_order()[by_id[start + i]], x + 6);
       }
-      std::uint32_t stopped_at = 0;
-      const std::string why = worker.run(options_.case_timeout_seconds, stopped_at, timed_out);
-      if (!why.empty()) return why;
+      if (WorkerChannel::Outcome run = worker.run(options_.case_timeout_seconds); !run.answered()) return run;
     }
     worker.scene_serial = scene.serial();
-    return "";
+    return {};
   }
 
   Plugin& plugin_;
@@ -478,10 +378,7 @@ std::vector<const Variant*> load_plugin(const std::string& path, const ExternalO
   for (std::size_t i = 0; i < table.at("variants").size(); ++i) {
     const json& v = table.at("variants")[i];
     const std::string name = table_string(v, "name");
-    const std::string where =
-        "variant " + std::to_string(i) + (name.empty() ? "" : " '" + printable_prefix(name, 80) + "'");
-    if (!bounded_name(v, "name"))
-      throw fail(where + ": name must match [a-z0-9-]+ (at most " + std::to_string(kMaxNameBytes) + " bytes)");
+    const std::string where = checked_row_label(v, "variant", i, fail);
     const auto shape = shape_kind_from_string(table_string(v, "shape"));
     if (!shape) throw fail(where + ": shape must be sphere, plane, triangle or box");
     const auto rule = hit_rule_from_string(table_string(v, "rule"));

@@ -31,13 +31,13 @@
 #include "rayproof/peers/process_pool.h"
 #include "rayproof/peers/tracers.h"
 #include "rayproof/peers/loaded_code.h"
+#include "rayproof/peers/worker_channel.h"
 #include "rayproof/tracer.h"
 
 namespace rayproof::peers {
 
 namespace {
 
-constexpr int kRequestFd = 100, kResponseFd = 101, kSharedFd = 102;
 constexpr const char* kWorkerEnv = "RAYPROOF_TRACER_WORKER";  // "table:PATH" or "serve:PATH"
 
 // A row of the ABI 1 table: ABI 2's without `range` (tracer.md).
@@ -58,9 +58,7 @@ enum class Op : std::uint32_t { build = 1, nearest = 2, all_hits = 3, release = 
 // of every answered ray back to back (up to hits_capacity; the worker stops at a ray that does
 // not fit and rayproof asks again from there).
 struct Header {
-  std::atomic<std::uint64_t> progress;
-  std::atomic<std::uint32_t> forked;  // set by the worker when the library forked (library_table.h)
-  std::uint64_t bytes;                // the file's size, for the worker's mapping
+  ChannelHeader channel;  // progress: the index of the ray the worker is on
   Op op;
   std::uint32_t tracer;
   std::uint32_t built;  // build: 1 when the tracer returned a scene
@@ -101,20 +99,12 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
       error = "rayproof_tracers returned NULL for ABI 2 and for ABI 1 (built for another ABI?)";
   }
   const rayproof_tracer* table = rows.empty() ? nullptr : rows.data();
-  if (is_forked_copy()) ::_exit(0);  // a copy forked at load time says nothing
-  if (start.table_only) {
-    json rows = json::array();
-    for (int i = 0; table && i < count; ++i)
-      rows.push_back({{"name", describe_string(table[i].name)},
-                      {"precision", describe_string(table[i].precision)},
-                      {"source", describe_string(table[i].source)},
-                      {"build", table[i].build != nullptr},
-                      {"nearest", table[i].nearest != nullptr},
-                      {"all_hits", table[i].all_hits != nullptr},
-                      {"range", describe_string(table[i].range)}});
-    report_table_and_exit(start.report_fd, error, "tracers", rows);
-  }
-  if (!table) ::_exit(3);
+  report_table_or_go_on(start, table, count, error, "tracers", [](const rayproof_tracer& t) {
+    return json{{"name", describe_string(t.name)},     {"precision", describe_string(t.precision)},
+                {"source", describe_string(t.source)}, {"build", t.build != nullptr},
+                {"nearest", t.nearest != nullptr},     {"all_hits", t.all_hits != nullptr},
+                {"range", describe_string(t.range)}};
+  });
   void* scene = nullptr;
   const rayproof_tracer* scene_of = nullptr;
   // After every library call: a copy of this worker (the library forked) never answers.
@@ -125,14 +115,9 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
   std::uint64_t built_triangles = 0;  // the built mesh's: bounds an any-hit list (below)
   std::vector<double> kept_vertices;  // the built scene's mesh, alive until its release
   std::vector<std::uint32_t> kept_indices;
-  char byte;
-  while (::read(kRequestFd, &byte, 1) == 1) {
-    Header probe;
-    if (::pread(kSharedFd, &probe.bytes, sizeof probe.bytes, offsetof(Header, bytes)) != sizeof probe.bytes) ::_exit(4);
-    void* map = ::mmap(nullptr, probe.bytes, PROT_READ | PROT_WRITE, MAP_SHARED, kSharedFd, 0);
-    if (map == MAP_FAILED) ::_exit(4);
-    auto* h = static_cast<Header*>(map);
-    char* data = static_cast<char*>(map) + kData;
+  serve_requests([&](char* file) {
+    auto* h = reinterpret_cast<Header*>(file);
+    char* data = file + kData;
     const rayproof_tracer& t = table[h->tracer];
     const Stopwatch watch;  // the code alone, where it runs
     switch (h->op) {
@@ -157,7 +142,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
         const auto* rays = reinterpret_cast<const rayproof_ray*>(data);
         auto* out = reinterpret_cast<rayproof_trace*>(data + h->ray_count * sizeof(rayproof_ray));
         for (std::uint64_t i = 0; i < h->ray_count; ++i) {
-          h->progress.store(i, std::memory_order_relaxed);
+          h->channel.progress.store(i, std::memory_order_relaxed);
           out[i] = {RAYPROOF_NO_TRIANGLE, NAN};
           t.nearest(scene, rays + i, 1, out + i);
           leave_if_copy();
@@ -171,7 +156,7 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
         auto* flat = reinterpret_cast<std::uint32_t*>(data + h->ray_count * (sizeof(rayproof_ray) + 8));
         std::uint64_t used = 0, i = 0;
         for (; i < h->ray_count; ++i) {
-          h->progress.store(i, std::memory_order_relaxed);
+          h->channel.progress.store(i, std::memory_order_relaxed);
           // A list longer than the mesh has triangles repeats one or names one it does not have:
           // a tracer error, judged from its first triangles + 1 entries. Room beyond that is never
           // made (10^6 claimed hits on 15 triangles once cost 517 MB a batch).
@@ -197,112 +182,24 @@ std::size_t all_hits_bytes(std::uint64_t n, std::uint64_t cap) {
         break;
     }
     h->inner_seconds = watch.seconds();
-    if (library_forked()) h->forked.store(1);  // told before the answer, so this request is never judged
-    ::munmap(map, probe.bytes);
-    if (::write(kResponseFd, &byte, 1) != 1) break;
-  }
-  ::_exit(0);
+  });
 }
 
-// Becomes a worker before main when asked to (peers/external.h says why this is a static initializer).
-[[maybe_unused]] const bool kIsWorker = [] {
-  if (const char* setting = std::getenv(kWorkerEnv)) run_worker(setting);
-  return false;
-}();
+[[maybe_unused]] const bool kIsWorker = become_worker_if_asked(kWorkerEnv, run_worker);
 
 // ----------------------------------------------------------------- the rayproof side
 class TracerWorker {
  public:
-  explicit TracerWorker(const std::string& path) {
-    int request[2], response[2];
-    if (::pipe2(request, O_CLOEXEC) != 0 || ::pipe2(response, O_CLOEXEC) != 0)
-      throw std::runtime_error("cannot create pipes for a tracer worker: " + std::string(std::strerror(errno)));
-    fd_ = ::memfd_create("rayproof-tracer", MFD_CLOEXEC);
-    if (fd_ < 0) throw std::runtime_error("cannot create shared memory for a tracer worker");
-    ensure(kData + 4096);
-    try {
-      pid_ = spawn_worker(kWorkerEnv, "serve:" + path, "rayproof-tracer-worker",
-                          {{request[0], kRequestFd}, {response[1], kResponseFd}, {fd_, kSharedFd}}, "a tracer worker");
-    } catch (...) {
-      for (int fd : {request[0], request[1], response[0], response[1]}) ::close(fd);
-      throw;
-    }
-    ::close(request[0]), ::close(response[1]);
-    request_ = request[1], response_ = response[0];
-  }
-  ~TracerWorker() {
-    ::close(request_), ::close(response_);
-    if (pid_ > 0 && !reaped_) end_child(pid_, 1.0);  // bounded; whatever the library left running goes too
-    if (map_) ::munmap(map_, bytes_);
-    ::close(fd_);
-  }
-  TracerWorker(const TracerWorker&) = delete;
-
-  // The shared file at least `bytes` long, mapped.
-  void ensure(std::size_t bytes) {
-    if (bytes <= bytes_) return;
-    bytes = std::max(bytes, bytes_ * 2);
-    if (map_) ::munmap(map_, bytes_);
-    if (::ftruncate(fd_, static_cast<off_t>(bytes)) != 0)
-      throw std::runtime_error("cannot grow a tracer worker's shared memory");
-    map_ = static_cast<char*>(::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, 0));
-    if (map_ == MAP_FAILED) map_ = nullptr, throw std::runtime_error("cannot map a tracer worker's shared memory");
-    bytes_ = bytes;
-    header().bytes = bytes_;
-  }
-  Header& header() { return *reinterpret_cast<Header*>(map_); }
-  bool forked() const { return forked_; }  // the last run() stopped because the library forked
-  char* data() { return map_ + kData; }
-
-  // Runs the request in shared memory: "" when answered, else why it stopped (the worker is then
-  // gone), `timed_out` telling a hang from a crash. A request whose progress does not move for
-  // `timeout` seconds is a hang.
-  std::string run(double timeout, bool& timed_out) {
-    header().progress.store(0, std::memory_order_relaxed);
-    const char byte = 1;
-    timed_out = false;
-    if (::write(request_, &byte, 1) != 1) return finish();
-    std::uint64_t last = 0;
-    auto last_change = std::chrono::steady_clock::now();
-    const int slice_ms = static_cast<int>(std::clamp(timeout * 250, 1.0, 100.0));
-    for (;;) {
-      pollfd p{response_, POLLIN, 0};
-      if (::poll(&p, 1, slice_ms) > 0) {
-        char got;
-        if (::read(response_, &got, 1) != 1) return finish();
-        if (header().forked.load() != 0) {
-          forked_ = true;  // no answer of this request is judged: another process wrote beside the worker
-          header().progress.store(0);
-          ::kill(-pid_, SIGKILL);
-          finish();
-          return "the tracer forked: a copy of the worker returned from a library call (libraries must not fork)";
-        }
-        return "";
-      }
-      const std::uint64_t now_at = header().progress.load(std::memory_order_relaxed);
-      const auto now = std::chrono::steady_clock::now();
-      if (now_at != last)
-        last = now_at, last_change = now;
-      else if (std::chrono::duration<double>(now - last_change).count() > timeout) {
-        ::kill(-pid_, SIGKILL);
-        finish();
-        timed_out = true;
-        return "no answer within " + std::to_string(timeout) + " s (--case-timeout)";
-      }
-    }
-  }
+  explicit TracerWorker(const std::string& path)
+      : channel_(kWorkerEnv, path, "rayproof-tracer-worker", "tracer", kData + 4096) {}
+  void ensure(std::size_t bytes) { channel_.ensure(bytes); }  // pointers into the file are invalid after
+  Header& header() { return *reinterpret_cast<Header*>(channel_.shared()); }
+  char* data() { return channel_.shared() + kData; }
+  // Runs the request in shared memory (worker_channel.h says how a stop is blamed).
+  WorkerChannel::Outcome run(double timeout) { return channel_.run(timeout); }
 
  private:
-  // The worker's end, bounded: one that closed its pipe but runs on is killed (its group too).
-  std::string finish() {
-    reaped_ = true;
-    return end_worker(pid_);
-  }
-  pid_t pid_ = -1;
-  int request_ = -1, response_ = -1, fd_ = -1;
-  bool reaped_ = false, forked_ = false;
-  char* map_ = nullptr;
-  std::size_t bytes_ = 0;
+  WorkerChannel channel_;
 };
 
 // One loaded library: its workers, shared by its tracers.
@@ -318,10 +215,6 @@ struct PluginTracerState : StopReason {
   ExternalOptions options;
 };
 
-AnswerFailure failure_of(bool timed_out, bool forked = false) {
-  return forked ? AnswerFailure::protocol : timed_out ? AnswerFailure::timeout : AnswerFailure::crash;
-}
-
 class PluginTracerScene final : public TracerScene {
  public:
   PluginTracerScene(PluginTracerState& state, std::unique_ptr<TracerWorker> worker, std::uint64_t triangles)
@@ -329,8 +222,7 @@ class PluginTracerScene final : public TracerScene {
   ~PluginTracerScene() override {
     if (!worker_) return;
     worker_->header().op = Op::release;
-    bool timed_out = false;
-    if (worker_->run(state_.options.case_timeout_seconds, timed_out).empty())
+    if (worker_->run(state_.options.case_timeout_seconds).answered())
       state_.library->workers.give_back(std::move(worker_));
   }
 
@@ -343,16 +235,15 @@ class PluginTracerScene final : public TracerScene {
     h.op = Op::nearest, h.tracer = state_.index, h.ray_count = rays.size();
     auto* wire = reinterpret_cast<rayproof_ray*>(worker_->data());
     for (std::size_t i = 0; i < rays.size(); ++i) wire[i] = to_wire(rays[i]);
-    bool timed_out = false;
-    const std::string why = worker_->run(state_.options.case_timeout_seconds, timed_out);
-    const std::size_t answered = why.empty() ? rays.size() : std::min<std::size_t>(h.progress.load(), rays.size());
+    const WorkerChannel::Outcome run = worker_->run(state_.options.case_timeout_seconds);
+    const std::size_t answered = run.answered() ? rays.size() : std::min<std::size_t>(run.at, rays.size());
     const auto* answers = reinterpret_cast<const rayproof_trace*>(worker_->data() + rays.size() * sizeof(rayproof_ray));
     for (std::size_t i = 0; i < answered; ++i) {
       out[i] = {answers[i].triangle, answers[i].t};
       if (out[i].triangle == kNoTriangle) out[i].t = NAN;
     }
-    if (why.empty()) return;
-    fail(why, failure_of(timed_out, worker_->forked()), out.subspan(answered));
+    if (run.answered()) return;
+    fail(run.reason, run.failure(), out.subspan(answered));
   }
 
   void all_hits(std::span<const TracerRay> rays, std::span<AllHitsAnswer> out) override {
@@ -370,13 +261,12 @@ class PluginTracerScene final : public TracerScene {
       h.op = Op::all_hits, h.tracer = state_.index, h.ray_count = n, h.hits_capacity = capacity;
       auto* wire = reinterpret_cast<rayproof_ray*>(worker_->data());
       for (std::size_t i = 0; i < n; ++i) wire[i] = to_wire(rays[done + i]);
-      bool timed_out = false;
       // Everything read back from the worker is untrusted: the tracer's code shares its memory
       // and may have written over the counts (issue 42). A count beyond the mesh + 1, a list
       // past the room given, or more answers than rays asked is the tracer's crash, on that ray.
-      std::string why = worker_->run(state_.options.case_timeout_seconds, timed_out);
-      std::size_t answered =
-          why.empty() ? std::min<std::size_t>(h.answered, n) : std::min<std::size_t>(h.progress.load(), n);
+      const WorkerChannel::Outcome run = worker_->run(state_.options.case_timeout_seconds);
+      std::string why = run.reason;
+      std::size_t answered = run.answered() ? std::min<std::size_t>(h.answered, n) : std::min<std::size_t>(run.at, n);
       if (why.empty() && h.answered > n) {
         why = "its answer in shared memory is corrupt: " + std::to_string(h.answered) + " answers to " +
               std::to_string(n) + " rays (the tracer wrote outside its buffers)";
@@ -400,7 +290,7 @@ class PluginTracerScene final : public TracerScene {
       done += answered;
       if (!why.empty()) {
         std::vector<TraceAnswer> unused(rays.size() - done);
-        const AnswerFailure kind = failure_of(timed_out, worker_->forked());
+        const AnswerFailure kind = run.failure();
         fail(why, kind, unused);
         out[done] = {{}, kind};
         for (std::size_t i = done + 1; i < rays.size(); ++i) out[i] = {{}, AnswerFailure::stopped};
@@ -440,11 +330,9 @@ BuiltScene build_plugin_scene(PluginTracerState& state, const TriangleMesh& mesh
   h.triangle_count = mesh.triangle_count();
   std::memcpy(worker->data(), mesh.vertices.data(), 8 * mesh.vertices.size());
   std::memcpy(worker->data() + 24 * mesh.vertex_count(), mesh.indices.data(), 4 * mesh.indices.size());
-  bool timed_out = false;
-  const std::string why = worker->run(state.options.case_timeout_seconds, timed_out);
-  if (!why.empty()) {
-    state.stop("build: " + why);
-    return {nullptr, failure_of(timed_out, worker->forked()), "build: " + why};
+  if (const WorkerChannel::Outcome run = worker->run(state.options.case_timeout_seconds); !run.answered()) {
+    state.stop("build: " + run.reason);
+    return {nullptr, run.failure(), "build: " + run.reason};
   }
   if (!h.built) {
     state.library->workers.give_back(std::move(worker));
@@ -466,10 +354,7 @@ std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const Ext
   for (std::size_t i = 0; i < table.at("tracers").size(); ++i) {
     const json& t = table.at("tracers")[i];
     const std::string name = table_string(t, "name");
-    const std::string where =
-        "tracer " + std::to_string(i) + (name.empty() ? "" : " '" + printable_prefix(name, 80) + "'");
-    if (!bounded_name(t, "name"))
-      throw fail(where + ": name must match [a-z0-9-]+ (at most " + std::to_string(kMaxNameBytes) + " bytes)");
+    const std::string where = checked_row_label(t, "tracer", i, fail);
     const std::string precision = table_string(t, "precision");
     if (precision != "double" && precision != "float")
       throw fail(where + ": precision must be \"double\" or \"float\"");

@@ -100,6 +100,21 @@ inline json describe_string(const char* text) {
   ::_exit(0);
 }
 
+// After a worker loaded its table: a copy the library forked at load time ends saying nothing;
+// a table worker reports `describe(entry)` for each entry (under `key`) and ends; a serving
+// worker without a table ends (status 3), else goes on to serve.
+template <class Entry, class Describe>
+void report_table_or_go_on(const WorkerStart& start, const Entry* table, int count, const std::string& error,
+                           const char* key, Describe&& describe) {
+  if (is_forked_copy()) ::_exit(0);
+  if (start.table_only) {
+    json rows = json::array();
+    for (int i = 0; table && i < count; ++i) rows.push_back(describe(table[i]));
+    report_table_and_exit(start.report_fd, error, key, rows);
+  }
+  if (!table) ::_exit(3);
+}
+
 // ---------------------------------------------------------------------- rayproof's side
 
 // The table the worker reported, or `fail(why)` thrown: the worker ended without a report
@@ -135,6 +150,17 @@ inline bool bounded_name(const json& entry, const char* key) {
   return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
     return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-';
   });
+}
+
+// Row `i` of a table of `kind`s ("variant", "tracer"): its label for messages ("variant 3
+// 'name'"), after its name is checked; `fail(text)` makes the exception thrown for a bad name.
+template <class Fail>
+std::string checked_row_label(const json& row, const char* kind, std::size_t i, Fail&& fail) {
+  const std::string name = table_string(row, "name");
+  std::string where = kind + (" " + std::to_string(i)) + (name.empty() ? "" : " '" + printable_prefix(name, 80) + "'");
+  if (!bounded_name(row, "name"))
+    throw fail(where + ": name must match [a-z0-9-]+ (at most " + std::to_string(kMaxNameBytes) + " bytes)");
+  return where;
 }
 
 // The source line, escaped for terminals and cut to kMaxSourceBytes.
