@@ -154,27 +154,30 @@ class Auditor {
   const SceneIndex& index() const { return index_; }
 
   // The exact render: per pixel the nearest exact contact per kind and overall, and the exact
-  // shadow status of each light; with `out`, the colours and the counts too.
-  void exact_pass(SceneAudit* out) {
+  // shadow status of each light (kept for the variants' passes), the colours and the counts.
+  struct ExactRender {
+    Image colours;
+    double seconds = 0;
+    long primary_rays = 0, shadow_rays = 0, rays_beyond_intervals = 0;
+  };
+  ExactRender exact_pass() {
     const Camera& cam = scene_.camera;
     exact_.assign(size_t(cam.width) * cam.height, ExactPixel{});
-    Image colours{cam.width, cam.height, std::vector<std::uint8_t>(out ? 3 * exact_.size() : 0)};
+    ExactRender out{Image{cam.width, cam.height, std::vector<std::uint8_t>(3 * exact_.size())}};
     struct State {
       ExactTracer tracer;
       long shadow_rays = 0, beyond = 0;
-      long* shadow_total;  // finish() runs under for_rows's lock
-      long* beyond_total;
+      ExactRender* totals;  // finish() runs under for_rows's lock
       void finish() {
-        *shadow_total += shadow_rays;
-        *beyond_total += beyond;
+        totals->shadow_rays += shadow_rays;
+        totals->rays_beyond_intervals += beyond;
       }
     };
-    long shadow_total = 0, beyond_total = 0;
     const Stopwatch exact_watch;
     for_rows<State>(
         threads_, cam.height,
         [&] {
-          return State{ExactTracer(index_), 0, 0, &shadow_total, &beyond_total};
+          return State{ExactTracer(index_), 0, 0, &out};
         },
         [&](State& st, int y) {
           for (int x = 0; x < cam.width; ++x) {
@@ -187,35 +190,43 @@ class Auditor {
               c = st.tracer.nearest(kind, ray);
               if (st.tracer.before(ray, c, e.visible)) e.visible = c;
             }
-            const Vec3 colour = exact_colour(st, ray, e);
-            if (out) put(colours, px, colour);
+            put(out.colours, px, exact_colour(st, ray, e));
             st.shadow_rays += std::popcount(e.facing);
             if (st.tracer.beyond_intervals() != before) ++st.beyond;
           }
         },
         stage_progress("exact render"));
-    if (out) {
-      out->exact = std::move(colours);
-      out->exact_seconds = exact_watch.seconds();
-      out->primary_rays = static_cast<long>(exact_.size());
-      out->shadow_rays = shadow_total;
-      out->rays_beyond_intervals = beyond_total;
-    }
+    out.seconds = exact_watch.seconds();
+    out.primary_rays = static_cast<long>(exact_.size());
+    exact_image_ = out.colours;  // dimmed under each variant's diff marks
+    return out;
   }
 
-  // One variant of one kind, the other kinds exact (from exact_pass's per-kind contacts): its
-  // pixel counts, shadows included; with `out`, its render, the diff image over `exact_image`
-  // dimmed, and its wrong pixels as cases.
-  PixelCounts variant_pass(const Contender& c, VariantAudit* out = nullptr, const Image* exact_image = nullptr) {
+  // What one pass of a contender yields: its pixel counts, shadows included; when drawn, its
+  // render, the diff image (its wrong pixels over the dimmed exact render) and its wrong pixels
+  // as cases (variants only: a tracer's triangles are judged as a mesh).
+  enum class Drawn { counts_only, images_and_cases };
+  struct PassOutput {
+    PixelCounts counts;
+    Image render, diff;
+    std::vector<WrongPixelCase> cases;
+    long cases_left_out = 0;
+    std::string stopped;  // a tracer that built nothing: why
+  };
+
+  // One contender for its kind, the other kinds exact (exact_pass's per-kind contacts).
+  PassOutput variant_pass(const Contender& c, Drawn drawn) {
     const Camera& cam = scene_.camera;
+    PassOutput out;
     std::unique_ptr<TracerOnScene> tracer;
     if (c.tracer) {
       tracer = std::make_unique<TracerOnScene>(*c.tracer, index_);
-      if (!tracer->failure.empty() && out) out->stopped = c.tracer->name + ": " + tracer->failure;
+      if (!tracer->failure.empty()) out.stopped = c.tracer->name + ": " + tracer->failure;
     }
-    if (out) {
-      out->render = Image{cam.width, cam.height, std::vector<std::uint8_t>(3 * exact_.size())};
-      out->diff = out->render;
+    const bool draw = drawn == Drawn::images_and_cases;
+    if (draw) {
+      out.render = Image{cam.width, cam.height, std::vector<std::uint8_t>(3 * exact_.size())};
+      out.diff = out.render;
     }
     std::vector<RowResult> per_row(cam.height);
     const double reach = c.variant ? reach_of(*c.variant, c.kind) : kLeafReach;
@@ -231,32 +242,33 @@ class Auditor {
           const std::vector<SceneHit> row = tracer ? trace_row(*tracer, y) : trace_row(*c.variant, c.kind, y);
           ShadowBatch shadows;
           const bool batch_shadows = c.variant && c.variant->external;
-          if (batch_shadows) {
+          if (batch_shadows) {  // a first pass records the row's shadow segments, asked in one call
             RowResult ignored;
             for (int x = 0; x < cam.width; ++x)
-              variant_pixel(st.tracer, {c, nullptr, nullptr, nullptr, &shadows, reach}, row[x], x, y, ignored);
+              variant_pixel(st.tracer, {c, nullptr, false, &shadows, reach}, row[x], x, y, ignored);
             shadows.answers.resize(shadows.asked.size());
             trace_scene_rays(*c.variant, index_.of_kind(c.kind), HitRule::nearest_contact, shadows.asked,
                              shadows.answers, nullptr, reach);
             shadows.recording = false;
           }
-          for (int x = 0; x < cam.width; ++x)
-            variant_pixel(st.tracer, {c, tracer.get(), out, exact_image, batch_shadows ? &shadows : nullptr, reach},
-                          row[x], x, y, per_row[y]);
+          for (int x = 0; x < cam.width; ++x) {
+            const PixelVerdict v = variant_pixel(
+                st.tracer, {c, tracer.get(), draw && !c.tracer, batch_shadows ? &shadows : nullptr, reach}, row[x], x,
+                y, per_row[y]);
+            if (draw) paint(out, size_t(y) * cam.width + x, v);
+          }
         },
         stage_progress((c.tracer ? c.tracer->name : std::string(c.variant->name)) + " (" +
                        std::string(to_string(c.kind)) + ")"));
-    PixelCounts total;
     for (RowResult& r : per_row) {
-      total += r.counts;
-      if (!out || c.tracer) continue;
+      out.counts += r.counts;
       for (WrongPixelCase& w : r.cases)
-        if (out->cases.size() < kMaxCasesPerVariant)
-          out->cases.push_back(std::move(w));
+        if (out.cases.size() < kMaxCasesPerVariant)
+          out.cases.push_back(std::move(w));
         else
-          ++out->cases_left_out;
+          ++out.cases_left_out;
     }
-    return total;
+    return out;
   }
 
   // ns per primary ray of the variant against its shape's primitives, on one thread: the
@@ -438,9 +450,8 @@ class Auditor {
   // What one pass of variant_pixel needs besides the pixel.
   struct PassContext {
     const Contender& c;
-    const TracerOnScene* on;
-    VariantAudit* out;               // null: counts only
-    const Image* exact_image;        // dimmed under the diff marks
+    const TracerOnScene* on;         // a tracer's scene, or null for a variant
+    bool keep_cases;                 // write wrong pixels as cases
     ShadowBatch* shadows = nullptr;  // null: shadow segments asked one by one
     double reach = kLeafReach;       // how far off each segment the variant is asked (reach_of)
   };
@@ -518,119 +529,143 @@ class Auditor {
     std::vector<WrongPixelCase> cases;
   };
 
-  void variant_pixel(ExactTracer& tracer, const PassContext& pass, const SceneHit& mine, int x, int y, RowResult& row) {
-    const Contender& c = pass.c;
-    const ShapeKind kind = c.kind;
-    const Camera& cam = scene_.camera;
-    const size_t px = size_t(y) * cam.width + x;
-    const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
-    const ExactPixel& e = exact_[px];
-    PixelCounts& counts = row.counts;
-    auto add_case = [&](const char* what, int light, bool shadow_ray, const Ray& r, std::int32_t primitive) {
-      if (pass.out && primitive >= 0 && row.cases.size() < kMaxCasesPerVariant)
-        row.cases.push_back({x, y, what, light, shadow_ray, r, primitive, index_.primitive(primitive).shape});
-    };
-    // The variant's nearest among its kind, against the exact nearest among the other kinds.
-    ExactContact others;
+  // Where a pixel's wrong answer is written as a case (variant_pixel's helpers add to it).
+  struct CaseSink {
+    bool keep;
+    int x, y;
+    std::vector<WrongPixelCase>& cases;
+    const SceneIndex& index;
+    void add(const char* what, int light, bool shadow_ray, const Ray& r, std::int32_t primitive) {
+      if (keep && primitive >= 0 && cases.size() < kMaxCasesPerVariant)
+        cases.push_back({x, y, what, light, shadow_ray, r, primitive, index.primitive(primitive).shape});
+    }
+  };
+
+  // The primary ray's verdict: what is visible (the contender's nearest among its kind, or the
+  // exact nearest among the other kinds), and whether that is the wrong object.
+  struct Primary {
+    SceneHit visible;
+    bool visible_is_variant = false;
+    ExactContact others;  // the exact nearest among the other kinds
+    bool wrong = false, hole = false, false_hit = false;
+  };
+  Primary judge_primary(ExactTracer& tracer, ShapeKind kind, const Ray& ray, const ExactPixel& e, const SceneHit& mine,
+                        CaseSink& sink) const {
+    Primary v;
     for (ShapeKind k : index_.shapes_used())
-      if (k != kind && tracer.before(ray, e.by_kind[static_cast<int>(k)], others))
-        others = e.by_kind[static_cast<int>(k)];
-    SceneHit visible = mine;
-    bool visible_is_variant = mine.primitive >= 0;
-    if (others.found()) {
-      const SceneHit theirs{index_.primitive(others.primitive).object, others.primitive,
-                            Hit{HitClass::enter, others.t}};
-      if (mine.primitive < 0 || nearer(others.t, others.primitive, mine, index_)) {
-        visible = theirs;
-        visible_is_variant = false;
-      }
+      if (k != kind && tracer.before(ray, e.by_kind[static_cast<int>(k)], v.others))
+        v.others = e.by_kind[static_cast<int>(k)];
+    v.visible = mine;
+    v.visible_is_variant = mine.primitive >= 0;
+    if (v.others.found() && (mine.primitive < 0 || nearer(v.others.t, v.others.primitive, mine, index_))) {
+      v.visible = {index_.primitive(v.others.primitive).object, v.others.primitive, Hit{HitClass::enter, v.others.t}};
+      v.visible_is_variant = false;
     }
     const int exact_object = object_of(index_, e.visible);
-    const bool wrong = visible.object != exact_object && !mine.invalid;
-    bool hole = false, false_hit = false;
-    if (mine.invalid) ++counts.tracer_errors;  // not a hole: an answer no ray can have
-    if (wrong) {
-      ++counts.wrong;
-      false_hit = exact_object < 0 || (visible.object >= 0 && visible.hit.t < e.visible.t);
-      hole = !false_hit;
-      ++(hole ? counts.holes : counts.false_hits);
-      // The primitive of the variant's kind that decided it: the one it missed, or the one it hit.
-      if (hole && kind_of(index_.primitive(e.visible.primitive).shape) == kind)
-        add_case("hole", -1, false, ray, e.visible.primitive);
-      if (false_hit && visible_is_variant) add_case("false_hit", -1, false, ray, visible.primitive);
-    }
+    v.wrong = v.visible.object != exact_object && !mine.invalid;
+    if (!v.wrong) return v;
+    v.false_hit = exact_object < 0 || (v.visible.object >= 0 && v.visible.hit.t < e.visible.t);
+    v.hole = !v.false_hit;
+    // The primitive of the contender's kind that decided it: the one it missed, or the one it hit.
+    if (v.hole && kind_of(index_.primitive(e.visible.primitive).shape) == kind)
+      sink.add("hole", -1, false, ray, e.visible.primitive);
+    if (v.false_hit && v.visible_is_variant) sink.add("false_hit", -1, false, ray, v.visible.primitive);
+    return v;
+  }
 
-    Vec3 colour = scene_.background;
+  // The shadow rays from the visible point, against the exact shadow status of each light the
+  // exact hit point faces (on pixels whose object is right), and the pixel's colour.
+  struct ShadowVerdict {
+    Vec3 colour;
     bool shadow_wrong = false, acne = false, wrongly_shadowed = false, wrongly_lit = false;
-    if (visible.object >= 0) {
-      const Primitive& prim = index_.primitive(visible.primitive);
-      // The variant's own hit point and spawn (offset by the error bound) for its kind; the exact
-      // point rounded, as in the exact render, where another kind is visible.
-      const Vec3 p = visible_is_variant ? ray.at(visible.hit.t) : tracer.hit_point(ray, others);
-      const Vec3 n = facing_normal(prim.shape, p, ray);
-      // The contender's own spawn: pbrt's error bound for double code, Wächter & Binder's float
-      // offset from the float hit point for float code (core/offset.h).
-      const Precision own = c.tracer ? c.tracer->precision : c.variant->precision;
-      Vec3 start = visible_is_variant ? spawn_origin(ray, visible.hit.t, p, n, own) : p;
-      if (visible_is_variant && c.variant && options_.spawn_proved)
-        start = proved_spawn_origin(*c.variant, prim.shape, offsets_box_, ray, visible.hit.t, n).value_or(start);
-      std::vector<double> cosines(scene_.lights.size(), 0);
-      std::uint64_t lit = 0;
-      if (scene_.shading == Shading::diffuse) {
-        for (size_t l = 0; l < scene_.lights.size(); ++l) {
-          cosines[l] = diffuse_cosine(p, n, scene_.lights[l]);
-          const std::uint64_t bit = std::uint64_t{1} << l;
-          const bool compared = !wrong && (e.facing & bit);
-          if (!(cosines[l] > 0) && !compared) continue;
-          const Ray segment{start, scene_.lights[l].position - start};
-          const Blocker blocker = variant_blocked(tracer, pass, segment, visible.primitive);
-          if (pass.shadows && pass.shadows->recording) continue;
-          if (cosines[l] > 0 && !blocker.blocked) lit |= bit;
-          if (!compared || blocker.blocked != bool(e.lit & bit)) continue;  // agrees with the exact status
-          shadow_wrong = true;
-          if (blocker.blocked) {
-            wrongly_shadowed = true;
-            const Blocker neighbour =
-                visible_is_variant ? variant_blocked(tracer, pass, segment, visible.primitive, true) : Blocker{};
-            acne = acne || neighbour.blocked;
-            if (neighbour.blocked)
-              add_case("acne", int(l), true, segment, neighbour.primitive);
-            else if (blocker.primitive >= 0)
-              add_case("wrongly_shadowed", int(l), true, segment, blocker.primitive);
-            else if (visible_is_variant)
-              add_case("wrongly_shadowed", int(l), false, ray, visible.primitive);
-          } else {
-            wrongly_lit = true;
-            // The exact blocker of the variant's kind on the variant's own segment, if one is;
-            // else the segment started elsewhere than the exact one: the primary hit's t moved it.
-            const ExactContact should = tracer.nearest(kind, segment);
-            if (should.found() && should.primitive != visible.primitive && should.t < 1)
-              add_case("wrongly_lit", int(l), true, segment, should.primitive);
-            else if (visible_is_variant)
-              add_case("wrongly_lit", int(l), false, ray, visible.primitive);
-          }
-        }
+  };
+  ShadowVerdict judge_shadows(ExactTracer& tracer, const PassContext& pass, const Ray& ray, const ExactPixel& e,
+                              const Primary& v, CaseSink& sink) const {
+    ShadowVerdict out{scene_.background};
+    if (v.visible.object < 0) return out;
+    const Contender& c = pass.c;
+    const Primitive& prim = index_.primitive(v.visible.primitive);
+    // The contender's own hit point and spawn for its kind; the exact point rounded, as in the
+    // exact render, where another kind is visible. Its spawn: pbrt's error bound for double code,
+    // Wächter & Binder's float offset from the float hit point for float code (core/offset.h),
+    // or its proved offset (--offset proved).
+    const Vec3 p = v.visible_is_variant ? ray.at(v.visible.hit.t) : tracer.hit_point(ray, v.others);
+    const Vec3 n = facing_normal(prim.shape, p, ray);
+    const Precision own = c.tracer ? c.tracer->precision : c.variant->precision;
+    Vec3 start = v.visible_is_variant ? spawn_origin(ray, v.visible.hit.t, p, n, own) : p;
+    if (v.visible_is_variant && c.variant && options_.spawn_proved)
+      start = proved_spawn_origin(*c.variant, prim.shape, offsets_box_, ray, v.visible.hit.t, n).value_or(start);
+    std::vector<double> cosines(scene_.lights.size(), 0);
+    std::uint64_t lit = 0;
+    for (size_t l = 0; scene_.shading == Shading::diffuse && l < scene_.lights.size(); ++l) {
+      cosines[l] = diffuse_cosine(p, n, scene_.lights[l]);
+      const std::uint64_t bit = std::uint64_t{1} << l;
+      const bool compared = !v.wrong && (e.facing & bit);
+      if (!(cosines[l] > 0) && !compared) continue;
+      const Ray segment{start, scene_.lights[l].position - start};
+      const Blocker blocker = variant_blocked(tracer, pass, segment, v.visible.primitive);
+      if (pass.shadows && pass.shadows->recording) continue;
+      if (cosines[l] > 0 && !blocker.blocked) lit |= bit;
+      if (!compared || blocker.blocked != bool(e.lit & bit)) continue;  // agrees with the exact status
+      out.shadow_wrong = true;
+      if (blocker.blocked) {
+        out.wrongly_shadowed = true;
+        const Blocker neighbour =
+            v.visible_is_variant ? variant_blocked(tracer, pass, segment, v.visible.primitive, true) : Blocker{};
+        out.acne = out.acne || neighbour.blocked;
+        if (neighbour.blocked)
+          sink.add("acne", int(l), true, segment, neighbour.primitive);
+        else if (blocker.primitive >= 0)
+          sink.add("wrongly_shadowed", int(l), true, segment, blocker.primitive);
+        else if (v.visible_is_variant)
+          sink.add("wrongly_shadowed", int(l), false, ray, v.visible.primitive);
+      } else {
+        out.wrongly_lit = true;
+        // The exact blocker of the contender's kind on its own segment, if one is; else the
+        // segment started elsewhere than the exact one: the primary hit's t moved it.
+        const ExactContact should = tracer.nearest(c.kind, segment);
+        if (should.found() && should.primitive != v.visible.primitive && should.t < 1)
+          sink.add("wrongly_lit", int(l), true, segment, should.primitive);
+        else if (v.visible_is_variant)
+          sink.add("wrongly_lit", int(l), false, ray, v.visible.primitive);
       }
-      colour = shade_point(scene_, scene_.objects[prim.object].color, p, ray, light_terms(cosines, lit));
     }
-    counts.shadow_wrong += shadow_wrong;
-    counts.acne += acne;
-    counts.wrongly_shadowed += wrongly_shadowed;
-    counts.wrongly_lit += wrongly_lit;
-    if (!pass.out) return;
-    put(pass.out->render, px, colour);
-    Image& diff = pass.out->diff;
-    if (hole)
-      put(diff, px, kHoleColour);
-    else if (false_hit)
-      put(diff, px, kFalseHitColour);
-    else if (acne)
-      put(diff, px, kAcneColour);
-    else if (shadow_wrong)
-      put(diff, px, kShadowColour);
-    else
-      for (int k = 0; k < 3; ++k)
-        diff.rgb[3 * px + k] = static_cast<std::uint8_t>(std::lround(kDiffDimming * pass.exact_image->rgb[3 * px + k]));
+    out.colour = shade_point(scene_, scene_.objects[prim.object].color, p, ray, light_terms(cosines, lit));
+    return out;
+  }
+
+  // One pixel of a contender's pass: counted into `row`; what to paint returned.
+  struct PixelVerdict {
+    Vec3 colour;
+    std::optional<std::array<std::uint8_t, 3>> mark;  // the diff image's colour; none: the exact render dimmed
+  };
+  PixelVerdict variant_pixel(ExactTracer& tracer, const PassContext& pass, const SceneHit& mine, int x, int y,
+                             RowResult& row) {
+    const Camera& cam = scene_.camera;
+    const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
+    const ExactPixel& e = exact_[size_t(y) * cam.width + x];
+    CaseSink sink{pass.keep_cases, x, y, row.cases, index_};
+    const Primary v = judge_primary(tracer, pass.c.kind, ray, e, mine, sink);
+    const ShadowVerdict s = judge_shadows(tracer, pass, ray, e, v, sink);
+    PixelCounts& counts = row.counts;
+    if (mine.invalid) ++counts.tracer_errors;  // not a hole: an answer no ray can have
+    counts.wrong += v.wrong, counts.holes += v.hole, counts.false_hits += v.false_hit;
+    counts.shadow_wrong += s.shadow_wrong;
+    counts.acne += s.acne;
+    counts.wrongly_shadowed += s.wrongly_shadowed;
+    counts.wrongly_lit += s.wrongly_lit;
+    if (v.hole) return {s.colour, kHoleColour};
+    if (v.false_hit) return {s.colour, kFalseHitColour};
+    if (s.acne) return {s.colour, kAcneColour};
+    if (s.shadow_wrong) return {s.colour, kShadowColour};
+    return {s.colour, std::nullopt};
+  }
+
+  void paint(PassOutput& out, size_t px, const PixelVerdict& v) const {
+    put(out.render, px, v.colour);
+    if (v.mark) return put(out.diff, px, *v.mark);
+    for (int k = 0; k < 3; ++k)
+      out.diff.rgb[3 * px + k] = static_cast<std::uint8_t>(std::lround(kDiffDimming * exact_image_.rgb[3 * px + k]));
   }
 
  private:
@@ -640,6 +675,7 @@ class Auditor {
   Bounds offsets_box_;  // the domain of the proved offsets (offsets.md): the scene's box
   int threads_;
   std::vector<ExactPixel> exact_;
+  Image exact_image_;  // exact_pass's colours
   // Per variant and kind, the reach it is traced with in this scene (calibrated_reach on the
   // camera's sample), found on first use.
   mutable std::mutex reach_mutex_;
@@ -703,7 +739,7 @@ void audit_headroom(const Scene& scene, const SceneAuditOptions& options, const 
         options.progress("headroom k=" + std::to_string(k) + " " + stage, done, total);
       };
     Auditor moved_auditor(moved, quiet);
-    moved_auditor.exact_pass(nullptr);
+    moved_auditor.exact_pass();
     const std::vector<int> moved_objects = moved_auditor.exact_objects();
     long changed = 0;
     for (size_t p = 0; p < moved_objects.size(); ++p) changed += moved_objects[p] != original_objects[p];
@@ -711,7 +747,7 @@ void audit_headroom(const Scene& scene, const SceneAuditOptions& options, const 
     for (size_t j = 0; j < chosen.size(); ++j) {
       VariantAudit& va = audit.variants[j];
       if (va.first_wrong_log2_translate) continue;
-      const long wrong = moved_auditor.variant_pass(chosen[j]).any_wrong();
+      const long wrong = moved_auditor.variant_pass(chosen[j], Auditor::Drawn::counts_only).counts.any_wrong();
       va.headroom_wrong[i] = wrong;
       if (wrong > 0) va.first_wrong_log2_translate = ks[i];
     }
@@ -750,7 +786,12 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
     else
       audit.warnings.push_back("tracer " + t->name + " not audited: the scene has no triangles");
 
-  auditor.exact_pass(&audit);
+  Auditor::ExactRender exact = auditor.exact_pass();
+  audit.exact = std::move(exact.colours);
+  audit.exact_seconds = exact.seconds;
+  audit.primary_rays = exact.primary_rays;
+  audit.shadow_rays = exact.shadow_rays;
+  audit.rays_beyond_intervals = exact.rays_beyond_intervals;
   audit.variants.reserve(chosen.size());  // recommendation points into it
   for (const Contender& c : chosen) {
     VariantAudit va;
@@ -765,7 +806,11 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
       va.label += '@';
       va.label += to_string(c.kind);
     }
-    va.counts = auditor.variant_pass(c, &va, &audit.exact);
+    Auditor::PassOutput pass = auditor.variant_pass(c, Auditor::Drawn::images_and_cases);
+    va.counts = pass.counts;
+    va.render = std::move(pass.render), va.diff = std::move(pass.diff);
+    va.cases = std::move(pass.cases), va.cases_left_out = pass.cases_left_out;
+    va.stopped = std::move(pass.stopped);
     if (c.variant) va.proved_offset_ulps = scene_needs_ulps(auditor.index(), *c.variant, auditor.offsets_box());
     const auto timing = auditor.time_variant(c);
     va.ns_per_ray = timing.ns_per_ray;

@@ -152,6 +152,62 @@ std::string cases_jsonl(const VariantAudit& va, const std::string& stem, const s
 // HTML text and attributes need the same escapes as SVG's.
 std::string fixed(double x, int digits) { return markup::format("%.*f", digits, x); }
 
+// One row of audit.json's "variants" (audit.md), `stem` its files' name.
+json variant_row_json(const VariantAudit& va, const std::string& stem) {
+  json e = {{"name", va.name},
+            {"shape", std::string(to_string(va.shape))},
+            {"precision", va.precision},
+            {"ns_per_ray", va.ns_per_ray},
+            {"wrong", va.counts.wrong},
+            {"holes", va.counts.holes},
+            {"false_hits", va.counts.false_hits},
+            {"shadow_wrong", va.counts.shadow_wrong},
+            {"acne", va.counts.acne},
+            {"wrongly_shadowed", va.counts.wrongly_shadowed},
+            {"wrongly_lit", va.counts.wrongly_lit},
+            {"tracer_errors", va.counts.tracer_errors},
+            {"exact_for_scene", va.exact_for_scene()},
+            {"origin", va.origin},
+            {"render", stem + ".png"},
+            {"diff", stem + "-diff.png"}};
+  if (!va.stopped.empty()) e["stopped"] = va.stopped;
+  if (va.proved_offset_ulps) e["proved_offset_ulps"] = *va.proved_offset_ulps;
+  if (has_cases_file(va)) {
+    e["cases"] = stem + "-cases.jsonl";
+    e["cases_written"] = va.cases.size();
+    e["cases_left_out"] = va.cases_left_out;
+  }
+  if (va.tracer) e["tracer"] = true;  // a whole tracer (tracer.md), drawing every triangle
+  if (va.variant && va.variant->external) {
+    e["timed_in_worker"] = va.timed_in_worker;
+    e["round_trip_ns_per_ray"] = va.round_trip_ns_per_ray;
+  }
+  return e;
+}
+
+// audit.json's headroom part: per row its k's and wrong pixels per k; the scene's own changes.
+void add_headroom_json(const SceneAudit& a, json& j) {
+  const std::vector<int> ks = headroom_exponents();
+  j["headroom"] = json::object();
+  for (const VariantAudit& va : a.variants) {
+    json h;
+    h["exact_up_to_log2_translate"] =
+        va.exact_up_to_log2_translate ? json(*va.exact_up_to_log2_translate) : json(nullptr);
+    h["first_wrong_log2_translate"] =
+        va.first_wrong_log2_translate ? json(*va.first_wrong_log2_translate) : json(nullptr);
+    json by_k = json::object();
+    for (size_t i = 0; i < ks.size() && i < va.headroom_wrong.size(); ++i)
+      if (va.headroom_wrong[i] >= 0) by_k[std::to_string(ks[i])] = va.headroom_wrong[i];
+    h["wrong_by_log2_translate"] = by_k;
+    j["headroom"][va.label] = h;
+  }
+  json changed = json::object();
+  for (size_t i = 0; i < a.headroom_scene_changed.size(); ++i)
+    changed[std::to_string(ks[i])] = a.headroom_scene_changed[i];
+  j["headroom_scene_changed_pixels"] = changed;
+  if (a.headroom_collapsed_at) j["headroom_scene_collapsed_log2_translate"] = *a.headroom_collapsed_at;
+}
+
 json audit_json(const SceneAudit& a, const std::string& scene_path) {
   json j;
   j["scene"] = scene_path;
@@ -167,38 +223,8 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
                  a.primary_rays > 0 ? double(a.rays_beyond_intervals) / double(a.primary_rays) : 0.0}};
   j["variants"] = json::array();
   const std::vector<std::string> stems = audit_file_stems(a);
-  for (std::size_t i = 0; i < a.variants.size(); ++i) {
-    const VariantAudit& va = a.variants[i];
-    json e = {{"name", va.name},
-              {"shape", std::string(to_string(va.shape))},
-              {"precision", va.precision},
-              {"ns_per_ray", va.ns_per_ray},
-              {"wrong", va.counts.wrong},
-              {"holes", va.counts.holes},
-              {"false_hits", va.counts.false_hits},
-              {"shadow_wrong", va.counts.shadow_wrong},
-              {"acne", va.counts.acne},
-              {"wrongly_shadowed", va.counts.wrongly_shadowed},
-              {"wrongly_lit", va.counts.wrongly_lit},
-              {"tracer_errors", va.counts.tracer_errors},
-              {"exact_for_scene", va.exact_for_scene()},
-              {"origin", va.origin},
-              {"render", stems[i] + ".png"},
-              {"diff", stems[i] + "-diff.png"}};
-    if (!va.stopped.empty()) e["stopped"] = va.stopped;
-    if (va.proved_offset_ulps) e["proved_offset_ulps"] = *va.proved_offset_ulps;
-    if (has_cases_file(va)) {
-      e["cases"] = stems[i] + "-cases.jsonl";
-      e["cases_written"] = va.cases.size();
-      e["cases_left_out"] = va.cases_left_out;
-    }
-    if (va.tracer) e["tracer"] = true;  // a whole tracer (tracer.md), drawing every triangle
-    if (va.variant && va.variant->external) {
-      e["timed_in_worker"] = va.timed_in_worker;
-      e["round_trip_ns_per_ray"] = va.round_trip_ns_per_ray;
-    }
-    j["variants"].push_back(std::move(e));
-  }
+  for (std::size_t i = 0; i < a.variants.size(); ++i)
+    j["variants"].push_back(variant_row_json(a.variants[i], stems[i]));
   j["recommendation"] = json::object();
   j["recommendation_within_10_percent"] = json::object();
   for (const auto& r : a.recommendation) {
@@ -207,30 +233,7 @@ json audit_json(const SceneAudit& a, const std::string& scene_path) {
     for (const VariantAudit* c : r.close) close.push_back(c->label);
     j["recommendation_within_10_percent"][std::string(to_string(r.shape))] = close;
   }
-  if (a.headroom) {
-    j["headroom"] = json::object();
-    for (const VariantAudit& va : a.variants) {
-      json h;
-      h["exact_up_to_log2_translate"] =
-          va.exact_up_to_log2_translate ? json(*va.exact_up_to_log2_translate) : json(nullptr);
-      h["first_wrong_log2_translate"] =
-          va.first_wrong_log2_translate ? json(*va.first_wrong_log2_translate) : json(nullptr);
-      json by_k = json::object();
-      const std::vector<int> ks = headroom_exponents();
-      for (size_t i = 0; i < ks.size() && i < va.headroom_wrong.size(); ++i)
-        if (va.headroom_wrong[i] >= 0) by_k[std::to_string(ks[i])] = va.headroom_wrong[i];
-      h["wrong_by_log2_translate"] = by_k;
-      j["headroom"][va.label] = h;
-    }
-  }
-  if (a.headroom) {
-    json changed = json::object();
-    const std::vector<int> ks = headroom_exponents();
-    for (size_t i = 0; i < a.headroom_scene_changed.size(); ++i)
-      changed[std::to_string(ks[i])] = a.headroom_scene_changed[i];
-    j["headroom_scene_changed_pixels"] = changed;
-    if (a.headroom_collapsed_at) j["headroom_scene_collapsed_log2_translate"] = *a.headroom_collapsed_at;
-  }
+  if (a.headroom) add_headroom_json(a, j);
   if (!a.warnings.empty()) j["warnings"] = a.warnings;
   return j;
 }
@@ -334,10 +337,8 @@ std::string acne_words(const std::vector<ShapeKind>& shapes) {
   return out;
 }
 
-}  // namespace
-
-std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path) {
-  std::ostringstream h;
+// The page's head and styles.
+void html_head(std::ostream& h, const std::string& scene_path) {
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>rayproof audit: "
     << markup::escape(scene_path) << "</title><style>"
     << "body{font-family:sans-serif;margin:2em;max-width:1400px;color:#222}"
@@ -350,6 +351,10 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     << ".circled svg{position:absolute;left:1px;top:1px;pointer-events:none}.key "
        "span{display:inline-block;width:1em;height:1em;"
     << "margin:0 .3em 0 1em;vertical-align:middle}code{background:#f4f4f4;padding:1px 4px}</style></head><body>\n";
+}
+
+// The title, the scene, and the recommendation per shape (with the user's code's verdicts).
+void html_recommendation(std::ostream& h, const SceneAudit& a, const std::string& scene_path) {
   h << "<h1>Which intersector does this scene require?</h1>\n<p>Scene <code>" << markup::escape(scene_path)
     << "</code>, " << a.width << "×" << a.height << " pixels, shapes: ";
   for (size_t i = 0; i < a.shapes.size(); ++i) h << (i ? ", " : "") << to_string(a.shapes[i]);
@@ -370,6 +375,10 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
   }
   for (const std::string& v : users_code_verdicts(a))
     h << "<li class=\"yours\">Your code: " << markup::escape(v) << "</li>";
+}
+
+// The table of every row, with what each column means.
+void html_table(std::ostream& h, const SceneAudit& a) {
   h << "</ul>\n<h2>Every variant on this scene</h2>\n"
     << "<p>Each variant draws its own shape; the other shapes are judged exactly, so each count belongs to that "
        "variant alone. <i>wrong</i>: the visible object differs from the exact one (<i>holes</i>: it sees something "
@@ -404,6 +413,10 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
     << fixed(a.exact_seconds, 2) << " s; " << a.rays_beyond_intervals << " pixels ("
     << fixed(a.primary_rays ? 100.0 * a.rays_beyond_intervals / a.primary_rays : 0, 3)
     << "%) needed expansions or rationals beyond the double and interval filters.</p>\n";
+}
+
+// The headroom chart and what it shows.
+void html_headroom(std::ostream& h, const SceneAudit& a) {
   if (a.headroom) {
     h << "<h2>Headroom: how far can this scene move from the origin?</h2>\n<p>The whole scene (camera, lights, "
          "objects) translated by 2<sup>k</sup>·(1, 0.75, 0.5), added to its own coordinates and rounded to doubles, "
@@ -415,6 +428,10 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
            "rendered, and no variant's headroom can reach it.";
     h << "</p>\n<div id=\"headroom\">" << headroom_svg(a) << "</div>\n";
   }
+}
+
+// The images: the exact render, then per row the exact, its render and its diff side by side.
+void html_images(std::ostream& h, const SceneAudit& a) {
   h << "<h2>Images</h2>\n<p class=\"key\">Diff images, over the dimmed exact render:<span "
        "style=\"background:rgb(255,0,0)\">"
        "</span>hole<span style=\"background:rgb(0,160,255)\"></span>false hit<span style=\"background:rgb(255,255,0)\">"
@@ -454,6 +471,10 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
       if (va.exact_for_scene()) pair(va);
     h << "</details>\n";
   }
+}
+
+// Warnings, the command that reproduces the page, and the image-count hook for browser tests.
+void html_tail(std::ostream& h, const SceneAudit& a, const std::string& scene_path) {
   if (!a.warnings.empty()) {
     h << "<h2>Warnings</h2>\n<ul id=\"warnings\">";
     for (const std::string& w : a.warnings) h << "<li>" << markup::escape(w) << "</li>";
@@ -465,6 +486,18 @@ std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path)
        "if(imgs[i].complete&&imgs[i].naturalWidth>0)n++;document.body.setAttribute('data-images-decoded',n+'/"
        "'+imgs.length);});"
        "</script>\n</body></html>\n";
+}
+
+}  // namespace
+
+std::string scene_audit_html(const SceneAudit& a, const std::string& scene_path) {
+  std::ostringstream h;
+  html_head(h, scene_path);
+  html_recommendation(h, a, scene_path);
+  html_table(h, a);
+  if (a.headroom) html_headroom(h, a);
+  html_images(h, a);
+  html_tail(h, a, scene_path);
   return h.str();
 }
 
