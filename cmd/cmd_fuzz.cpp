@@ -148,7 +148,11 @@ int run_tracer_fuzz(const FuzzOptions& opts) {
   };
   const fuzz::TracerCampaignReport report = fuzz::run_tracer_campaign(o);
   progress.finish();
-  fuzz::print_tracer_report(report, *table_format_from_string(opts.format), std::cerr);
+  fuzz::print_tracer_report(report, *table_format_from_string(opts.format), std::cout);  // the report is the output
+  for (const Tracer* t : o.tracers)  // why external code stopped, on screen (not only in the findings)
+    if (const std::string why = t->stop_reason(); !why.empty() && opts.format != "json")
+      std::cerr << "rayproof fuzz: tracer " << t->name << " stopped: " << printable(why)
+                << " (its later rays are counted as failed)\n";
   double seconds = 0;
   std::uint64_t rays = 0;
   for (const auto& [family, s] : report.seconds) seconds += s, rays += report.rays.at(family);

@@ -231,7 +231,7 @@ int run_merge(const MergeOptions& o) {
         if (finding.second == rounding) out->stream() << finding.first << "\n";
     out->commit();
   }
-  if (tracers) fuzz::print_tracer_report(merged_tracers, *table_format_from_string(o.format), std::cerr);
+  if (tracers) fuzz::print_tracer_report(merged_tracers, *table_format_from_string(o.format), std::cout);
   for (const auto& [name, paths] : stopped_in)  // README: crash budgets are per shard
     if (paths.size() > 1)
       std::cerr << "note: " << printable(name) << " stopped (crash or timeout) in " << paths.size()

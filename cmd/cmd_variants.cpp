@@ -11,13 +11,18 @@ void add_variants_command(CLI::App& app, int& exit_code) {
   auto ext = std::make_shared<ExternalFlags>();
   auto tracer_flags = std::make_shared<TracerFlags>();
   auto* cmd = app.add_subcommand("variants", "List every intersection variant, its shape and its source");
-  add_shapes_flag(cmd, *shapes);
+  cmd->add_option("--shapes,--shape", *shapes,
+                  "shapes, comma separated: sphere, plane, triangle, box, mesh (the tracers), all");
   add_external_flags(cmd, *ext);
   add_tracer_flags(cmd, *tracer_flags);
   cmd->callback([shapes, ext, tracer_flags, &exit_code] {
     load_externals(*ext);
     load_tracers(*tracer_flags, ext->case_timeout);
-    const std::vector<ShapeKind> chosen = parse_shapes(*shapes);
+    // `mesh` (the shape this list gives tracers) names the tracers; the other shapes, variants.
+    std::vector<std::string> names = split_list(*shapes);
+    const bool mesh = std::erase(names, "mesh") > 0;
+    const bool all = shapes->empty() || std::find(names.begin(), names.end(), "all") != names.end();
+    const std::vector<ShapeKind> chosen = mesh && names.empty() ? std::vector<ShapeKind>{} : parse_shapes(names);
     auto listed = [&](ShapeKind k) { return std::find(chosen.begin(), chosen.end(), k) != chosen.end(); };
     // NAME<TAB>SHAPE<TAB>PRECISION<TAB>SOURCE: double, float, or exact (the oracle's own).
     for (const Variant& v : all_variants()) {
@@ -33,8 +38,8 @@ void add_variants_command(CLI::App& app, int& exit_code) {
       if (listed(b.shape))
         std::cout << b.name << "\t" << to_string(b.shape) << "\tdouble\tstructure-of-arrays form of " << b.scalar
                   << ", bit-identical (nearest rule; used by trade and the benchmarks)\n";
-    // Whole tracers (tracer.md): NAME, "mesh", PRECISION, SOURCE; listed unless --shapes narrows.
-    if (shapes->empty() || split_list(*shapes) == std::vector<std::string>{"all"})
+    // Whole tracers (tracer.md): NAME, "mesh", PRECISION, SOURCE; listed for `mesh`, `all` or no --shapes.
+    if (all || mesh)
       for (const Tracer* t : all_tracers()) {
         std::cout << t->name << "\tmesh\t" << to_string(t->precision) << "\t" << t->source;
         if (t->origin != "built-in") std::cout << " [" << t->origin << "]";

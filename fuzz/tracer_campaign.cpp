@@ -204,82 +204,107 @@ std::vector<std::string> tracer_diagnosis(const TracerCampaignReport& r, const s
   return lines;
 }
 
+namespace {
+// A sentence broken at spaces into lines of at most 120 columns, the later ones indented.
+std::string wrapped(const std::string& text) {
+  constexpr std::size_t kWidth = 120;
+  std::string out, line;
+  std::istringstream words(text);
+  for (std::string w; words >> w;) {
+    if (!line.empty() && line.size() + 1 + w.size() > kWidth) out += line + "\n", line = "    ";
+    line += (line.empty() || line == "    " ? "" : " ") + w;
+  }
+  return out + line + "\n";
+}
+
+std::string markup_number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.0f", x);
+  return buf;
+}
+}  // namespace
+
 void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std::ostream& out) {
   if (format == TableFormat::json) {
     out << json_text(r.to_json(), 2) << "\n";
     return;
   }
-  // Bugs first, rounding-level disagreements beside them, labelled (verdicts.md §4); then notes
-  // and failures. Without levels (a summary from before verdicts.md) the plain counts show.
+  // Every ray in exactly one column, so a row adds up to `cases` (issue 41): right, the bug-level
+  // disagreements by kind (verdicts.md §4), the rounding-level ones together, then the rays not
+  // judged. Without levels (a summary from before verdicts.md) the kinds hold their plain counts.
   struct Column {
     const char* title;
     std::function<std::uint64_t(const TracerTally&)> value;
   };
-  auto level = [](const char* kind, const char* suffix) {
-    return [kind, suffix](const TracerTally& t) {
-      return t.tolerance_ulps ? t.level(std::string(kind) + suffix) : (suffix[1] == 'b' ? t.count(kind) : 0);
+  auto bugs = [](const char* kind) {
+    return [kind](const TracerTally& t) {
+      return t.tolerance_ulps ? t.level(std::string(kind) + "_bugs") : t.count(kind);
     };
   };
-  auto plain = [](const char* kind) { return [kind](const TracerTally& t) { return t.count(kind); }; };
-  const std::vector<Column> columns = {{"cases", [](const TracerTally& t) { return t.cases; }},
-                                       {"right", plain("right")},
-                                       {"hole", level("hole", "_bugs")},
-                                       {"false_hit", level("false_hit", "_bugs")},
-                                       {"not_nearest", level("not_nearest", "_bugs")},
-                                       {"double_hit", level("double_hit", "_bugs")},
-                                       {"missed", level("missed_in_any_hit", "_bugs")},
-                                       {"r:hole", level("hole", "_rounding")},
-                                       {"r:false_hit", level("false_hit", "_rounding")},
-                                       {"r:not_nearest", level("not_nearest", "_rounding")},
-                                       {"r:missed", level("missed_in_any_hit", "_rounding")},
-                                       {"ties", [](const TracerTally& t) { return t.level("ties"); }},
-                                       {"at_range_end", [](const TracerTally& t) { return t.level("at_range_end"); }},
-                                       {"in_plane", plain("in_plane")},
-                                       {"unsupported", plain("unsupported")},
-                                       {"tracer_errors", plain("tracer_errors")},
-                                       {"crash", plain("crash")},
-                                       {"timeout", plain("timeout")}};
-  const bool md = format == TableFormat::markdown;
-  auto cell = [&](const std::string& text, int width, bool left) {
-    if (md) return "| " + text + " ";
-    std::ostringstream s;
-    s << (left ? std::left : std::right) << std::setw(width) << text << " ";
-    return s.str();
+  auto sum = [](std::vector<std::string> kinds) {
+    return [kinds](const TracerTally& t) {
+      std::uint64_t n = 0;
+      for (const std::string& k : kinds) n += t.count(k);
+      return n;
+    };
   };
-  auto width = [](const char* title) { return static_cast<int>(std::max<size_t>(6, std::strlen(title))); };
-  std::string header = cell("tracer", 22, true) + cell("family", 18, true) + cell("range", 6, true);
-  for (const Column& c : columns) header += cell(c.title, width(c.title), false);
-  header += cell("bits-p50", 8, false) + cell("bits-max", 8, false) + cell("ns/ray", 9, false);
-  out << "bugs first; r:KIND are rounding-level disagreements (backward error within --tolerance-ulps, each with a "
-         "witness the exact oracle checked)\n";
-  out << header << (md ? "|" : "") << "\n";
-  if (md) {
-    out << "|---|---|---|";
-    for (size_t i = 0; i < columns.size() + 3; ++i) out << "---:|";
-    out << "\n";
-  }
+  const std::vector<Column> columns = {{"cases", [](const TracerTally& t) { return t.cases; }},
+                                       {"right", sum({"right"})},
+                                       {"hole", bugs("hole")},
+                                       {"false", bugs("false_hit")},
+                                       {"farther", bugs("not_nearest")},
+                                       {"double", bugs("double_hit")},
+                                       {"missed", bugs("missed_in_any_hit")},
+                                       {"r:any",
+                                        [](const TracerTally& t) {
+                                          std::uint64_t n = 0;
+                                          if (t.tolerance_ulps)
+                                            for (const char* k : kLevelledTraceKinds)
+                                              n += t.level(std::string(k) + "_rounding");
+                                          return n;
+                                        }},
+                                       {"n/r", sum({"not_representable"})},
+                                       {"other", sum({"in_plane", "unsupported"})},
+                                       {"failed", sum({"tracer_error", "crash", "timeout", "build_failed"})}};
   std::map<std::string, std::vector<std::pair<std::string, const TracerTally*>>> by_tracer;
   for (const auto& [k, t] : r.tallies) by_tracer[k.name].push_back({k.family, &t});
-  for (const auto& [name, rows] : by_tracer) {
-    for (const auto& [family, t] : rows) {
-      std::string line =
-          cell(name, 22, true) + cell(family, 18, true) + cell(t->range.empty() ? "-" : t->range, 6, true);
-      for (const Column& c : columns) line += cell(std::to_string(c.value(*t)), width(c.title), false);
-      char buf[3][32];
-      const json bits = bits_json(t->ulps);
-      std::snprintf(buf[0], 32, "%.1f", bits["p50"].get<double>());
-      std::snprintf(buf[1], 32, "%.1f", bits["max"].get<double>());
-      std::snprintf(buf[2], 32, "%.0f", t->ns_per_ray());
-      line += cell(t->ulps.count() ? buf[0] : "-", 8, false) + cell(t->ulps.count() ? buf[1] : "-", 8, false) +
-              cell(buf[2], 9, false);
-      out << line << (md ? "|" : "") << "\n";
+  out << "per family: right, then bug-level hole, false (hit), farther (not the nearest), double (hit on one edge),\n"
+         "missed (in any-hit mode); r:any the rounding-level disagreements (each with a witness the exact oracle\n"
+         "checked); n/r not representable in float; other: in-plane or any-hit unsupported; failed: tracer errors,\n"
+         "crashes, timeouts, builds refused. Each row adds up to cases.\n";
+  auto ns = [](const TracerTally& t) { return markup_number(t.ns_per_ray()); };
+  if (format == TableFormat::markdown) {
+    out << "| tracer | family | range |";
+    for (const Column& c : columns) out << " " << c.title << " |";
+    out << " ns/ray |\n|---|---|---|";
+    for (std::size_t i = 0; i <= columns.size(); ++i) out << "---:|";
+    out << "\n";
+    for (const auto& [name, rows] : by_tracer)
+      for (const auto& [family, t] : rows) {
+        out << "| " << name << " | " << family << " | " << (t->range.empty() ? "-" : t->range) << " |";
+        for (const Column& c : columns) out << " " << c.value(*t) << " |";
+        out << " " << ns(*t) << " |\n";
+      }
+  } else {  // one block per tracer, at most 120 columns
+    for (const auto& [name, rows] : by_tracer) {
+      const std::string range = rows.front().second->range;
+      out << name << (range.empty() ? "" : " (range " + range + ")") << "\n  " << std::left << std::setw(17) << "family"
+          << std::right;
+      for (const Column& c : columns) out << std::setw(8) << c.title;
+      out << std::setw(9) << "ns/ray"
+          << "\n";
+      for (const auto& [family, t] : rows) {
+        out << "  " << std::left << std::setw(17) << family << std::right;
+        for (const Column& c : columns) out << std::setw(8) << c.value(*t);
+        out << std::setw(9) << ns(*t) << "\n";
+      }
     }
   }
   out << "\n";
   for (const auto& [name, rows] : by_tracer) {
-    out << name << ": " << one_hit_rule_line(r, name) << "\n";
-    for (const std::string& l : range_end_lines(r, name)) out << name << ": " << l << "\n";
-    for (const std::string& l : tracer_diagnosis(r, name)) out << name << ": diagnosis: " << l << "\n";
+    out << wrapped(name + ": " + one_hit_rule_line(r, name));
+    for (const std::string& l : range_end_lines(r, name)) out << wrapped(name + ": " + l);
+    for (const std::string& l : tracer_diagnosis(r, name)) out << wrapped(name + ": diagnosis: " + l);
   }
 }
 

@@ -3,6 +3,8 @@
 // tracers on every family; the example tracer's bugs found and each finding replayed; bad input.
 #include <gtest/gtest.h>
 
+#include <iterator>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -244,6 +246,40 @@ TEST(TracerCampaign, BuiltInAndPeerTracersOnEveryFamily) {
     const std::string tracer = f.at("found").at("tracer");
     EXPECT_EQ(replayed.at(f.at("id")).at("tracers").at(tracer).at("kind"), f.at("found").at("kind")) << f.dump();
   }
+}
+
+// The report goes to standard output, fits 120 columns, and every ray is in one column: each row
+// adds up to its cases, not_representable rays (a float tracer on the far family) included
+// (issue 41: 183 columns on standard error, n/r rays in none).
+TEST(TracerCampaign, ReportRowsAddUpAndFitOnAScreen) {
+  const std::string dir = test_dir();
+  const auto run = run_cli("fuzz --tracer " + kExampleTracers +
+                           " --tracers naive-float-bvh,bvh-watertight --families far,shared-edges --count 512 -o " +
+                           dir + "/f.jsonl");
+  ASSERT_EQ(run.status, 0) << run.err;
+  std::istringstream lines(run.out);
+  std::string line;
+  int rows = 0, header_at = -1;
+  std::uint64_t not_representable = 0;
+  std::vector<std::string> titles;
+  while (std::getline(lines, line)) {
+    EXPECT_LE(line.size(), 120u) << line;
+    std::istringstream words(line);
+    std::vector<std::string> w{std::istream_iterator<std::string>(words), std::istream_iterator<std::string>()};
+    if (!w.empty() && w[0] == "family") {
+      titles = w, header_at = 1;
+      continue;
+    }
+    if (header_at < 0 || w.size() != titles.size() || line.rfind("  ", 0) != 0) continue;
+    std::uint64_t cases = std::stoull(w[1]), sum = 0;
+    for (std::size_t i = 2; i + 1 < w.size(); ++i) sum += std::stoull(w[i]);  // right … failed (not ns/ray)
+    EXPECT_EQ(sum, cases) << line;
+    not_representable += std::stoull(w[std::find(titles.begin(), titles.end(), "n/r") - titles.begin()]);
+    ++rows;
+  }
+  EXPECT_EQ(rows, 8) << run.out;
+  EXPECT_GT(not_representable, 0u) << "a float tracer far from the origin has rays float cannot hold";
+  EXPECT_NE(run.out.find("one hit per shared edge"), std::string::npos) << run.out;
 }
 
 TEST(TracerCampaign, ExampleTracersBugsAreFoundShrunkAndReplayed) {
@@ -573,6 +609,8 @@ TEST(TracerBadInput, ExecTracersThatMisbehave) {
       escaped = f.at("found").at("reason").get<std::string>().find("\\xff") != std::string::npos;
   EXPECT_TRUE(escaped);
   EXPECT_EQ(t.at("fans\tbvh-watertight").at("cases"), 128);
+  // Why each one stopped is on screen too, not only in the findings (issue 41).
+  EXPECT_NE(run.err.find("tracer silent stopped: no answer within"), std::string::npos) << run.err;
 }
 
 // Issue 42, item 14: "t": "banana" is an unreadable line (a protocol error that stops the
@@ -715,6 +753,17 @@ TEST(TracerCli, VariantsListsTracersWithShapeMesh) {
 #ifdef RAYPROOF_HAVE_EMBREE
   EXPECT_NE(run.out.find("embree-robust\tmesh\tfloat\t"), std::string::npos);
 #endif
+  // The shape it shows is one --shapes takes (issue 41): `mesh` lists the tracers alone.
+  const auto meshes = run_cli("variants --shapes mesh");
+  ASSERT_EQ(meshes.status, 0) << meshes.err;
+  std::istringstream lines(meshes.out);
+  int listed = 0;
+  for (std::string line; std::getline(lines, line); ++listed)
+    EXPECT_NE(line.find("\tmesh\t"), std::string::npos) << line;
+  EXPECT_GE(listed, 5) << meshes.out;
+  const auto both = run_cli("variants --shapes sphere,mesh");
+  EXPECT_NE(both.out.find("stable\tsphere\t"), std::string::npos) << both.out;
+  EXPECT_NE(both.out.find("cgal-aabb\tmesh\t"), std::string::npos) << both.out;
 }
 
 }  // namespace
