@@ -1,4 +1,7 @@
 // rayproof audit SCENE -o DIR: which variant does this scene require (docs/spec/audit.md).
+#include <unistd.h>
+
+#include <chrono>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -93,13 +96,31 @@ void add_audit_command(CLI::App& app, int& exit_code) {
     ao.headroom = opts->headroom;
     ao.spawn_proved = opts->offset == "proved";
     ao.threads = opts->threads;
+    {  // what runs, before any wait (issue 41: 19 built-ins were re-rendered silently for minutes)
+      const auto built_in = std::count_if(ao.variants.begin(), ao.variants.end(),
+                                          [](const Variant* v) { return v->origin == "built-in"; });
+      std::cerr << "rayproof audit: " << scene.camera.width << "x" << scene.camera.height << " pixels; "
+                << ao.variants.size() << " variants (" << built_in << " built-in; --variants narrows), "
+                << ao.tracers.size() << " tracers"
+                << (ao.headroom ? "; --headroom: then the scene moved by 2^k, k = 0, 2, ..., 62, until all fail" : "")
+                << "\n";
+    }
     std::unique_ptr<Progress> progress;
     std::string stage;
+    const auto started = std::chrono::steady_clock::now();
+    auto last_said = started;
     ao.progress = [&](const std::string& s, long done, long total) {
       if (s != stage) {
         if (progress) progress->finish();
         stage = s;
         progress = std::make_unique<Progress>("audit: " + s);
+        // Off a terminal each stage is short: say which one runs every 30 s, so no long audit is silent.
+        const auto now = std::chrono::steady_clock::now();
+        if (!isatty(2) && now - last_said > std::chrono::seconds(30)) {
+          last_said = now;
+          std::cerr << "rayproof audit: " << std::chrono::duration_cast<std::chrono::seconds>(now - started).count()
+                    << " s: " << s << "\n";
+        }
       }
       progress->update(done, total);
     };

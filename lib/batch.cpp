@@ -9,31 +9,26 @@
 
 namespace rayproof {
 
-namespace {
-template <class T>
-T as(double x) {  // a double as T: itself, or its nearest float (fp.h)
-  if constexpr (std::is_same_v<T, float>)
-    return to_nearest_float(x);
-  else
-    return x;
-}
-}  // namespace
-
 template <class T>
 void RaysSoAOf<T>::push(const Ray& r) {
-  ox.push_back(as<T>(r.origin.x())), oy.push_back(as<T>(r.origin.y())), oz.push_back(as<T>(r.origin.z()));
-  dx.push_back(as<T>(r.direction.x())), dy.push_back(as<T>(r.direction.y())), dz.push_back(as<T>(r.direction.z()));
+  ox.push_back(rounded_to<T>(r.origin.x())), oy.push_back(rounded_to<T>(r.origin.y())),
+      oz.push_back(rounded_to<T>(r.origin.z()));
+  dx.push_back(rounded_to<T>(r.direction.x())), dy.push_back(rounded_to<T>(r.direction.y())),
+      dz.push_back(rounded_to<T>(r.direction.z()));
 }
 template <class T>
 void SpheresSoAOf<T>::push(const Sphere& s) {
-  cx.push_back(as<T>(s.center.x())), cy.push_back(as<T>(s.center.y())), cz.push_back(as<T>(s.center.z())),
-      r.push_back(as<T>(s.radius));
+  cx.push_back(rounded_to<T>(s.center.x())), cy.push_back(rounded_to<T>(s.center.y())),
+      cz.push_back(rounded_to<T>(s.center.z())), r.push_back(rounded_to<T>(s.radius));
 }
 template <class T>
 void TrianglesSoAOf<T>::push(const Triangle& t) {
-  x0.push_back(as<T>(t.v[0].x())), y0.push_back(as<T>(t.v[0].y())), z0.push_back(as<T>(t.v[0].z()));
-  x1.push_back(as<T>(t.v[1].x())), y1.push_back(as<T>(t.v[1].y())), z1.push_back(as<T>(t.v[1].z()));
-  x2.push_back(as<T>(t.v[2].x())), y2.push_back(as<T>(t.v[2].y())), z2.push_back(as<T>(t.v[2].z()));
+  x0.push_back(rounded_to<T>(t.v[0].x())), y0.push_back(rounded_to<T>(t.v[0].y())),
+      z0.push_back(rounded_to<T>(t.v[0].z()));
+  x1.push_back(rounded_to<T>(t.v[1].x())), y1.push_back(rounded_to<T>(t.v[1].y())),
+      z1.push_back(rounded_to<T>(t.v[1].z()));
+  x2.push_back(rounded_to<T>(t.v[2].x())), y2.push_back(rounded_to<T>(t.v[2].y())),
+      z2.push_back(rounded_to<T>(t.v[2].z()));
 }
 template struct RaysSoAOf<double>;
 template struct RaysSoAOf<float>;

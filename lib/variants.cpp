@@ -24,21 +24,10 @@ namespace {
 // doubles to float here is exact. Products and sums are written out in a fixed order, as in
 // core/geometry.h, so the double instantiation is the same arithmetic as before.
 template <class T>
-struct V3 {
-  T x, y, z;
-  T operator[](int i) const { return i == 0 ? x : i == 1 ? y : z; }
-};
-// A double as T: itself, or rounded to the nearest float (±inf beyond float's range, fp.h).
-template <class T>
-T as(double x) {
-  if constexpr (std::is_same_v<T, float>)
-    return to_nearest_float(x);
-  else
-    return x;
-}
+using V3 = Vec3Of<T>;
 template <class T>
 V3<T> lift(const Vec3& v) {
-  return {as<T>(v.x()), as<T>(v.y()), as<T>(v.z())};
+  return {rounded_to<T>(v.x()), rounded_to<T>(v.y()), rounded_to<T>(v.z())};
 }
 template <class T>
 V3<T> operator-(const V3<T>& a, const V3<T>& b) {
@@ -115,7 +104,7 @@ template <class T>
 Hit textbook(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
-  const auto [a, b, c] = sphere_quadratic(ray, m, as<T>(s.radius));
+  const auto [a, b, c] = sphere_quadratic(ray, m, rounded_to<T>(s.radius));
   const T disc = b * b - 4 * a * c;
   if (disc < 0) return Hit::miss();
   const T root = std::sqrt(disc);
@@ -130,7 +119,7 @@ template <class T>
 Hit stable(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
-  const Quadratic<T> k = sphere_quadratic(ray, m, as<T>(s.radius));
+  const Quadratic<T> k = sphere_quadratic(ray, m, rounded_to<T>(s.radius));
   const T disc = k.b * k.b - 4 * k.a * k.c;
   if (disc < 0) return Hit::miss();
   const auto [t0, t1] = stable_roots(k, disc);
@@ -144,7 +133,7 @@ template <class T>
 Hit stable_fma(const Ray& r, const Sphere& s, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> m = lift<T>(s.center);
-  const Quadratic<T> k = sphere_quadratic(ray, m, as<T>(s.radius));
+  const Quadratic<T> k = sphere_quadratic(ray, m, rounded_to<T>(s.radius));
   const T four_a = 4 * k.a;
   const T w = four_a * k.c;
   const T e = std::fma(-four_a, k.c, w);      // exact error of the product 4a·c
@@ -166,7 +155,7 @@ Hit hearn_baker(const Ray& r, const Sphere& s, HitRule rule) {
   const T f_dot_d = dot(f, ray.d);
   const T b_prime = -f_dot_d;
   const V3<T> l = f - (f_dot_d / a) * ray.d;  // f minus its projection on d
-  const T r2 = as<T>(s.radius) * as<T>(s.radius);
+  const T r2 = rounded_to<T>(s.radius) * rounded_to<T>(s.radius);
   const T delta = r2 - dot(l, l);
   if (delta < 0) return Hit::miss();
   const T c = dot(f, f) - r2;
@@ -183,7 +172,7 @@ Hit direct(const Ray& r, const Plane& p, HitRule rule) {
   const RayOf<T> ray(r);
   const V3<T> n = lift<T>(p.normal);
   const T denom = dot(n, ray.d);
-  const T num = as<T>(p.offset) - dot(n, ray.o);
+  const T num = rounded_to<T>(p.offset) - dot(n, ray.o);
   if (denom == 0) {
     // Parallel: the ray lies in the plane (tangent, no single t) or never meets it.
     return (num == 0 && rule == HitRule::nearest_contact) ? Hit{HitClass::tangent} : Hit::miss();

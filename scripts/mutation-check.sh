@@ -137,7 +137,7 @@ mutate "shrink-budget-ignored" fuzz/campaign.cpp \
 mutate "merge-in-name-order" cmd/cmd_merge.cpp \
   "if (k.tracer.empty()) k.pair_rank = order.of(k.family, k.shape);" ""
 mutate "audit-acne-never-counted" studies/scene_audit.cpp \
-  "acne = acne || neighbour.blocked;" ""
+  "out.acne = out.acne || neighbour.blocked;" ""
 # Verdicts (verdicts.md): the witness's claimed size, the one-hit rule's winding, the closed
 # range, precision ties.
 mutate "witness-size-not-checked" verify/backward_error.cpp \

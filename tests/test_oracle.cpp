@@ -30,7 +30,9 @@ void expect_verdict(const Ray& ray, const Shape& shape, Expected want, const cha
     const Verdict v = oracle.judge(ray, shape);
     EXPECT_EQ(v.cls, want.cls) << what << " (filter " << filter << "): got " << to_string(v.cls);
     EXPECT_EQ(v.t.has_value(), want.t.has_value()) << what;
-    if (v.t && want.t) EXPECT_EQ(*v.t, *want.t) << what;
+    if (v.t && want.t) {
+      EXPECT_EQ(*v.t, *want.t) << what;
+    }
   }
 }
 

@@ -195,7 +195,9 @@ TEST(OracleStages, TheBoxFilterIsNotFooledAtEdgesAndCorners) {
         target[k] = std::nextafter(target[k], steps > 0 ? 10.0 : -10.0);
     const Vec3 origin(4 * u(rng), 4 * u(rng), 4 * u(rng));
     const Ray ray{origin, target - origin};
-    if (is_valid_query(ray, box)) ASSERT_TRUE(check.same(ray, box)) << "ray " << i;
+    if (is_valid_query(ray, box)) {
+      ASSERT_TRUE(check.same(ray, box)) << "ray " << i;
+    }
   }
   EXPECT_GT(check.compared, 19000);
   EXPECT_GT(check.decided_static, check.compared / 100);  // 846 of 20,000 when written: most are within rounding
@@ -225,7 +227,9 @@ TEST(OracleStages, AxisParallelRaysAtBoxesAnswerAsTheRationalStage) {
       }
     }
     const Ray ray{origin, direction};
-    if (is_valid_query(ray, box)) ASSERT_TRUE(check.same(ray, box)) << "ray " << i;
+    if (is_valid_query(ray, box)) {
+      ASSERT_TRUE(check.same(ray, box)) << "ray " << i;
+    }
   }
   EXPECT_GT(check.compared, 19000);
   EXPECT_GT(check.decided_static, check.compared / 2);  // faces are undecided; the rest is the filters'

@@ -29,10 +29,7 @@ static_assert(std::is_same_v<Exact, mpq_class>, "build with CGAL_USE_GMPXX: Exac
 // Vectors over a number type: the same expressions are evaluated in intervals and in rationals.
 // Forced inline: the filter stages are a few dozen flops whose cost is call overhead otherwise.
 template <class NT>
-struct V {
-  NT x, y, z;
-  const NT& operator[](int i) const { return i == 0 ? x : i == 1 ? y : z; }
-};
+using V = Vec3Of<NT>;  // core/geometry.h
 template <class NT>
 [[gnu::always_inline]] inline V<NT> lift(const Vec3& v) {
   return {NT(v.x()), NT(v.y()), NT(v.z())};
@@ -1228,12 +1225,6 @@ struct Normalized {
   int t_exponent;  // t = t'·2^t_exponent
 };
 
-int exponent_of(double largest) {  // ⌊log2 x⌋ for x > 0 finite, from the bits (normal x)
-  std::uint64_t bits;
-  std::memcpy(&bits, &largest, sizeof bits);
-  return static_cast<int>((bits >> 52) & 0x7ff) - 1023;
-}
-
 struct Scaler {
   bool exact = true;
   double operator()(double x, int e) {
@@ -1263,7 +1254,8 @@ std::optional<Normalized> normalized(const Ray& ray, const Shape& shape) {
   if (!(pos >= DBL_MIN && dir >= DBL_MIN && pos <= DBL_MAX) ||
       (comfortable(pos) && comfortable(dir) && comfortable(normal)))
     return std::nullopt;
-  const int a = exponent_of(pos), b = exponent_of(dir), c = normal > 0 && normal >= DBL_MIN ? exponent_of(normal) : 0;
+  const int a = binary_exponent(pos), b = binary_exponent(dir),
+            c = normal > 0 && normal >= DBL_MIN ? binary_exponent(normal) : 0;
   Scaler scale;
   Normalized n{Ray{scale(ray.origin, a), scale(ray.direction, b)}, shape, a - b};
   std::visit(

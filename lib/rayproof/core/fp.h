@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <type_traits>
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -70,6 +71,23 @@ inline float to_nearest_float(double x) {
     return x > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
   return static_cast<float>(x);
 #endif
+}
+
+// A double as T: itself, or rounded to the nearest float (to_nearest_float): how the float twins
+// and batches read a case, exact for a case already rounded to float.
+template <class T>
+T rounded_to(double x) {
+  if constexpr (std::is_same_v<T, float>)
+    return to_nearest_float(x);
+  else
+    return x;
+}
+
+// ⌊log2 x⌋ of a normal positive finite x, read from its exponent bits.
+inline int binary_exponent(double x) {
+  std::uint64_t bits;
+  std::memcpy(&bits, &x, sizeof bits);
+  return static_cast<int>((bits >> 52) & 0x7ff) - 1023;
 }
 
 // The neighbouring doubles of x: by the bits for positive finite x (the oracle's fast paths, where

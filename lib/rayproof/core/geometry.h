@@ -12,6 +12,18 @@ namespace rayproof {
 
 using Vec3 = Eigen::Vector3d;
 
+// Three coordinates over another number type: float in the variants' float twins
+// (lib/variants.cpp), intervals and rationals in the oracle's stages (verify/oracle.cpp). One
+// template; the arithmetic on it is written beside each use, in the fixed order that use's
+// results depend on (the float twins mirror the double formulas operation by operation; the
+// oracle evaluates one expression in several number types). Eigen is not used for these: its
+// expression templates reorder and vectorise.
+template <class T>
+struct Vec3Of {
+  T x, y, z;
+  const T& operator[](int i) const { return i == 0 ? x : i == 1 ? y : z; }
+};
+
 // a·b summed left to right: x, then y, then z.
 inline double dot(const Vec3& a, const Vec3& b) { return a.x() * b.x() + a.y() * b.y() + a.z() * b.z(); }
 
