@@ -94,7 +94,27 @@ std::vector<std::string> cells_of(const TallyRow& r, bool levels) {
   return c;
 }
 
-void write_text(const std::vector<std::vector<std::string>>& lines, bool markdown, std::ostream& out) {
+// The screen's row (at most ~120 columns): every case in one column — agree + wrong + n/t make
+// `cases`, n/r and failed are the cases not judged — the commonest disagreements and the bits'
+// quantiles left to markdown and JSON (and to the examples printed after the table).
+std::vector<std::string> screen_cells_of(const TallyRow& r, bool levels) {
+  const Tally& t = r.tally;
+  std::vector<std::string> c;
+  if (!r.family.empty()) c.push_back(r.family);
+  for (std::uint64_t n : {t.cases, t.agree, t.wrong, t.cannot_tell}) c.push_back(std::to_string(n));
+  c.insert(c.begin() + (r.family.empty() ? 0 : 1), {r.variant, std::string(to_string(r.shape))});
+  if (levels) {
+    c.push_back(t.tolerance_ulps ? std::to_string(t.bug_count()) : "-");
+    c.push_back(t.tolerance_ulps ? std::to_string(t.rounding_count()) : "-");
+  }
+  for (const std::string& x : {std::to_string(t.shared_edge_holes), std::to_string(t.not_representable),
+                               std::to_string(t.failures()), bits_cell(t, 1.0)})
+    c.push_back(x);
+  return c;
+}
+
+void write_text(const std::vector<std::vector<std::string>>& lines, bool markdown, std::ostream& out,
+                const char* separator = "  ") {
   std::vector<size_t> width(lines[0].size(), 0);
   for (const auto& l : lines)
     for (size_t i = 0; i < l.size(); ++i) width[i] = std::max(width[i], l[i].size());
@@ -104,8 +124,8 @@ void write_text(const std::vector<std::vector<std::string>>& lines, bool markdow
     for (size_t i = 0; i < lines[n].size(); ++i) {
       const bool last = i + 1 == lines[n].size(), left = i < text_columns || last;
       const std::string pad(last && !markdown ? 0 : width[i] - lines[n][i].size(), ' ');
-      row +=
-          (markdown ? " " : (i ? "  " : "")) + (left ? lines[n][i] + pad : pad + lines[n][i]) + (markdown ? " |" : "");
+      row += (markdown ? " " : (i ? separator : "")) + (left ? lines[n][i] + pad : pad + lines[n][i]) +
+             (markdown ? " |" : "");
     }
     out << row << "\n";
     if (markdown && n == 0) {
@@ -146,6 +166,30 @@ void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostr
     return;
   }
   const bool with_family = !rows.empty() && !rows[0].family.empty();
+  const bool levels =
+      std::any_of(rows.begin(), rows.end(), [](const TallyRow& r) { return r.tally.tolerance_ulps.has_value(); });
+  if (format == TableFormat::table) {
+    std::vector<std::vector<std::string>> lines;
+    std::vector<std::string> header = {"variant", "shape", "cases", "agree", "wrong", "n/t"};
+    if (levels) header.insert(header.end(), {"bugs", "r:round"});
+    header.insert(header.end(), {"holes", "n/r", "failed", "bits-max"});
+    if (with_family) header.insert(header.begin(), "family");
+    lines.push_back(header);
+    for (const TallyRow& r : rows) lines.push_back(screen_cells_of(r, levels));
+    // The last column is left-aligned by write_text; bits-max is a number: pad it here.
+    for (auto& l : lines)
+      l.back() = std::string(std::max<std::size_t>(8, l.back().size()) - l.back().size(), ' ') + l.back();
+    write_text(lines, false, out, " ");
+    out << "agree + wrong + n/t (cannot tell) = cases; n/r (not representable in float) and failed (crashes, "
+           "timeouts,\n"
+           "plugin errors) are cases not judged;"
+        << (levels ? " bugs + r:round = wrong + n/t: r:round within --tolerance-ulps, with a witness\n"
+                     "the exact oracle accepted (verdicts.md);"
+                   : "")
+        << " holes at shared edges; bits-max: the worst t error, log2(ulps + 1).\n"
+           "--format markdown or json adds the commonest disagreements and the bits' p50 and p99.\n";
+    return;
+  }
   std::vector<std::vector<std::string>> lines;
   std::vector<std::string> header = {"variant",
                                      "shape",
@@ -158,8 +202,6 @@ void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostr
                                      "bits-p99",
                                      "bits-max",
                                      "commonest disagreements (exact->variant)"};
-  const bool levels =
-      std::any_of(rows.begin(), rows.end(), [](const TallyRow& r) { return r.tally.tolerance_ulps.has_value(); });
   if (levels) header.insert(header.begin() + 3, {"bugs", "r:rounding"});
   if (with_family) header.insert(header.begin(), "family");
   lines.push_back(header);
