@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <iomanip>
+#include <set>
 #include <limits>
 #include <cstdlib>
 #include <memory>
@@ -136,12 +137,13 @@ int run_tracer_fuzz(const FuzzOptions& opts) {
     std::cerr << "rayproof fuzz: " << o.count << " rays per family and tracer (--count), seed " << o.seed << ", "
               << threads_text(o.threads) << "\n  families " << families << "\n  tracers " << tracers << "\n";
   }
-  Progress progress("fuzz");
+  const bool logged = opts.format != "json";  // JSON on standard error: nothing else there off a terminal
+  Progress progress("fuzz", logged);
   std::optional<fuzz::TracerFamily> current;
   o.progress = [&](fuzz::TracerFamily family, std::uint64_t done, std::uint64_t total) {
     if (current != family) {
       progress.finish();
-      progress = Progress("fuzz " + std::string(to_string(family)) + " (meshes)");
+      progress = Progress("fuzz " + std::string(to_string(family)) + " (meshes)", logged);
       current = family;
     }
     progress.update(static_cast<long>(done), static_cast<long>(total));
@@ -190,12 +192,13 @@ int run_fuzz(const FuzzOptions& opts) {
               << "; shapes " << shapes << "; variants "
               << (o.variants.empty() ? "all but certified-*" : std::to_string(o.variants.size()) + " chosen") << "\n";
   }
-  Progress progress("fuzz");
+  const bool logged = opts.format != "json";  // JSON on standard error: nothing else there off a terminal
+  Progress progress("fuzz", logged);
   std::optional<std::pair<fuzz::Family, ShapeKind>> current;
   o.progress = [&](fuzz::Family family, ShapeKind shape, std::uint64_t done, std::uint64_t total) {
     if (current != std::pair{family, shape}) {
       progress.finish();
-      progress = Progress("fuzz " + std::string(to_string(family)) + "/" + std::string(to_string(shape)));
+      progress = Progress("fuzz " + std::string(to_string(family)) + "/" + std::string(to_string(shape)), logged);
       current = {family, shape};
     }
     progress.update(static_cast<long>(done), static_cast<long>(total));
@@ -227,8 +230,14 @@ int run_fuzz(const FuzzOptions& opts) {
       return holes;
     });
   }
-  if (opts.format != "json")
+  if (opts.format != "json") {
+    std::set<const Variant*> told;  // why external code stopped, on screen (not only in the findings)
+    for (const auto& [key, tally] : report.tallies)
+      if (const Variant* v = fuzz::variant_of_tally(key.name).first; v && v->external && told.insert(v).second)
+        if (const std::string why = v->external->stop_reason(); !why.empty())
+          std::cerr << "rayproof fuzz: variant " << v->name << " stopped: " << printable(why) << "\n";
     std::cerr << "rayproof fuzz: " << report.findings_written << " findings in " << o.output << "\n";
+  }
   if (!opts.spawn_csv.empty()) {
     // Near-origin hits raise the question users ask most: which t_min / offset? Answer it.
     std::vector<int> scales;

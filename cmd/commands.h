@@ -116,13 +116,14 @@ std::vector<studies::Contender> trade_contenders();
 // otherwise (a log, CI) a line every 30 s, so no long run is silent (issue 41).
 class Progress {
  public:
-  explicit Progress(std::string label);
+  // `logged`: off a terminal too (false for a run whose standard error is JSON: --format json).
+  explicit Progress(std::string label, bool logged = true);
   void update(long done, long total);
   void finish();
 
  private:
   std::string label_;
-  bool terminal_;
+  bool terminal_, logged_;
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now(), last_shown_ = start_;
   bool shown_ = false;
 };

@@ -323,9 +323,10 @@ std::vector<studies::Contender> trade_contenders() {
   return all;
 }
 
-Progress::Progress(std::string label) : label_(std::move(label)), terminal_(isatty(2)) {}
+Progress::Progress(std::string label, bool logged) : label_(std::move(label)), terminal_(isatty(2)), logged_(logged) {}
 
 void Progress::update(long done, long total) {
+  if (!terminal_ && !logged_) return;
   const auto now = std::chrono::steady_clock::now();
   const double since_shown = std::chrono::duration<double>(now - last_shown_).count();
   if (since_shown < (terminal_ ? 0.25 : 30.0)) return;

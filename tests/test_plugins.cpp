@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstdio>
 #include <fstream>
+#include <regex>
 #include <sstream>
 
 #include "rayproof/core/casefile.h"
@@ -261,6 +262,8 @@ TEST(Plugins, TheCrashFindingIsKeptPastTheFindingsCap) {
     EXPECT_FALSE(c.found["disagreeing"].empty()) << line;
   }
   EXPECT_EQ(crashes, 1) << lines << " findings";
+  // Why it stopped is on screen, not only in the findings (issue 41).
+  EXPECT_NE(r.err.find("variant test-crash-often stopped: killed by SIGSEGV"), std::string::npos) << r.err;
 }
 
 TEST(Plugins, RenderSaysWhenThePluginItDrawsWithStopped) {
@@ -531,7 +534,7 @@ TEST(Exec, ACommandThatDeclaresItsShapesIsAskedOnlyThose) {
   EXPECT_EQ(a["tallies"]["random\tpy@sphere"]["cases"], 600);
   EXPECT_EQ(a["tallies"]["random\tpy@plane"]["cases"], 600);
   EXPECT_FALSE(a["tallies"].contains("random\tpy"));
-  EXPECT_NE(undeclared.err.find("random  py@plane   plane"), std::string::npos) << undeclared.err;
+  EXPECT_TRUE(std::regex_search(undeclared.err, std::regex("\nrandom +py@plane +plane +600 "))) << undeclared.err;
 
   const CliRun declared =
       run("fuzz --exec py:sphere=" + script + args + test_dir() + "/b.json -o " + test_dir() + "/b.jsonl");
