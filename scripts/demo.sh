@@ -48,7 +48,7 @@ show "^family|^tangent(-full)? +textbook |^extremes +hearn-baker |^grazing(-full
 
 if [ -f "$build/plugins/weekend_sphere.so" ]; then
   part "4/6 your code: Ray Tracing in One Weekend's sphere as a plugin (examples/plugins), fuzzed"
-  show "^family|weekend-sphere  sphere|^  weekend-sphere exit->miss|^    rayproof check .*near-origin/sphere/1/1 |^diagnosis|^  weekend-sphere:|findings in" \
+  show "^family|weekend-sphere +sphere |^  weekend-sphere exit->miss|^    rayproof check .*near-origin/sphere/1/1 |^diagnosis|^  weekend-sphere:|findings in" \
     "$rp" fuzz --plugin "$build/plugins/weekend_sphere.so" --variants weekend-sphere --shapes sphere \
     --families tangent,near-origin --count 20000 -o "$out/plugin-findings.jsonl"
 fi
@@ -61,19 +61,18 @@ if [ -f "$build/plugins/naive_float_bvh.so" ]; then
   tracer_lib=(--tracer "$build/plugins/naive_float_bvh.so")
   tracers+=,naive-float-bvh,naive-float-bvh-nan,float-bvh-top-left-1e30
 fi
-show "one hit per|findings in" "$rp" fuzz "${tracer_lib[@]}" --tracers "$tracers" \
+show "one hit per|^    rays\)|findings in" "$rp" fuzz "${tracer_lib[@]}" --tracers "$tracers" \
   --families shared-edges,fans,needles,spawned --count 2048 --max-findings 3 \
   -o "$out/tracer-findings.jsonl" --summary "$out/tracer-summary.json"
 show "^$" "$rp" check "$out/tracer-findings.jsonl" "${tracer_lib[@]}" --tracers "$tracers" -o "$out/tracer-check.jsonl"
-echo "   replay: $out/tracer-findings.jsonl (each finding shrunk to a few triangles) judged again by check:"
 python3 - "$out/tracer-findings.jsonl" "$out/tracer-check.jsonl" <<'EOF'
 import json, sys
 found = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
 replayed = {j["id"]: j for j in (json.loads(l) for l in open(sys.argv[2]) if l.strip())}
 same = sum(replayed[f["id"]]["tracers"][f["found"]["tracer"]]["kind"] == f["found"]["kind"] for f in found)
 sizes = sorted(len(f["mesh"]["triangles"]) for f in found)
-print(f"   {same} of {len(found)} findings replay with the kind they were found with; "
-      f"median mesh {sizes[len(sizes) // 2]} triangles")
+print(f"   replayed by check: {same} of {len(found)} findings (shrunk: median mesh {sizes[len(sizes) // 2]} "
+      f"triangles) keep the kind they were found with")
 EOF
 
 part "6/6 audit: which intersector does a scene need? (docs/spec/audit.md)"
