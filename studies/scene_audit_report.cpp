@@ -359,14 +359,21 @@ void html_recommendation(std::ostream& h, const SceneAudit& a, const std::string
     << "</code>, " << a.width << "×" << a.height << " pixels, shapes: ";
   for (size_t i = 0; i < a.shapes.size(); ++i) h << (i ? ", " : "") << to_string(a.shapes[i]);
   h << ".</p>\n<h2>Recommendation</h2>\n<ul id=\"recommendation\">";
+  // With headroom, each name's k beside its cost: the cheapest exact code may be a float one that
+  // stops being exact far sooner than the double ones beside it.
+  auto k_of = [&](const VariantAudit& va) {
+    if (!a.headroom) return std::string();
+    return va.exact_up_to_log2_translate ? ", exact up to k = " + std::to_string(*va.exact_up_to_log2_translate)
+                                         : std::string(", no headroom");
+  };
   for (const auto& r : a.recommendation) {
     h << "<li><b>" << to_string(r.shape) << "</b>: ";
     if (r.best) {
       h << "<b>" << markup::escape(r.best->name) << "</b>, the cheapest variant that renders this scene exactly ("
-        << fixed(r.best->ns_per_ray, 1) << " ns per primary ray)";
+        << fixed(r.best->ns_per_ray, 1) << " ns per primary ray" << k_of(*r.best) << ")";
       for (size_t i = 0; i < r.close.size(); ++i)
         h << (i == 0 ? "; within 10%, as good a choice: " : ", ") << markup::escape(r.close[i]->label) << " ("
-          << fixed(r.close[i]->ns_per_ray, 1) << " ns)";
+          << fixed(r.close[i]->ns_per_ray, 1) << " ns" << k_of(*r.close[i]) << ")";
     } else if (r.audited)
       h << "<b>none</b> of the audited variants renders this scene exactly";
     else

@@ -778,6 +778,9 @@ TEST(Audit, ReportOpensInHeadlessChromiumWithEveryImageDecoded) {
   EXPECT_NE(page.str().find("data-images-decoded=\"7/7\""), std::string::npos) << page.str().substr(0, 300);
   EXPECT_NE(page.str().find("<svg"), std::string::npos);
   EXPECT_NE(page.str().find("watertight</b>, the cheapest variant"), std::string::npos);
+  // With --headroom the recommendation carries its k, as the terminal's line does (issue 41).
+  EXPECT_NE(page.str().find(", exact up to k = "), std::string::npos);
+  EXPECT_NE(run.err.find("recommendation: triangle: watertight (k "), std::string::npos) << run.err;
 }
 
 }  // namespace
