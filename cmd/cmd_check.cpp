@@ -6,7 +6,6 @@
 #include <map>
 #include <memory>
 #include <set>
-#include <sstream>
 
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
@@ -34,10 +33,10 @@ void add_to_summary(CheckSummary& summary, const Verdict& exact, const std::vect
   }
 }
 
-void print_summary_table(const CheckSummary& summary, TableFormat format, std::ostream& out) {
+std::vector<TallyRow> summary_rows(const CheckSummary& summary) {
   std::vector<TallyRow> rows;
   for (const auto& [name, entry] : summary) rows.push_back({"", name, entry.first, entry.second});
-  write_tally_table(std::move(rows), format, out);
+  return rows;
 }
 
 json summary_json(const CheckSummary& summary) {
@@ -323,9 +322,7 @@ int run_check(const CheckOptions& opts) {
   else
     std::cout.flush();
   if (opts.format == "json") {  // one JSON array and nothing else: the variants' rows, then the tracers'
-    std::ostringstream rows;
-    print_summary_table(run.summary, TableFormat::json, rows);
-    json all = json::parse(rows.str());
+    json all = tally_table_json(summary_rows(run.summary));
     for (const auto& [name, kinds] : run.tracer_kinds) {
       json row{{"tracer", name}, {"shape", "mesh"}, {"kinds", kinds}};
       if (run.tracer_levels.contains(name)) row["levels"] = run.tracer_levels.at(name);
@@ -333,7 +330,7 @@ int run_check(const CheckOptions& opts) {
     }
     std::cerr << json_text(all, 2) << "\n";
   } else {
-    print_summary_table(run.summary, *table_format_from_string(opts.format), std::cerr);
+    write_tally_table(summary_rows(run.summary), *table_format_from_string(opts.format), std::cerr);
     for (const auto& [name, kinds] : run.tracer_kinds) {  // mesh cases: one line per tracer
       std::cerr << "tracer " << name << ":";
       for (const auto& [kind, n] : kinds) std::cerr << " " << kind << " " << n;

@@ -22,7 +22,9 @@ void add_variants_command(CLI::App& app, int& exit_code) {
     std::vector<std::string> names = split_list(*shapes);
     const bool mesh = std::erase(names, "mesh") > 0;
     const bool all = shapes->empty() || std::find(names.begin(), names.end(), "all") != names.end();
-    const std::vector<ShapeKind> chosen = mesh && names.empty() ? std::vector<ShapeKind>{} : parse_shapes(names);
+    // (Without `mesh`, the list as given: an empty one is refused, as every command refuses it.)
+    const std::vector<ShapeKind> chosen =
+        mesh && names.empty() ? std::vector<ShapeKind>{} : parse_shapes(mesh ? names : *shapes);
     auto listed = [&](ShapeKind k) { return std::find(chosen.begin(), chosen.end(), k) != chosen.end(); };
     // NAME<TAB>SHAPE<TAB>PRECISION<TAB>SOURCE: double, float, or exact (the oracle's own).
     for (const Variant& v : all_variants()) {

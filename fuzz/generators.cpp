@@ -1,5 +1,6 @@
 #include "rayproof/fuzz/generators.h"
 
+#include <array>
 #include <cmath>
 
 #include "rayproof/core/variants.h"
@@ -273,9 +274,12 @@ struct Builder {
   // family, shape, i), whatever a program registers (issue 25: a plugin changed this family's
   // cases; issue 41: so did the certified variants `main` registers).
   GeneratedCase near_origin(ShapeKind kind, std::uint64_t index) {
-    std::vector<const Variant*> spawners;
-    for (const Variant& v : builtin_variants())
-      if (v.handles(kind)) spawners.push_back(&v);
+    static const std::array<std::vector<const Variant*>, 4> by_kind = [] {  // fixed: built once
+      std::array<std::vector<const Variant*>, 4> out;
+      for (const Variant& v : builtin_variants()) out[static_cast<int>(v.shape)].push_back(&v);
+      return out;
+    }();
+    const std::vector<const Variant*>& spawners = by_kind[static_cast<int>(kind)];
     const Variant& v = *spawners[index % spawners.size()];
     for (int attempt = 0; attempt < 64; ++attempt) {
       const int k = static_cast<int>(rng.integer(-40, 40));

@@ -138,8 +138,8 @@ void write_text(const std::vector<std::vector<std::string>>& lines, bool markdow
 
 }  // namespace
 
-void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostream& out,
-                       const std::vector<std::string>& families) {
+namespace {
+void sort_rows(std::vector<TallyRow>& rows, const std::vector<std::string>& families) {
   auto family_rank = [&](const std::string& f) {
     return std::find(families.begin(), families.end(), f) - families.begin();
   };
@@ -148,23 +148,34 @@ void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostr
     if (a.variant != b.variant) return a.variant < b.variant;
     return family_rank(a.family) < family_rank(b.family);
   });
+}
+}  // namespace
+
+json tally_table_json(std::vector<TallyRow> rows, const std::vector<std::string>& families) {
+  sort_rows(rows, families);
+  json j = json::array();
+  for (const TallyRow& r : rows) {
+    json row = r.tally.to_json();
+    row.erase("ulp");
+    row["ulp"] = {{"count", r.tally.ulps.count()},
+                  {"p50", r.tally.ulps.quantile(0.5)},
+                  {"p99", r.tally.ulps.quantile(0.99)},
+                  {"max", r.tally.ulps.max()}};
+    if (!r.family.empty()) row["family"] = r.family;
+    row["variant"] = r.variant;
+    row["shape"] = std::string(to_string(r.shape));
+    j.push_back(row);
+  }
+  return j;
+}
+
+void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostream& out,
+                       const std::vector<std::string>& families) {
   if (format == TableFormat::json) {
-    json j = json::array();
-    for (const TallyRow& r : rows) {
-      json row = r.tally.to_json();
-      row.erase("ulp");
-      row["ulp"] = {{"count", r.tally.ulps.count()},
-                    {"p50", r.tally.ulps.quantile(0.5)},
-                    {"p99", r.tally.ulps.quantile(0.99)},
-                    {"max", r.tally.ulps.max()}};
-      if (!r.family.empty()) row["family"] = r.family;
-      row["variant"] = r.variant;
-      row["shape"] = std::string(to_string(r.shape));
-      j.push_back(row);
-    }
-    out << json_text(j, 2) << "\n";
+    out << json_text(tally_table_json(std::move(rows), families), 2) << "\n";
     return;
   }
+  sort_rows(rows, families);
   const bool with_family = !rows.empty() && !rows[0].family.empty();
   const bool levels =
       std::any_of(rows.begin(), rows.end(), [](const TallyRow& r) { return r.tally.tolerance_ulps.has_value(); });

@@ -46,5 +46,7 @@ struct TallyRow {
 // Rows sorted by shape, then variant, then family (in the order given to `families`).
 void write_tally_table(std::vector<TallyRow> rows, TableFormat format, std::ostream& out,
                        const std::vector<std::string>& families = {});
+// The same rows as `--format json` prints them (one array), for a caller that adds its own.
+json tally_table_json(std::vector<TallyRow> rows, const std::vector<std::string>& families = {});
 
 }  // namespace rayproof
