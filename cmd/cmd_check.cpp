@@ -121,19 +121,9 @@ void judge_mesh_case(const std::string& path, long line, const MeshCase& c, Chec
     if (c.found.is_object() && c.found.contains("range"))  // replayed as found (checked when read)
       settings.range = range_rule_from_string(c.found.at("range").get<std::string>());
     const fuzz::TracerOutcome o = fuzz::judge_tracer_on_case(*t, *seen, settings);
-    nlohmann::ordered_json entry = fuzz::reported_json(o, c.all);
-    entry["kind"] = std::string(to_string(o.kind));
-    if (fuzz::has_backward_error(o.kind)) {
-      entry["beta"] = beta_json(o.backward);
-      entry["level"] = std::string(to_string(o.level));
-    } else if (is_disagreement(o.kind)) {
-      entry["level"] = "bug";
-    }
     if (is_disagreement(o.kind)) ++run.tracer_levels[t->name][std::string(to_string(o.level))];
     if (fails_on(run.fail_on, o.kind, o.level)) ++run.failing;
-    if (!o.reason.empty()) entry["reason"] = o.reason;
-    if (o.judgement.ulp) entry["ulp"] = *o.judgement.ulp;
-    tracers[t->name] = entry;
+    tracers[t->name] = fuzz::check_entry(o, c.all);
     ++run.tracer_kinds[t->name][std::string(to_string(o.kind))];
     if (o.kind == TraceKind::crash || o.kind == TraceKind::timeout) {
       ++run.stopped;

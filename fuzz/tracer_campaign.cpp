@@ -422,6 +422,20 @@ json reported_json(const TracerOutcome& o, bool all) {
   return {{"triangle", o.answer.triangle}, {"t", std::isnan(o.answer.t) ? json("nan") : json(hex_double(o.answer.t))}};
 }
 
+nlohmann::ordered_json check_entry(const TracerOutcome& o, bool all) {
+  nlohmann::ordered_json entry = reported_json(o, all);
+  entry["kind"] = std::string(to_string(o.kind));
+  if (has_backward_error(o.kind)) {
+    entry["beta"] = beta_json(o.backward);
+    entry["level"] = std::string(to_string(o.level));
+  } else if (is_disagreement(o.kind)) {
+    entry["level"] = "bug";
+  }
+  if (!o.reason.empty()) entry["reason"] = o.reason;
+  if (o.judgement.ulp) entry["ulp"] = *o.judgement.ulp;
+  return entry;
+}
+
 namespace {
 // The mesh with only `keep`'s triangles (in their order) and the vertices they use.
 std::shared_ptr<TriangleMesh> subset(const TriangleMesh& m, const std::vector<std::uint32_t>& keep) {

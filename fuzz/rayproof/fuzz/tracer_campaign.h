@@ -99,6 +99,10 @@ json expect_json(MeshOracle& oracle, const TracerRay& ray);
 json expect_json(const MeshTruth& complete);  // from a truth(ray, true) at hand
 // The answer as the findings and check lines show it.
 json reported_json(const TracerOutcome& o, bool all);
+// A tracer's entry in a `check` line (tracer.md, Outputs): the answer, "kind", and for a
+// disagreement its "level" (with "beta" for the kinds that have one), "reason", "ulp". Shared by
+// the CLI's check and the Python module's, so both write the same lines.
+nlohmann::ordered_json check_entry(const TracerOutcome& o, bool all);
 // Fewer triangles (and only the vertices they use) on which the tracer still gives `kind`;
 // `budget` caps the rebuilds. The case itself when nothing smaller shows it.
 // With `level`, the shrunk case keeps that level too.
