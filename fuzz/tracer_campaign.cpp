@@ -146,6 +146,17 @@ std::vector<std::string> tracer_diagnosis(const TracerCampaignReport& r, const s
     std::snprintf(buf, sizeof buf, "%.3g", x);
     return std::string(buf);
   };
+  // A tracer that reports no hit at all (nearest mode: holes, and not one reported t) has no
+  // geometry for the rays — whatever the other hints would read into its holes.
+  std::uint64_t all_holes = 0, reported = 0;
+  for (const auto& [k, t] : r.tallies)
+    if (k.name == tracer && !k.family.ends_with("-any"))
+      all_holes += t.count("hole"), reported += t.ulps.count() + t.count("false_hit") + t.count("not_nearest");
+  if (all_holes > 0 && reported == 0)
+    return {"no hit reported on any ray: all " + std::to_string(all_holes) +
+            " rays that cross a triangle are holes: the rays meet no geometry (an empty or unbuilt structure, "
+            "a ray mask that excludes every geometry — Embree built with ray masks skips a ray whose mask is 0 —, "
+            "or a t range never met)"};
   std::uint64_t edge_holes = 0, edge_zero = 0, edge_rays = 0, doubles = 0;
   for (const auto& [k, t] : r.tallies) {
     if (k.name != tracer) continue;

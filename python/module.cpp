@@ -55,7 +55,9 @@ Precision precision_of(const std::string& s) {
 RangeRule range_of(const std::string& s) {
   return named<RangeRule>(s, range_rule_from_string, "range", "open or closed");
 }
-HitRule rule_of(const std::string& s) { return named<HitRule>(s, hit_rule_from_string, "rule", "nearest or enter-only"); }
+HitRule rule_of(const std::string& s) {
+  return named<HitRule>(s, hit_rule_from_string, "rule", "nearest or enter-only");
+}
 
 // A float64 array of shape (n, columns) (columns 0: shape (n,)), C-contiguous: NumPy converts
 // other dtypes and layouts, and refuses what it cannot (a string, a ragged list).
@@ -64,14 +66,14 @@ Doubles doubles(py::handle o, const char* name, py::ssize_t columns, py::ssize_t
   Doubles a;
   try {
     a = Doubles::ensure(o);
-  } catch (const py::error_already_set&) {
-  }
+  } catch (const py::error_already_set&) {}
   if (!a) throw py::type_error(std::string(name) + ": expected an array of numbers");
   const bool shaped = columns == 0 ? a.ndim() == 1 : a.ndim() == 2 && a.shape(1) == columns;
   if (!shaped || (rows >= 0 && a.shape(0) != rows)) {
     std::string want = columns == 0 ? "(n,)" : "(n, " + std::to_string(columns) + ")";
-    if (rows >= 0) want = columns == 0 ? "(" + std::to_string(rows) + ",)" : "(" + std::to_string(rows) + ", " +
-                                                                                 std::to_string(columns) + ")";
+    if (rows >= 0)
+      want = columns == 0 ? "(" + std::to_string(rows) + ",)"
+                          : "(" + std::to_string(rows) + ", " + std::to_string(columns) + ")";
     std::string got = "(";
     for (py::ssize_t i = 0; i < a.ndim(); ++i) got += (i ? ", " : "") + std::to_string(a.shape(i));
     throw py::value_error(std::string(name) + ": expected shape " + want + ", got " + got + ")");
@@ -196,7 +198,8 @@ py::list variants() {
   py::list out;
   for (const Variant& v : all_variants()) {
     py::dict d;
-    d["name"] = std::string(v.name), d["shape"] = shapes_answered(v), d["precision"] = std::string(to_string(v.precision));
+    d["name"] = std::string(v.name), d["shape"] = shapes_answered(v),
+    d["precision"] = std::string(to_string(v.precision));
     d["source"] = std::string(v.source);
     out.append(d);
   }
@@ -272,6 +275,8 @@ struct PythonTracer {
 
 // What nearest returned, checked: (triangles, t), each of n numbers. Triangles: integers, a
 // negative one or 0xffffffff for no hit. Anything else is a tracer error for the batch.
+std::string rays_text(std::size_t n) { return std::to_string(n) + (n == 1 ? " ray" : " rays"); }
+
 std::optional<std::string> read_nearest(py::handle result, std::span<TraceAnswer> out) {
   const std::size_t n = out.size();
   if (!py::isinstance<py::sequence>(result) || py::isinstance<py::str>(result) || py::len(result) != 2)
@@ -282,14 +287,14 @@ std::optional<std::string> read_nearest(py::handle result, std::span<TraceAnswer
   const char kind = tri.dtype().kind();
   if (tri.ndim() != 1 || static_cast<std::size_t>(tri.shape(0)) != n)
     return "nearest returned " + std::to_string(tri.ndim() == 1 ? tri.shape(0) : tri.size()) + " triangles for " +
-           std::to_string(n) + " rays";
-  if (kind != 'i' && kind != 'u') return "nearest's triangles must be integers, got dtype " +
-                                           py::str(tri.dtype()).cast<std::string>();
+           rays_text(n);
+  if (kind != 'i' && kind != 'u')
+    return "nearest's triangles must be integers, got dtype " + py::str(tri.dtype()).cast<std::string>();
   if (t.ndim() != 1 || static_cast<std::size_t>(t.shape(0)) != n)
     return "nearest returned " + std::to_string(t.ndim() == 1 ? t.shape(0) : t.size()) + " t values for " +
-           std::to_string(n) + " rays";
+           rays_text(n);
   const auto ids = py::array_t<std::int64_t, py::array::forcecast>::ensure(kind == 'u' ? tri.attr("astype")("int64")
-                                                                                      : py::object(tri));
+                                                                                       : py::object(tri));
   const auto ts = py::array_t<double, py::array::forcecast>::ensure(t);
   if (!ids || !ts) return "nearest's t must be numbers";
   for (std::size_t i = 0; i < n; ++i) {
@@ -305,7 +310,7 @@ std::optional<std::string> read_nearest(py::handle result, std::span<TraceAnswer
 
 std::optional<std::string> read_all_hits(py::handle result, std::span<AllHitsAnswer> out) {
   if (!py::isinstance<py::sequence>(result) || py::isinstance<py::str>(result) || py::len(result) != out.size())
-    return "all_hits must return one list of triangles per ray (" + std::to_string(out.size()) + "), got " +
+    return "all_hits must return one list of triangles per ray (" + rays_text(out.size()) + "), got " +
            py::repr(result).cast<std::string>().substr(0, 200);
   for (std::size_t i = 0; i < out.size(); ++i) {
     out[i] = AllHitsAnswer{};
@@ -366,8 +371,8 @@ class PythonScene : public TracerScene {
     py::gil_scoped_acquire locked;
     std::optional<std::string> bad;
     try {
-      py::object result = scene_.attr(method)(rays_array(rays, 0), rays_array(rays, 1), rays_array(rays, 2),
-                                              rays_array(rays, 3));
+      py::object result =
+          scene_.attr(method)(rays_array(rays, 0), rays_array(rays, 1), rays_array(rays, 2), rays_array(rays, 3));
       bad = read(result, out);
     } catch (py::error_already_set& e) {
       last_error = python_error_text(e);
@@ -401,7 +406,8 @@ BuiltScene build_python_scene(const std::shared_ptr<PythonTracer>& owner, const 
       return built;
     }
     if (!py::hasattr(scene, "nearest")) {
-      built.reason = "build() returned " + py::repr(scene).cast<std::string>().substr(0, 120) + ", which has no nearest()";
+      built.reason =
+          "build() returned " + py::repr(scene).cast<std::string>().substr(0, 120) + ", which has no nearest()";
       return built;
     }
     if (!scene.is(owner->tracer)) hold.unlock();
@@ -508,8 +514,8 @@ py::list check_tracer(py::object tracer, const py::list& cases, const std::strin
 PYBIND11_MODULE(_rayproof, m) {
   m.doc() = "rayproof's C++ half: the exact oracle, campaigns and tracer judging (see rayproof/__init__.py)";
   py::list classes;
-  for (HitClass c : {HitClass::miss, HitClass::enter, HitClass::exit, HitClass::tangent, HitClass::boundary,
-                     HitClass::hit})
+  for (HitClass c :
+       {HitClass::miss, HitClass::enter, HitClass::exit, HitClass::tangent, HitClass::boundary, HitClass::hit})
     classes.append(std::string(to_string(c)));
   m.attr("CLASSES") = py::tuple(classes);
   m.attr("NO_TRIANGLE") = kNoTriangle;
@@ -522,6 +528,8 @@ PYBIND11_MODULE(_rayproof, m) {
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
+    } catch (const py::builtin_exception&) {
+      throw;  // pybind11's own (type_error, value_error): its translator maps them
     } catch (const FieldError& e) {
       PyErr_SetString(PyExc_ValueError, (e.field + ": " + e.what()).c_str());
     } catch (const std::invalid_argument& e) {

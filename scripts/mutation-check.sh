@@ -7,7 +7,7 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 build=build-mutants
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DRAYPROOF_BUILD_BENCH=OFF > /dev/null
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DRAYPROOF_BUILD_BENCH=OFF -DRAYPROOF_BUILD_PYTHON=OFF > /dev/null
 
 # The unmutated suite first: a test that fails or times out without any mutation (flaky, or the
 # environment: no network, no Embree) proves nothing about a mutant, so it never counts as a kill.

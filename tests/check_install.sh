@@ -24,3 +24,12 @@ cc -O2 -shared -fPIC -I "$work/prefix/include" -o "$work/weekend.so" "$work/pref
 cmake -S "$source/examples/consumer" -B "$work/consumer" -DCMAKE_PREFIX_PATH="$work/prefix" -DCMAKE_BUILD_TYPE=Release > "$work/configure.log"
 cmake --build "$work/consumer" -j2 > "$work/build.log" || { cat "$work/build.log"; exit 1; }
 "$work/consumer/my_sphere_test"
+# The Python module, where it was built: importable from the prefix alone, and it judges.
+if [ -n "${RAYPROOF_PYTHON:-}" ]; then
+  (cd "$work" && PYTHONPATH="$work/prefix/$RAYPROOF_PYTHON_DIR" "$RAYPROOF_PYTHON" -c "
+import rayproof
+assert rayproof.__file__.startswith('$work/prefix/'), rayproof.__file__
+assert rayproof.judge({'ray': {'origin': [0, 0, -5], 'direction': [0, 0, 1]},
+                       'shape': {'type': 'sphere', 'center': [0, 0, 0], 'radius': 1}})['class'] == 'enter'
+")
+fi

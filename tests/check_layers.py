@@ -2,6 +2,7 @@
 """Fails when a file includes from a layer above its own.
 
 The layers, bottom to top: lib (rayproof/core) <- verify <- fuzz <- studies <- peers <- cmd, with
+python/ (the Python module, beside cmd),
 bench/, tests/ and the libFuzzer harnesses (fuzz/libfuzzer/, programs that feed every
 layer's readers, as tests do) on top. A header's path names its layer (rayproof/<layer>/...), so the rule
 is checked on the include lines alone. Usage: check_layers.py SOURCE_DIR
@@ -12,7 +13,7 @@ import sys
 
 ORDER = ["core", "verify", "fuzz", "studies", "peers", "cmd", "top"]
 FOLDER_LAYER = {"lib": "core", "verify": "verify", "fuzz": "fuzz", "studies": "studies", "peers": "peers",
-                "cmd": "cmd", "bench": "top", "tests": "top", "examples": "top"}
+                "cmd": "cmd", "python": "top", "bench": "top", "tests": "top", "examples": "top"}
 INCLUDE = re.compile(r'^\s*#\s*include\s+"rayproof/([a-z]+)/')
 
 

@@ -12,7 +12,7 @@ import shutil
 import subprocess
 import sys
 
-FOLDERS = ["lib", "verify", "fuzz", "studies", "peers", "cmd", "bench", "tests", "examples"]
+FOLDERS = ["lib", "verify", "fuzz", "studies", "peers", "cmd", "python", "bench", "tests", "examples"]
 
 root = pathlib.Path(sys.argv[1]).resolve()
 files = sorted(p for folder in FOLDERS for p in (root / folder).rglob("*") if p.suffix in (".c", ".h", ".cpp"))

@@ -282,6 +282,35 @@ TEST(TracerCampaign, ReportRowsAddUpAndFitOnAScreen) {
   EXPECT_NE(run.out.find("one hit per shared edge"), std::string::npos) << run.out;
 }
 
+// Open3D 0.16 on Debian's Embree (ray masks compiled in) sets ray.mask = 0 and hits nothing: the
+// diagnosis says so, rather than reading its holes as a triangle test that is not watertight.
+TEST(TracerCampaign, ATracerThatHitsNothingIsSaidToHitNothing) {
+  struct Blind : TracerScene {
+    void nearest(std::span<const TracerRay>, std::span<TraceAnswer> out) override {
+      for (TraceAnswer& a : out) a = TraceAnswer{};
+    }
+    void all_hits(std::span<const TracerRay>, std::span<AllHitsAnswer> out) override {
+      for (AllHitsAnswer& a : out) a = AllHitsAnswer{};
+    }
+  };
+  Tracer blind;
+  blind.name = "blind", blind.build = [](const TriangleMesh&) { return BuiltScene{std::make_unique<Blind>()}; };
+  fuzz::TracerCampaignOptions o;
+  o.families = {fuzz::TracerFamily::fans, fuzz::TracerFamily::shared_edges};
+  o.tracers = {&blind};
+  o.count = 128, o.output = test_dir() + "/blind.jsonl";
+  const auto report = fuzz::run_tracer_campaign(o);
+  const auto lines = fuzz::tracer_diagnosis(report, "blind");
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0].rfind("no hit reported on any ray: all ", 0), 0u) << lines[0];
+  // One right hit is enough to fall back to the other hints.
+  o.tracers = {find_tracer("bvh-watertight")};
+  ASSERT_NE(o.tracers[0], nullptr);
+  const auto sighted = fuzz::run_tracer_campaign(o);
+  for (const std::string& l : fuzz::tracer_diagnosis(sighted, "bvh-watertight"))
+    EXPECT_EQ(l.find("no hit reported"), std::string::npos) << l;
+}
+
 TEST(TracerCampaign, ExampleTracersBugsAreFoundShrunkAndReplayed) {
   const std::string dir = test_dir();
   const auto run =
