@@ -32,3 +32,16 @@ class Open3DTracer:
         ids = hit["primitive_ids"].numpy().astype(np.int64)
         found = (ids != INVALID_ID) & (t <= tmax)
         return np.where(found, ids, -1), np.where(found, t, np.nan)
+
+
+if __name__ == "__main__":  # python3 open3d_tracer.py [RAYS_PER_FAMILY [FINDINGS]]
+    import sys
+
+    import rayproof
+
+    count = int(sys.argv[1]) if len(sys.argv) > 1 else 640
+    findings = sys.argv[2] if len(sys.argv) > 2 else "open3d.jsonl"
+    report = rayproof.fuzz_tracer(Open3DTracer(), count=count, output=findings)
+    print(f"Open3D {o3d.__version__}, {count} rays per family")
+    print(report["table"], end="")  # the verdict table, the one-hit rule's line and the diagnosis
+    print(f"{len(report['findings'])} findings in {findings}; replay: rayproof.check(Open3DTracer(), {findings!r})")
