@@ -86,6 +86,30 @@ ShapeKind shape_kind_of(const std::string& s) {
   return named<ShapeKind>(s, shape_kind_from_string, "shape", "sphere, plane, triangle or box");
 }
 
+// What `check` says of an answer to query q (as the case gives it) from code of precision p and
+// range `range`: agreement and ulps against the verdict on what the code saw (float code: q
+// rounded to float), and for a disagreement or a t not correctly rounded the level and β
+// (verify/backward_error.h, outcome_verdict). nullopt: float code cannot be given q.
+struct JudgedAnswer {
+  VariantOutcome outcome;
+  std::optional<OutcomeVerdict> verdict;
+};
+std::optional<JudgedAnswer> judge_answer_to(Oracle& oracle, const Query& q, const Verdict& exact, const Answer& answer,
+                                            Precision p, HitRule rule, RangeRule range, double tolerance_ulps) {
+  const std::optional<Query> seen = p == Precision::f32 ? rounded_to_float(q) : std::optional<Query>(q);
+  if (!seen) return std::nullopt;
+  static thread_local Variant code{.name = "python"};  // outcome_verdict reads precision and range from it
+  code.shape = kind_of(q.shape), code.precision = p, code.range = range;
+  const Verdict own = p == Precision::f32 ? oracle.judge(seen->ray, seen->shape, rule) : exact;
+  JudgedAnswer out{judge_answer(own, answer), std::nullopt};
+  out.outcome.variant = &code;
+  if (p == Precision::f32 && own.t && answer.has_t())
+    out.outcome.ulp_own = ulp_distance_f32(static_cast<float>(answer.t), exact_t_as_float(*seen, rule, *own.t));
+  out.verdict = outcome_verdict(q, out.outcome, rule, tolerance_ulps, true);  // as check judges it
+  out.outcome.variant = nullptr;
+  return out;
+}
+
 // judge(case, answer, precision, rule, range, tolerance): the oracle's verdict on one case
 // (cases.md), and with an answer {"class", "t"} what check says of it: agreement, ulp, β.
 py::dict judge(py::handle case_object, py::handle answer_object, const std::string& precision, const std::string& rule,
@@ -100,6 +124,7 @@ py::dict judge(py::handle case_object, py::handle answer_object, const std::stri
   }
   const HitRule r = rule_of(rule);
   const Precision p = precision_of(precision);
+  const RangeRule declared = range_of(range);
   std::optional<Answer> answer;
   if (!answer_object.is_none()) {
     const json a = from_python(answer_object, "answer");
@@ -116,74 +141,104 @@ py::dict judge(py::handle case_object, py::handle answer_object, const std::stri
     }
     answer = Answer(h);
   }
-  py::dict out;
+  json result;
   {
     py::gil_scoped_release unlocked;
     Oracle oracle;
     const Verdict exact = oracle.judge(c.ray, c.shape, r);
-    json result{{"class", std::string(to_string(exact.cls))}, {"t", exact.t ? json(hex_double(*exact.t)) : json()}};
+    result = {{"class", std::string(to_string(exact.cls))}, {"t", exact.t ? json(hex_double(*exact.t)) : json()}};
     if (answer) {
-      // What the code saw: float code, the case rounded to float (plugin.md).
-      const std::optional<Query> seen = p == Precision::f32 ? rounded_to_float(c) : std::optional<Query>(c);
-      if (!seen) {
+      const auto judged = judge_answer_to(oracle, c, exact, *answer, p, r, declared, tolerance_ulps);
+      if (!judged) {
         result["answer"] = {{"skipped", "not_representable"}};
       } else {
-        Variant code{.name = "python", .shape = kind_of(c.shape)};
-        code.precision = p, code.range = range_of(range);
-        const Verdict own = p == Precision::f32 ? oracle.judge(seen->ray, seen->shape, r) : exact;
-        VariantOutcome o = judge_answer(own, *answer);
-        o.variant = &code;
-        if (p == Precision::f32 && own.t && answer->has_t())
-          o.ulp_own = ulp_distance_f32(static_cast<float>(answer->t), exact_t_as_float(*seen, r, *own.t));
+        const VariantOutcome& o = judged->outcome;
         json entry{{"class", std::string(to_string(answer->cls))},
                    {"agrees", o.agreement == Agreement::agrees},
                    {"cannot_tell", o.agreement == Agreement::cannot_tell}};
         if (o.ulp) entry["ulp"] = *o.ulp;
         if (o.ulp_own) entry["ulp_own"] = *o.ulp_own;
-        if (const auto v = outcome_verdict(c, o, r, tolerance_ulps, true)) add_verdict_fields(entry, *v, range);
+        if (judged->verdict) add_verdict_fields(entry, *judged->verdict, range);
         result["answer"] = entry;
       }
     }
-    py::gil_scoped_acquire locked;
-    out = to_python(result);
   }
-  return out;
+  return to_python(result);
 }
 
-// judge_many(shape, origins (n,3), directions (n,3), numbers (n,k)): class codes (index into
-// CLASSES) and t (NaN where there is none), in parallel over `threads`.
+// judge_many(shape, origins (n,3), directions (n,3), numbers (n,k)[, classes (n,), t (n,)]):
+// class codes (index into CLASSES) and t (NaN where there is none), in parallel over `threads`.
+// With answers (class codes and t): per row `agrees` (0 wrong, 1 cannot tell, 2 agrees), `ulp`
+// (-1 where either t is absent), `beta` (ulps; NaN where the answer is right and its t correctly
+// rounded, inf for "none", -inf for "unproved") and `level` (0 none, 1 rounding, 2 bug), as
+// `check` decides them (witnesses checked as check checks them; not returned).
 py::dict judge_many(const std::string& shape, py::handle origins_in, py::handle directions_in, py::handle numbers_in,
-                    const std::string& rule, int threads) {
+                    py::handle classes_in, py::handle t_in, const std::string& rule, const std::string& precision,
+                    const std::string& range, double tolerance_ulps, int threads) {
   const ShapeKind kind = shape_kind_of(shape);
   const Doubles origins = doubles(origins_in, "origins", 3);
   const py::ssize_t n = origins.shape(0);
   const Doubles directions = doubles(directions_in, "directions", 3, n);
   const Doubles numbers = doubles(numbers_in, "shapes", shape_number_count(kind), n);
   const HitRule r = rule_of(rule);
-  py::array_t<std::int8_t> classes(n);
-  py::array_t<double> ts(n);
+  const Precision p = precision_of(precision);
+  const RangeRule declared = range_of(range);
+  const bool answered = !classes_in.is_none();
+  py::array_t<std::int64_t, py::array::c_style | py::array::forcecast> answer_classes;
+  Doubles answer_t;
+  if (answered) {
+    answer_classes = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(classes_in);
+    if (!answer_classes || answer_classes.ndim() != 1 || answer_classes.shape(0) != n)
+      throw py::value_error("classes: expected " + std::to_string(n) + " class codes (indices into CLASSES)");
+    answer_t = doubles(t_in.is_none() ? py::handle(py::none()) : t_in, "t", 0, n);
+    for (py::ssize_t i = 0; i < n; ++i)
+      if (answer_classes.at(i) < 0 || answer_classes.at(i) > static_cast<std::int64_t>(HitClass::hit))
+        throw py::value_error("classes: row " + std::to_string(i) + ": " + std::to_string(answer_classes.at(i)) +
+                              " is not a class code (0.." + std::to_string(static_cast<int>(HitClass::hit)) + ")");
+  }
+  py::array_t<std::int8_t> classes(n), agrees(answered ? n : 0), level(answered ? n : 0);
+  py::array_t<double> ts(n), beta(answered ? n : 0);
+  py::array_t<std::int64_t> ulp(answered ? n : 0);
   std::vector<std::string> errors(static_cast<std::size_t>(n));
   {
     const double *o = origins.data(), *d = directions.data(), *s = numbers.data();
-    std::int8_t* cls = classes.mutable_data();
-    double* t = ts.mutable_data();
+    const std::int64_t* ac = answered ? answer_classes.data() : nullptr;
+    const double* at = answered ? answer_t.data() : nullptr;
+    std::int8_t *cls = classes.mutable_data(), *agree = agrees.mutable_data(), *lvl = level.mutable_data();
+    double *t = ts.mutable_data(), *b = beta.mutable_data();
+    std::int64_t* u = ulp.mutable_data();
     const int k = shape_number_count(kind);
     py::gil_scoped_release unlocked;
     std::atomic<py::ssize_t> next{0};
     run_workers(std::max(1, threads), [&](int) {
       Oracle oracle;
       for (py::ssize_t i; (i = next.fetch_add(1)) < n;) {
-        const Ray ray(Vec3(o[3 * i], o[3 * i + 1], o[3 * i + 2]), Vec3(d[3 * i], d[3 * i + 1], d[3 * i + 2]));
-        const Shape sh = shape_from_numbers(kind, s + k * i);
+        const Query q{Ray(Vec3(o[3 * i], o[3 * i + 1], o[3 * i + 2]), Vec3(d[3 * i], d[3 * i + 1], d[3 * i + 2])),
+                      shape_from_numbers(kind, s + k * i)};
         cls[i] = -1, t[i] = std::nan("");
-        if (!is_valid_query(ray, sh)) {
-          const char* why = degenerate_reason(sh);
+        if (!is_valid_query(q.ray, q.shape)) {
+          const char* why = degenerate_reason(q.shape);
           errors[i] = why ? why : "a non-finite number or a zero direction";
           continue;
         }
-        const Verdict v = oracle.judge(ray, sh, r);
+        const Verdict v = oracle.judge(q.ray, q.shape, r);
         cls[i] = static_cast<std::int8_t>(v.cls);
         if (v.t) t[i] = *v.t;
+        if (!ac) continue;
+        Hit h{static_cast<HitClass>(ac[i])};
+        h.t = at[i];
+        agree[i] = -1, u[i] = -1, b[i] = std::nan(""), lvl[i] = 0;
+        const auto judged = judge_answer_to(oracle, q, v, Answer(h), p, r, declared, tolerance_ulps);
+        if (!judged) continue;  // float code cannot be given this row: agrees stays -1
+        const VariantOutcome& out = judged->outcome;
+        agree[i] = out.agreement == Agreement::agrees ? 2 : out.agreement == Agreement::cannot_tell ? 1 : 0;
+        if (const auto off = p == Precision::f32 ? out.ulp_own : out.ulp) u[i] = static_cast<std::int64_t>(*off);
+        if (const auto& verdict = judged->verdict) {
+          const BackwardError& e = verdict->beta;  // as beta_json reads it: none, unproved, or ε
+          const bool unproved = e.refused && !e.checked;
+          b[i] = e.beta && !unproved ? *e.beta : unproved ? -INFINITY : INFINITY;
+          lvl[i] = verdict->level == Level::rounding ? 1 : 2;
+        }
       }
     });
   }
@@ -191,6 +246,7 @@ py::dict judge_many(const std::string& shape, py::handle origins_in, py::handle 
     if (!errors[i].empty()) throw py::value_error("row " + std::to_string(i) + ": not a valid query: " + errors[i]);
   py::dict out;
   out["class"] = classes, out["t"] = ts;
+  if (answered) out["agrees"] = agrees, out["ulp"] = ulp, out["beta"] = beta, out["level"] = level;
   return out;
 }
 

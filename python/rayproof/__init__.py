@@ -58,13 +58,30 @@ def judge(case, answer=None, *, precision="double", rule="nearest", range="open"
     return _rayproof.judge(case, answer, precision, rule, range, float(tolerance))
 
 
-def judge_many(shape, origins, directions, shapes, *, rule="nearest", threads=None):
+def judge_many(shape, origins, directions, shapes, classes=None, t=None, *, rule="nearest", precision="double",
+               range="open", tolerance=DEFAULT_TOLERANCE_ULPS, threads=None):
     """The exact class (codes into CLASSES) and t (NaN where none) of n rays against n shapes.
 
     origins, directions: (n, 3); shapes: (n, k) in the case format's order — sphere: centre,
-    radius; plane: normal, offset; triangle: three vertices; box: min, max.
+    radius; plane: normal, offset; triangle: three vertices; box: min, max. With your code's
+    answers — classes (codes into CLASSES, or their names) and t (NaN where none) — also per row
+    "agrees" (2 agrees, 1 cannot tell, 0 wrong, -1 not representable in float), "ulp" (-1: no t),
+    "beta" (backward error in ulps; NaN: right, inf: none, -inf: unproved) and "level" (0 right,
+    1 rounding, 2 bug), as `rayproof check` judges them.
     """
-    return _rayproof.judge_many(shape, origins, directions, shapes, rule, _threads(threads))
+    if classes is not None:
+        import numpy as np
+        classes = np.asarray(classes)
+        if classes.dtype.kind in "UO":
+            codes = {name: i for i, name in enumerate(CLASSES)}
+            unknown = sorted({str(c) for c in classes.ravel()} - set(codes))
+            if unknown:
+                raise ValueError(f"classes: unknown class {unknown[0]!r} (one of {', '.join(CLASSES)})")
+            classes = np.vectorize(codes.get, otypes=[np.int64])(classes) if classes.size else classes.astype(np.int64)
+        if t is None:
+            t = np.full(classes.shape, np.nan)
+    return _rayproof.judge_many(shape, origins, directions, shapes, classes, t, rule, precision, range,
+                                float(tolerance), _threads(threads))
 
 
 def variants():

@@ -91,6 +91,42 @@ def test_judge_many_is_judge_row_by_row():
     assert hits > 50  # the rays were aimed: many hit
 
 
+def test_judge_many_judges_answers_as_judge_does():
+    origins, directions, tri = random_triangle_queries(120, seed=11)
+    exact = rayproof.judge_many("triangle", origins, directions, tri)
+    names = [rayproof.CLASSES[c] for c in exact["class"]]
+    # Answers: every third row a wrong class, the rest the exact class with t nudged 0..2 ulps.
+    answers, ts = [], []
+    for i, (name, t) in enumerate(zip(names, exact["t"])):
+        if i % 3 == 0:
+            answers.append("miss" if name != "miss" else "enter")
+            ts.append(np.nan if name != "miss" else 1.0)
+        else:
+            answers.append(name)
+            ts.append(t if np.isnan(t) else t + (i % 3 - 1) * np.spacing(t))
+    many = rayproof.judge_many("triangle", origins, directions, tri, answers, ts)
+    assert (many["level"][::3] > 0).all() and (many["agrees"][::3] == 0).all()
+    for i in range(120):
+        case = {"ray": {"origin": origins[i].tolist(), "direction": directions[i].tolist()},
+                "shape": {"type": "triangle", "vertices": tri[i].reshape(3, 3).tolist()}}
+        one = rayproof.judge(case, {"class": answers[i], "t": None if np.isnan(ts[i]) else ts[i]})["answer"]
+        assert bool(many["agrees"][i] == 2) == one["agrees"], i
+        assert many["ulp"][i] == one.get("ulp", -1), i
+        level = one.get("level", one.get("level_t"))
+        assert many["level"][i] == {None: 0, "rounding": 1, "bug": 2}[level], i
+        beta = one.get("beta", one.get("beta_t"))
+        if beta is None:
+            assert np.isnan(many["beta"][i]), i
+        elif isinstance(beta, str):
+            assert many["beta"][i] == (np.inf if beta == "none" else -np.inf), i
+        else:
+            assert float(f"{many['beta'][i]:.2g}") == beta, i
+    with pytest.raises(ValueError, match="unknown class 'sideways'"):
+        rayproof.judge_many("triangle", origins, directions, tri, ["sideways"] * 120)
+    with pytest.raises(ValueError, match="row 5: 9 is not a class code"):
+        rayproof.judge_many("triangle", origins, directions, tri, np.where(np.arange(120) == 5, 9, 0))
+
+
 def test_judge_many_takes_any_layout_and_refuses_bad_arrays():
     origins, directions, tri = random_triangle_queries(50)
     base = rayproof.judge_many("triangle", origins, directions, tri)
@@ -152,6 +188,15 @@ def test_fuzz_variants_and_the_cli_replays_its_findings(tmp_path):
         assert line["exact"]["class"] == finding["expect"]["class"]
 
 
+def test_fuzz_tallies_are_the_clis(tmp_path):
+    args = dict(families=["tangent", "extremes"], shapes=["sphere", "box"], count=1500, seed=9)
+    report = rayproof.fuzz(["stable", "slab"], threads=1, **args)
+    summary = tmp_path / "s.json"
+    cli("fuzz", "--variants", "stable,slab", "--families", "tangent,extremes", "--shapes", "sphere,box",
+        "--count", "1500", "--seed", "9", "--threads", "1", "-o", str(tmp_path / "f.jsonl"), "--summary", str(summary))
+    assert report["tallies"] == json.load(open(summary))["tallies"]
+
+
 # ---------------------------------------------------------------- tracers
 def test_numpy_tracer_is_judged_and_its_double_hits_shrunk():
     report = rayproof.fuzz_tracer(NumpyTracer(), families=["fans"], count=128)
@@ -185,6 +230,15 @@ def test_the_cli_replays_what_python_found_and_the_reverse(tmp_path):
         "--threads", "1")
     from_cli = rayproof.read_cases(clif)
     assert from_cli
+    # The campaign itself is the same either way: every count of every row.
+    summary = tmp_path / "s.json"
+    cli("fuzz", "--tracer-exec", serve("numpy-mt"), "--families", "fans", "--count", "64", "-o", str(clif),
+        "--threads", "1", "--summary", str(summary))
+    module = rayproof.fuzz_tracer(NumpyTracer(), families=["fans"], count=64)["tallies"]
+    timing = ("ns_per_ray", "seconds")
+    for key, tally in json.load(open(summary))["tallies"].items():
+        assert {k: v for k, v in tally.items() if k not in timing} == \
+               {k: v for k, v in module[key].items() if k not in timing}, key
     assert kinds(rayproof.check(NumpyTracer(), clif), "numpy-mt") == [f["found"]["kind"] for f in from_cli]
 
 
