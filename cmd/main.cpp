@@ -6,10 +6,14 @@
 #include "rayproof/core/json_fields.h"
 
 #include "commands.h"
+#include "rayproof/peers/child_process.h"
 #include "rayproof/verify/certified.h"
 
 int main(int argc, char** argv) {
   rayproof::register_certified_variants();
+  // Whatever rayproof's children start is ended with them, and none outlives rayproof.
+  rayproof::peers::adopt_orphans();
+  rayproof::peers::use_exec_launcher();
   CLI::App app{"rayproof: exact audits, fuzzing and benchmarks of ray intersection code"};
   app.require_subcommand(1);
   int exit_code = 0;

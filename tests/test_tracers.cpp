@@ -2,6 +2,10 @@
 // disagreement, on meshes small enough to know the answer by hand; the built-in and peer
 // tracers on every family; the example tracer's bugs found and each finding replayed; bad input.
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <iterator>
 
@@ -19,6 +23,8 @@
 #include "rayproof/fuzz/tracer_families.h"
 #include "rayproof/verify/mesh_truth.h"
 #include "test_dir.h"
+
+extern char** environ;
 
 namespace rayproof {
 namespace {
@@ -595,6 +601,89 @@ TEST(TracerBadInput, ZeroCopyTracerSeesItsMeshUntilRelease) {
     const json& b = t.at(std::string(family) + "\tbvh-moller-trumbore");
     EXPECT_GE(z.value("right", 0) + 64, b.value("right", 0)) << z.dump() << b.dump();
   }
+}
+
+// Item 7 of issue 42: nothing rayproof starts outlives it. The processes below `root` (its
+// descendants, from /proc), and whether a process still runs (a zombie does not).
+std::vector<pid_t> descendants_of(pid_t root) {
+  std::map<pid_t, std::vector<pid_t>> children;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    const pid_t pid = static_cast<pid_t>(std::atol(entry.path().filename().c_str()));
+    if (pid <= 0) continue;
+    std::ifstream stat(entry.path() / "stat");
+    std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+    const std::size_t close = text.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream fields(text.substr(close + 1));
+    std::string state;
+    pid_t ppid = 0;
+    fields >> state >> ppid;
+    children[ppid].push_back(pid);
+  }
+  std::vector<pid_t> out, todo{root};
+  while (!todo.empty()) {
+    const pid_t p = todo.back();
+    todo.pop_back();
+    for (pid_t c : children[p]) out.push_back(c), todo.push_back(c);
+  }
+  return out;
+}
+bool still_runs(pid_t pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  const std::size_t close = text.rfind(')');
+  return close != std::string::npos && close + 2 < text.size() && text[close + 2] != 'Z';
+}
+
+TEST(TracerBadInput, NothingOutlivesRayproofKilledBySigkill) {
+  const std::string dir = test_dir();
+  const std::string stuck = std::string("--tracer ") + MISBEHAVING_TRACER + " --tracers bad-hang";
+  const std::string exec_stuck = "--tracer-exec 'stuck=sleep 300'";
+  for (const std::string& tracer : {stuck, exec_stuck}) {
+    const std::string command = std::string("exec ") + RAYPROOF_CLI + " fuzz " + tracer +
+                                " --families fans --count 64 --case-timeout 600 -o " + dir + "/f.jsonl 2>/dev/null";
+    pid_t rayproof = -1;
+    char sh[] = "/bin/sh", dash_c[] = "-c";
+    std::string text = command;
+    char* argv[] = {sh, dash_c, text.data(), nullptr};
+    ASSERT_EQ(posix_spawn(&rayproof, "/bin/sh", nullptr, nullptr, argv, environ), 0);
+    // Wait until rayproof waits on its stuck tracer: a worker or an exec command beneath it.
+    std::vector<pid_t> below;
+    for (int i = 0; i < 200 && below.size() < (tracer == stuck ? 1u : 2u); ++i) {
+      usleep(50000);
+      below = descendants_of(rayproof);
+    }
+    usleep(500000);
+    below = descendants_of(rayproof);
+    ASSERT_FALSE(below.empty()) << tracer;
+    kill(rayproof, SIGKILL);
+    waitpid(rayproof, nullptr, 0);
+    std::vector<pid_t> left = below;
+    for (int i = 0; i < 100 && !left.empty(); ++i) {
+      usleep(50000);
+      std::erase_if(left, [](pid_t p) { return !still_runs(p); });
+    }
+    EXPECT_TRUE(left.empty()) << tracer << ": " << left.size() << " of " << below.size()
+                              << " processes outlived rayproof's SIGKILL";
+    for (pid_t p : left) kill(p, SIGKILL);
+  }
+}
+
+TEST(TracerBadInput, AHelperInASessionOfItsOwnEndsWithTheCampaign) {
+  const std::string dir = test_dir();
+  const std::string helper_pid = dir + "/helper.pid";
+  std::ofstream(dir + "/tracer.sh") << "setsid sh -c 'echo $$ > " << helper_pid << "; exec sleep 300' &\n"
+                                    << "exec python3 " << RAYPROOF_SOURCE_DIR
+                                    << "/examples/exec/brute_force_tracer.py\n";
+  const auto run =
+      run_cli("fuzz --tracer-exec 'py=sh " + dir + "/tracer.sh' --families fans --count 64 -o " + dir + "/f.jsonl");
+  ASSERT_EQ(run.status, 0) << run.err;
+  pid_t helper = 0;
+  for (int i = 0; i < 100 && !(std::ifstream(helper_pid) >> helper); ++i) usleep(20000);
+  ASSERT_GT(helper, 0) << "the helper never started";
+  for (int i = 0; i < 50 && still_runs(helper); ++i) usleep(20000);
+  EXPECT_FALSE(still_runs(helper)) << "the exec tracer's setsid helper outlived the campaign";
+  kill(helper, SIGKILL);
 }
 
 TEST(TracerBadInput, ExecTracersThatMisbehave) {

@@ -1,22 +1,32 @@
 // The one home for rayproof's child processes: exec commands (exec_process.h) and the plugin and
 // tracer workers (plugin.cpp, tracer_plugin.cpp). Each child starts in its own process group, so
 // ending it ends whatever it started (`sleep 60 & exit 0`, a plugin that forked); every wait is
-// bounded, so a child that closed its pipes but runs on cannot hold rayproof in waitpid.
+// bounded, so a child that closed its pipes but runs on cannot hold rayproof in waitpid; and each
+// holds a lifeline, so none outlives rayproof, even one killed by SIGKILL.
 #pragma once
 
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include <dirent.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <functional>
 #include <initializer_list>
+#include <iterator>
+#include <sstream>
+#include <string_view>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -64,6 +74,70 @@ inline void forget(pid_t pid) {
 }
 }  // namespace child_detail
 
+// The lifeline (issue 42): each child is told rayproof's pid and, first thing, asks the kernel
+// for SIGUSR2 when its parent dies — of anything, SIGKILL included — and then kills its whole
+// process group: a worker spinning in a plugin, an exec command and what it started in its
+// group never outlive rayproof. The pid check closes the race of a parent that died before
+// the request was made.
+inline constexpr const char* kParentPidEnv = "RAYPROOF_PARENT_PID";
+inline void hold_lifeline() {
+  const char* parent = std::getenv(kParentPidEnv);
+  if (!parent) return;
+  const pid_t expected = static_cast<pid_t>(std::atol(parent));
+  ::unsetenv(kParentPidEnv);  // not passed on to what this child starts
+  ::signal(SIGUSR2, [](int) { ::kill(0, SIGKILL); });
+  ::prctl(PR_SET_PDEATHSIG, SIGUSR2);
+  if (::getppid() != expected) ::kill(0, SIGKILL);
+}
+
+// The environment a child is started with: this process's, with `set` (NAME=value each)
+// replacing any inherited variable of the same name, and the lifeline's parent pid.
+inline std::vector<std::string> child_environment(std::initializer_list<std::string> set) {
+  std::vector<std::string> env(set);
+  env.push_back(std::string(kParentPidEnv) + "=" + std::to_string(::getpid()));
+  for (char** e = environ; *e; ++e) {
+    const std::string_view entry(*e);
+    const bool replaced = std::any_of(env.begin(), env.end(), [&](const std::string& mine) {
+      return entry.substr(0, entry.find('=') + 1) == std::string_view(mine).substr(0, mine.find('=') + 1);
+    });
+    if (!replaced) env.emplace_back(entry);
+  }
+  return env;
+}
+
+// Orphans: a helper an exec command started in a session of its own (`setsid`) escapes the
+// group kill, and when its parent exits it would be adopted by init. rayproof's command line
+// makes itself their subreaper instead, and at exit ends every child it still has.
+inline void end_adopted_children() {
+  const std::string me = std::to_string(::getpid());
+  if (DIR* proc = ::opendir("/proc")) {
+    while (const dirent* d = ::readdir(proc)) {
+      const pid_t pid = static_cast<pid_t>(std::atol(d->d_name));
+      if (pid <= 0) continue;
+      std::ifstream stat("/proc/" + std::string(d->d_name) + "/stat");
+      std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+      const std::size_t close = text.rfind(')');  // "pid (name) state ppid ...": the name may hold spaces
+      if (close == std::string::npos) continue;
+      std::istringstream fields(text.substr(close + 1));
+      std::string state, ppid;
+      fields >> state >> ppid;
+      if (ppid == me) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+      }
+    }
+    ::closedir(proc);
+  }
+}
+inline void adopt_orphans() {
+  if (::prctl(PR_SET_CHILD_SUBREAPER, 1) == 0) std::atexit(end_adopted_children);
+}
+
+// Runs `spawn` on one thread that lives as long as the process: the kernel sends a child's
+// parent-death signal when the *thread* that started it ends, and campaign threads end after
+// every batch (child_process.cpp).
+pid_t on_spawner_thread(const std::function<pid_t()>& spawn);
+
 // Starts `path` with `argv` and `envp` in a new process group (its pid is the group's id), with
 // each {from, to} of `dups` duplicated onto descriptor `to`. Throws naming `what`.
 inline pid_t spawn_in_own_group(const char* path, char* const argv[], char* const envp[],
@@ -77,7 +151,10 @@ inline pid_t spawn_in_own_group(const char* path, char* const argv[], char* cons
   posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
   posix_spawnattr_setpgroup(&attributes, 0);
   pid_t pid = -1;
-  const int rc = ::posix_spawn(&pid, path, &actions, &attributes, argv, envp);
+  const int rc = static_cast<int>(on_spawner_thread([&] {
+    const int r = ::posix_spawn(&pid, path, &actions, &attributes, argv, envp);
+    return static_cast<pid_t>(r);
+  }));
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
   if (rc != 0) throw std::runtime_error("cannot start " + what + ": " + std::string(std::strerror(rc)));
@@ -89,10 +166,7 @@ inline pid_t spawn_in_own_group(const char* path, char* const argv[], char* cons
 // kept, an inherited env_name replaced) and argv {arg0}.
 inline pid_t spawn_worker(const char* env_name, const std::string& value, const char* arg0,
                           std::initializer_list<std::pair<int, int>> dups, const std::string& what) {
-  std::vector<std::string> env_text = {std::string(env_name) + "=" + value};
-  const std::string prefix = std::string(env_name) + "=";
-  for (char** e = environ; *e; ++e)
-    if (std::strncmp(*e, prefix.c_str(), prefix.size()) != 0) env_text.push_back(*e);
+  std::vector<std::string> env_text = child_environment({std::string(env_name) + "=" + value});
   std::vector<char*> envp;
   for (std::string& e : env_text) envp.push_back(e.data());
   envp.push_back(nullptr);
@@ -126,6 +200,13 @@ inline int end_child(pid_t pid, double grace, bool* killed = nullptr) {
   child_detail::forget(pid);
   return status;
 }
+
+// An exec command (`/bin/sh -c COMMAND`) in a new process group, each {from, to} of `dups`
+// duplicated onto `to`. In rayproof's command line (after use_exec_launcher) it runs under the
+// launcher (child_process.cpp), which holds the lifeline for it.
+void use_exec_launcher();
+pid_t spawn_exec_command(const std::string& command, std::initializer_list<std::pair<int, int>> dups,
+                         const std::string& what);
 
 // What a short-lived worker wrote to its standard output before it ended: how plugin and tracer
 // tables are read, so that a library's load-time code (constructors, the table function) runs in

@@ -32,11 +32,8 @@ class ExecProcess {
     int in[2], out[2];
     if (::pipe2(in, O_CLOEXEC) != 0 || ::pipe2(out, O_CLOEXEC) != 0)
       throw std::runtime_error("--exec: cannot create pipes: " + std::string(std::strerror(errno)));
-    char sh[] = "/bin/sh", dash_c[] = "-c";
-    std::string text = command;
-    char* argv[] = {sh, dash_c, text.data(), nullptr};
     try {
-      pid_ = spawn_in_own_group("/bin/sh", argv, environ, {{in[0], 0}, {out[1], 1}}, "/bin/sh for --exec");
+      pid_ = spawn_exec_command(command, {{in[0], 0}, {out[1], 1}}, "/bin/sh for --exec");
     } catch (...) {
       for (int fd : {in[0], in[1], out[0], out[1]}) ::close(fd);
       throw;

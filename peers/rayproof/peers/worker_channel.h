@@ -19,6 +19,7 @@
 #include <string>
 
 #include "rayproof/core/answer.h"
+#include "rayproof/peers/child_process.h"
 
 namespace rayproof::peers {
 
@@ -76,7 +77,10 @@ class WorkerChannel {
 // Before main (a static initializer: peers/external.h says why), becomes the worker `serve`
 // when `env` is set in this process's environment; `serve` never returns. False otherwise.
 inline bool become_worker_if_asked(const char* env, void (*serve)(const std::string& setting)) {
-  if (const char* setting = std::getenv(env)) serve(setting);
+  if (const char* setting = std::getenv(env)) {
+    hold_lifeline();  // a worker never outlives rayproof (child_process.h)
+    serve(setting);
+  }
   return false;
 }
 
