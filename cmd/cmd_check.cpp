@@ -125,7 +125,7 @@ void judge_mesh_case(const std::string& path, long line, const MeshCase& c, Chec
     if (fails_on(run.fail_on, o.kind, o.level)) ++run.failing;
     tracers[t->name] = fuzz::check_entry(o, c.all);
     ++run.tracer_kinds[t->name][std::string(to_string(o.kind))];
-    if (o.kind == TraceKind::crash || o.kind == TraceKind::timeout) {
+    if (o.kind == TraceKind::crash || o.kind == TraceKind::timeout || o.kind == TraceKind::out_of_memory) {
       ++run.stopped;
       std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id) << "': tracer "
                 << t->name << " stopped: " << to_string(o.kind) << " (" << o.reason << ")\n";

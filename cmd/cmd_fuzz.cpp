@@ -170,7 +170,7 @@ int run_tracer_fuzz(const FuzzOptions& opts) {
   std::uint64_t failing = 0;
   for (const auto& [key, t] : report.tallies) {
     if (opts.tracers.fail_on == "none") break;
-    for (const char* k : {"tracer_errors", "crash", "timeout"}) failing += t.count(k);
+    for (const char* k : {"tracer_errors", "crash", "timeout", "out_of_memory"}) failing += t.count(k);
     for (const char* k : kLevelledTraceKinds)
       failing += opts.tracers.fail_on == "rounding" ? t.count(k) : t.level(std::string(k) + "_bugs");
   }

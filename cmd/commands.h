@@ -58,6 +58,7 @@ struct ExternalFlags {
   double case_timeout = 10;
   std::string exec_precision = "double";
   int max_crashes = 10;
+  std::string worker_memory = "auto";  // --worker-memory: SIZE (512M, 4G), none, or auto
 };
 void add_external_flags(CLI::App* cmd, ExternalFlags& flags);
 // Loads the plugins and starts nothing yet (exec commands start on first use); call first in a

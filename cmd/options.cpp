@@ -5,10 +5,12 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstdio>
+#include <fstream>
 #include <sstream>
 
 #include "commands.h"
 #include "rayproof/core/parallel.h"
+#include "rayproof/peers/child_process.h"
 #include "rayproof/peers/external.h"
 #include "rayproof/peers/tracers.h"
 #ifdef RAYPROOF_HAVE_EMBREE
@@ -87,6 +89,33 @@ void add_count_flag(CLI::App* cmd, std::uint64_t& count, const std::string& what
   cmd->add_option("--count", count, what + " (default " + std::to_string(count) + ")")->transform(whole_number(most));
 }
 
+namespace {
+// --worker-memory's bytes: SIZE[K|M|G] (binary), none (0), auto (half of MemAvailable).
+std::uint64_t worker_memory_bytes(const std::string& text) {
+  if (text == "none") return 0;
+  if (text == "auto") {
+    std::ifstream meminfo("/proc/meminfo");
+    std::string key;
+    std::uint64_t kib = 0;
+    while (meminfo >> key >> kib)
+      if (key == "MemAvailable:") return kib * 1024 / 2;
+    return 0;  // unknown: no limit
+  }
+  std::size_t used = 0;
+  unsigned long long n = 0;
+  try {
+    n = std::stoull(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  const std::string unit = text.substr(used);
+  const int shift = unit.empty() ? 0 : unit == "K" ? 10 : unit == "M" ? 20 : unit == "G" ? 30 : -1;
+  if (used == 0 || shift < 0 || text[0] == '-' || n == 0 || n > (1ull << (63 - shift)))
+    throw std::invalid_argument("expected SIZE (as 512M or 4G), none or auto, got '" + printable(text) + "'");
+  return static_cast<std::uint64_t>(n) << shift;
+}
+}  // namespace
+
 void add_external_flags(CLI::App* cmd, ExternalFlags& flags) {
   cmd->add_option("--plugin", flags.plugins,
                   "a shared library exporting rayproof_plugin (rayproof/plugin.h); repeatable");
@@ -101,9 +130,24 @@ void add_external_flags(CLI::App* cmd, ExternalFlags& flags) {
       ->check(CLI::Range(1, 1000000));
   cmd->add_option("--exec-precision", flags.exec_precision, "double, or float: exec commands get float-rounded cases")
       ->check(CLI::IsMember({"double", "float"}));
+  cmd->add_option("--worker-memory", flags.worker_memory,
+                  "data each plugin or tracer worker and exec command may hold (RLIMIT_DATA): SIZE as 512M or 4G, "
+                  "none, or auto (default: half the memory available at start); a worker that dies at it is a "
+                  "finding of kind out_of_memory")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            try {
+              worker_memory_bytes(text);
+              return std::string();
+            } catch (const std::invalid_argument& e) {
+              return std::string(e.what());
+            }
+          },
+          "SIZE"));
 }
 
 void load_externals(const ExternalFlags& flags) {
+  peers::child_memory_limit = worker_memory_bytes(flags.worker_memory);  // before any worker starts
   peers::ExternalOptions options;
   options.case_timeout_seconds = flags.case_timeout;
   options.exec_precision = flags.exec_precision == "float" ? Precision::f32 : Precision::f64;

@@ -259,24 +259,24 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
       return n;
     };
   };
-  const std::vector<Column> columns = {{"cases", [](const TracerTally& t) { return t.cases; }},
-                                       {"right", sum({"right"})},
-                                       {"hole", bugs("hole")},
-                                       {"false", bugs("false_hit")},
-                                       {"farther", bugs("not_nearest")},
-                                       {"double", bugs("double_hit")},
-                                       {"missed", bugs("missed_in_any_hit")},
-                                       {"r:any",
-                                        [](const TracerTally& t) {
-                                          std::uint64_t n = 0;
-                                          if (t.tolerance_ulps)
-                                            for (const char* k : kLevelledTraceKinds)
-                                              n += t.level(std::string(k) + "_rounding");
-                                          return n;
-                                        }},
-                                       {"n/r", sum({"not_representable"})},
-                                       {"other", sum({"in_plane", "unsupported"})},
-                                       {"failed", sum({"tracer_error", "crash", "timeout", "build_failed"})}};
+  const std::vector<Column> columns = {
+      {"cases", [](const TracerTally& t) { return t.cases; }},
+      {"right", sum({"right"})},
+      {"hole", bugs("hole")},
+      {"false", bugs("false_hit")},
+      {"farther", bugs("not_nearest")},
+      {"double", bugs("double_hit")},
+      {"missed", bugs("missed_in_any_hit")},
+      {"r:any",
+       [](const TracerTally& t) {
+         std::uint64_t n = 0;
+         if (t.tolerance_ulps)
+           for (const char* k : kLevelledTraceKinds) n += t.level(std::string(k) + "_rounding");
+         return n;
+       }},
+      {"n/r", sum({"not_representable"})},
+      {"other", sum({"in_plane", "unsupported"})},
+      {"failed", sum({"tracer_error", "crash", "timeout", "build_failed", "out_of_memory"})}};
   std::map<std::string, std::vector<std::pair<std::string, const TracerTally*>>> by_tracer;
   for (const auto& [k, t] : r.tallies) by_tracer[k.name].push_back({k.family, &t});
   out << "per family: right, then bug-level hole, false (hit), farther (not the nearest), double (hit on one edge),\n"
@@ -334,6 +334,7 @@ std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c) {
 namespace {
 TraceKind kind_of_failure(AnswerFailure f) {
   return f == AnswerFailure::timeout         ? TraceKind::timeout
+         : f == AnswerFailure::out_of_memory ? TraceKind::out_of_memory
          : f == AnswerFailure::crash         ? TraceKind::crash
          : f == AnswerFailure::build_refused ? TraceKind::build_failed
                                              : TraceKind::tracer_error;
@@ -466,7 +467,8 @@ std::shared_ptr<TriangleMesh> subset(const TriangleMesh& m, const std::vector<st
 MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget,
                           const VerdictSettings& settings, std::optional<Level> level, bool levels_each_probe,
                           const TracerOutcome* found) {
-  if (kind == TraceKind::crash || kind == TraceKind::timeout) return seen;  // the tracer has stopped
+  if (kind == TraceKind::crash || kind == TraceKind::timeout || kind == TraceKind::out_of_memory)
+    return seen;  // the tracer has stopped
   const int budget_for_levels = levels_each_probe ? 0 : budget / 5;
   MeshCase best = seen;
   std::vector<std::uint32_t> all(seen.mesh->triangle_count());

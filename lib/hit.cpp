@@ -33,6 +33,7 @@ std::string_view to_string(AnswerFailure f) {
     case AnswerFailure::not_representable: return "not_representable";
     case AnswerFailure::stopped: return "stopped";
     case AnswerFailure::build_refused: return "build refused";
+    case AnswerFailure::out_of_memory: return "out_of_memory";
   }
   return "?";
 }

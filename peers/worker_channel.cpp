@@ -105,7 +105,7 @@ WorkerChannel::Outcome WorkerChannel::finish() {
   reaped_ = true;
   Outcome out;
   out.at = header().progress.load(std::memory_order_relaxed);
-  out.reason = end_worker(pid_);
+  out.reason = end_worker(pid_, &out.out_of_memory);
   return out;
 }
 

@@ -686,6 +686,47 @@ TEST(TracerBadInput, AHelperInASessionOfItsOwnEndsWithTheCampaign) {
   kill(helper, SIGKILL);
 }
 
+// Item 8 of issue 42: a worker's memory is bounded (--worker-memory, RLIMIT_DATA); one that dies
+// at its limit is a finding of kind out_of_memory, and the other tracers go on. Not under
+// AddressSanitizer, whose shadow memory the limit would count (child_process.h).
+#if defined(__SANITIZE_ADDRESS__)
+#define RAYPROOF_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define RAYPROOF_TEST_ASAN 1
+#endif
+#endif
+TEST(TracerBadInput, AWorkerAtItsMemoryLimitIsAnOutOfMemoryFinding) {
+#ifdef RAYPROOF_TEST_ASAN
+  GTEST_SKIP() << "no memory limit under AddressSanitizer";
+#endif
+  const std::string dir = test_dir();
+  auto campaign = [&](const std::string& limit) {
+    const auto run =
+        run_cli(std::string("fuzz --tracer ") + MISBEHAVING_TRACER +
+                " --tracers bad-hog,bvh-watertight --families fans --count 128 --no-shrink --worker-memory " + limit +
+                " -o " + dir + "/f.jsonl --summary " + dir + "/s.json");
+    EXPECT_EQ(run.status, 0) << run.err;
+    return json::parse(std::ifstream(dir + "/s.json")).at("tallies");
+  };
+  const json tight = campaign("256M");  // the hog takes 1 GiB
+  EXPECT_EQ(tight.at("fans\tbad-hog").value("out_of_memory", 0), 1) << tight.dump();
+  EXPECT_EQ(tight.at("fans\tbvh-watertight").at("right"), 128);
+  bool found = false;
+  std::ifstream findings(dir + "/f.jsonl");
+  for (std::string line; std::getline(findings, line);) {
+    const json f = json::parse(line).at("found");
+    if (f.at("kind") == "out_of_memory") {
+      found = true;
+      EXPECT_NE(f.at("reason").get<std::string>().find("its 256 MiB limit (--worker-memory)"), std::string::npos) << f;
+    }
+  }
+  EXPECT_TRUE(found);
+  const json roomy = campaign("2G");  // within the limit it is judged as any tracer
+  EXPECT_EQ(roomy.at("fans\tbad-hog").value("out_of_memory", 0), 0) << roomy.dump();
+  EXPECT_EQ(roomy.at("fans\tbad-hog").value("tracer_errors", 0), 128) << roomy.dump();
+}
+
 TEST(TracerBadInput, ExecTracersThatMisbehave) {
   const std::string dir = test_dir();
   auto script = [&](const std::string& name, const std::string& body) {

@@ -24,6 +24,7 @@ std::string_view to_string(TraceKind k) {
     case TraceKind::crash: return "crash";
     case TraceKind::timeout: return "timeout";
     case TraceKind::build_failed: return "build_failed";
+    case TraceKind::out_of_memory: return "out_of_memory";
   }
   return "?";
 }

@@ -78,7 +78,8 @@ UlpHistogram UlpHistogram::from_json(const json& j) {
 void Tally::add(HitClass case_exact, const VariantOutcome& o) {
   switch (o.answer.failure) {
     case AnswerFailure::none: break;
-    case AnswerFailure::crash: ++crashes; return;
+    case AnswerFailure::crash:
+    case AnswerFailure::out_of_memory: ++crashes; return;  // a death all the same (its finding says which)
     case AnswerFailure::timeout: ++timeouts; return;
     case AnswerFailure::protocol: ++protocol_errors; return;
     case AnswerFailure::not_representable: ++not_representable; return;
@@ -298,8 +299,8 @@ void TracerTally::add(std::string_view kind) {
 
 std::uint64_t TracerTally::disagreements() const {
   std::uint64_t n = 0;
-  for (const char* k :
-       {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit", "tracer_errors", "crash", "timeout"})
+  for (const char* k : {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit", "tracer_errors", "crash",
+                        "timeout", "out_of_memory"})
     n += count(k);
   return n;
 }

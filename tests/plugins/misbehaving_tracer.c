@@ -3,6 +3,7 @@
 #include <math.h>
 #include <signal.h>
 #include <stddef.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -23,6 +24,20 @@ static void* build_null(const struct rayproof_mesh* mesh) {
   return NULL;
 }
 static void release(void* scene) { (void)scene; }
+/* Takes memory in 64 MiB blocks, touching each, up to 1 GiB (then gives it back and builds):
+   under a smaller --worker-memory malloc fails first and, as careless code does, it writes
+   through the NULL it got. */
+static void* build_hog(const struct rayproof_mesh* mesh) {
+  (void)mesh;
+  enum { kBlock = 64 << 20, kBlocks = 16 };
+  char* blocks[kBlocks];
+  for (int i = 0; i < kBlocks; ++i) {
+    blocks[i] = malloc(kBlock);
+    memset(blocks[i], 1, kBlock);
+  }
+  for (int i = 0; i < kBlocks; ++i) free(blocks[i]);
+  return &scene_token;
+}
 
 /* Every ray: triangle 0 with t = NaN. */
 static void nearest_nan(void* s, const struct rayproof_ray* rays, size_t n, struct rayproof_trace* out) {
@@ -144,6 +159,7 @@ static const struct rayproof_tracer kTracers[] = {
     {"bad-huge-any-hit", "double", "test: any-hit claims 10^6 hits", build_ok, nearest_out_of_range, all_huge, release},
     {"bad-flaky", "double", "test: answers one ray two ways", build_ok, nearest_flaky, NULL, release},
     {"zero-copy", "double", "test: reads the mesh only while tracing", build_keep, nearest_zero_copy, NULL, release},
+    {"bad-hog", "double", "test: takes 1 GiB in build", build_hog, nearest_out_of_range, NULL, release},
 };
 
 const struct rayproof_tracer* rayproof_tracers(int abi, int* count) {

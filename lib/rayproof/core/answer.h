@@ -25,6 +25,7 @@ enum class AnswerFailure : std::uint8_t {
   stopped,            // the code failed earlier: it is not asked again
   build_refused,      // a whole tracer refused the mesh (an exec tracer's {"error": ...}): as a build
                       // that returned NULL, every ray of that mesh is build_failed
+  out_of_memory,      // the code's worker died at its --worker-memory limit
 };
 std::string_view to_string(AnswerFailure f);
 inline bool is_plugin_error(AnswerFailure f) {
@@ -32,7 +33,8 @@ inline bool is_plugin_error(AnswerFailure f) {
 }
 // The failures that end a variant's run and become findings of their own kind.
 inline bool stops_variant(AnswerFailure f) {
-  return f == AnswerFailure::crash || f == AnswerFailure::timeout || f == AnswerFailure::protocol;
+  return f == AnswerFailure::crash || f == AnswerFailure::timeout || f == AnswerFailure::protocol ||
+         f == AnswerFailure::out_of_memory;
 }
 
 // A Hit, or a failure. A failed answer reads as a miss with no t (cls and t mean nothing): the

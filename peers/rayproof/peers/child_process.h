@@ -10,6 +10,7 @@
 #include <signal.h>
 #include <spawn.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -19,6 +20,7 @@
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -80,7 +82,31 @@ inline void forget(pid_t pid) {
 // group never outlive rayproof. The pid check closes the race of a parent that died before
 // the request was made.
 inline constexpr const char* kParentPidEnv = "RAYPROOF_PARENT_PID";
+inline constexpr const char* kMemoryLimitEnv = "RAYPROOF_MEMORY_LIMIT";
+
+// --worker-memory (issue 42): the bytes of data (heap and private mappings: RLIMIT_DATA) each
+// child may hold, 0 for no limit. Not applied under AddressSanitizer, whose shadow memory the
+// limit would count.
+inline std::atomic<std::uint64_t> child_memory_limit{0};
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kMemoryLimitApplies = false;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kMemoryLimitApplies = false;
+#else
+inline constexpr bool kMemoryLimitApplies = true;
+#endif
+#else
+inline constexpr bool kMemoryLimitApplies = true;
+#endif
+
 inline void hold_lifeline() {
+  if (const char* limit = std::getenv(kMemoryLimitEnv)) {
+    const rlim_t bytes = static_cast<rlim_t>(std::strtoull(limit, nullptr, 10));
+    ::unsetenv(kMemoryLimitEnv);
+    const rlimit data{bytes, bytes};
+    if (kMemoryLimitApplies && bytes > 0) ::setrlimit(RLIMIT_DATA, &data);
+  }
   const char* parent = std::getenv(kParentPidEnv);
   if (!parent) return;
   const pid_t expected = static_cast<pid_t>(std::atol(parent));
@@ -95,6 +121,8 @@ inline void hold_lifeline() {
 inline std::vector<std::string> child_environment(std::initializer_list<std::string> set) {
   std::vector<std::string> env(set);
   env.push_back(std::string(kParentPidEnv) + "=" + std::to_string(::getpid()));
+  if (const std::uint64_t limit = child_memory_limit.load())
+    env.push_back(std::string(kMemoryLimitEnv) + "=" + std::to_string(limit));
   for (char** e = environ; *e; ++e) {
     const std::string_view entry(*e);
     const bool replaced = std::any_of(env.begin(), env.end(), [&](const std::string& mine) {
@@ -191,12 +219,14 @@ inline bool ended_within(pid_t pid, double seconds) {
 // Ends the child: up to `grace` seconds to exit by itself, then SIGKILL. Either way its whole
 // process group is killed (what it started and left running) before it is reaped. Returns the
 // wait status; `killed` says whether it had to be killed.
-inline int end_child(pid_t pid, double grace, bool* killed = nullptr) {
+inline int end_child(pid_t pid, double grace, bool* killed = nullptr, std::uint64_t* peak_bytes = nullptr) {
   const bool ended = ended_within(pid, grace);
   if (killed) *killed = !ended;
   ::kill(-pid, SIGKILL);
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
+  rusage usage{};
+  while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {}
+  if (peak_bytes) *peak_bytes = static_cast<std::uint64_t>(usage.ru_maxrss) * 1024;  // resident peak, KiB on Linux
   child_detail::forget(pid);
   return status;
 }

@@ -29,10 +29,22 @@ inline std::string signal_reason(int status) {
 
 // Ends a plugin or tracer worker whose pipe failed (bounded: one that closed its pipe but runs
 // on is killed with its group) and says why it stopped.
-inline std::string end_worker(pid_t pid) {
+// A worker that died holding at least half of its --worker-memory limit ran out of memory: the
+// limit made its allocation fail (careless code then crashes on the NULL; C++ code aborts on
+// std::bad_alloc), and `out_of_memory` is set with the peak in the reason.
+inline std::string end_worker(pid_t pid, bool* out_of_memory = nullptr) {
   bool killed = false;
-  const int status = end_child(pid, 1.0, &killed);
-  return killed ? "closed its response pipe and kept running (killed)" : signal_reason(status);
+  std::uint64_t peak = 0;
+  const int status = end_child(pid, 1.0, &killed, &peak);
+  if (killed) return "closed its response pipe and kept running (killed)";
+  const std::uint64_t limit = child_memory_limit.load();
+  const bool died = WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) != 0);
+  if (died && kMemoryLimitApplies && limit > 0 && peak >= limit / 2) {
+    if (out_of_memory) *out_of_memory = true;
+    return "out of memory: " + signal_reason(status) + " at " + std::to_string(peak >> 20) + " MiB resident, its " +
+           std::to_string(limit >> 20) + " MiB limit (--worker-memory)";
+  }
+  return signal_reason(status);
 }
 
 // Why a piece of external code stopped (a crash, a hang, a protocol error): the first stop's

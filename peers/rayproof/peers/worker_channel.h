@@ -54,12 +54,15 @@ class WorkerChannel {
   // answers are never judged).
   struct Outcome {
     std::string reason;
-    bool timed_out = false, forked = false;
+    bool timed_out = false, forked = false, out_of_memory = false;
     std::uint64_t at = 0;
     bool answered() const { return reason.empty(); }
     // The failure blamed on the item it was on (a fork is a protocol error: a copy answered).
     AnswerFailure failure() const {
-      return forked ? AnswerFailure::protocol : timed_out ? AnswerFailure::timeout : AnswerFailure::crash;
+      return forked          ? AnswerFailure::protocol
+             : timed_out     ? AnswerFailure::timeout
+             : out_of_memory ? AnswerFailure::out_of_memory
+                             : AnswerFailure::crash;
     }
   };
   Outcome run(double timeout);

@@ -45,6 +45,7 @@ enum class TraceKind {
   crash,
   timeout,
   build_failed,
+  out_of_memory,  // the tracer's worker died at its --worker-memory limit (a compatible extra kind)
 };
 std::string_view to_string(TraceKind k);
 bool is_disagreement(TraceKind k);  // the table's kinds and tracer errors, crashes and timeouts
