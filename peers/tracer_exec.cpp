@@ -61,6 +61,35 @@ double read_hit_t(const json& t) {
   return read_number(t, "t");
 }
 
+}  // namespace
+
+json read_tracer_answer_line(const std::string& line, const std::string& id, bool all) {
+  json a = parse_json_text(line);
+  if (!a.is_object()) throw FieldError("", "an answer line is a JSON object");
+  if (a.contains("error") && !a.contains("id")) return a;  // the command could not read the mesh
+  if (!a.contains("id") || !a.at("id").is_string() || a.at("id").get<std::string>() != id)
+    throw FieldError("id", "answered " + (a.contains("id") ? a.at("id").dump() : std::string("no id")) + " where \"" +
+                               id + "\" was due (answers keep the order)");
+  if (a.contains("error") && !(all && a.at("error") == "unsupported"))
+    throw FieldError("error", printable(a.at("error").dump()));
+  if (a.contains("error")) return a;
+  if (all) {
+    check_keys(a, "", {"id", "triangles"}, {"id", "triangles"});
+    if (!a.at("triangles").is_array()) throw FieldError("triangles", "must be an array");
+    for (const json& t : a.at("triangles")) read_triangle(t, "triangles");
+  } else {
+    check_keys(a, "", {"id", "triangle", "t"}, {"id", "triangle"});
+    read_triangle(a.at("triangle"), "triangle");
+    if (!a.at("triangle").is_null()) {
+      if (!a.contains("t")) throw FieldError("t", "missing for a hit");
+      read_hit_t(a.at("t"));
+    }
+  }
+  return a;
+}
+
+namespace {
+
 struct ExecTracerState : StopReason {
   std::string command;
   ExternalOptions options;
@@ -138,32 +167,11 @@ class ExecTracerScene final : public TracerScene {
     std::string why;
     for (std::size_t i = 0; i < lines.size() && why.empty(); ++i) {
       try {
-        json a = parse_json_text(lines[i]);
-        if (!a.is_object()) throw FieldError("", "an answer line is a JSON object");
+        json a = read_tracer_answer_line(lines[i], ids[i], all);
         if (a.contains("error") && !a.contains("id")) {
           why = "could not read the mesh: " + printable(a.at("error").dump());
           kind = AnswerFailure::build_refused;  // every ray of this mesh, as a build() returning NULL
           break;
-        }
-        if (!a.contains("id") || !a.at("id").is_string() || a.at("id").get<std::string>() != ids[i])
-          throw FieldError("id", "answered " + (a.contains("id") ? a.at("id").dump() : std::string("no id")) +
-                                     " where \"" + ids[i] + "\" was due (answers keep the order)");
-        if (a.contains("error") && !(all && a.at("error") == "unsupported"))
-          throw FieldError("error", printable(a.at("error").dump()));
-        if (!a.contains("error")) {
-          if (all) {
-            check_keys(a, "", {"id", "triangles"}, {"id", "triangles"});
-            if (!a.at("triangles").is_array()) throw FieldError("triangles", "must be an array");
-            for (const json& t : a.at("triangles")) read_triangle(t, "triangles");
-          } else {
-            check_keys(a, "", {"id", "triangle", "t"}, {"id", "triangle"});
-            read_triangle(a.at("triangle"), "triangle");
-            if (!a.at("triangle").is_null()) {
-              if (!a.contains("t")) throw FieldError("t", "missing for a hit");
-              const json& t = a.at("t");
-              read_hit_t(t);
-            }
-          }
         }
         answers.push_back(std::move(a));
       } catch (const std::exception& e) {

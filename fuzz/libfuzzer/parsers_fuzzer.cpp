@@ -1,9 +1,9 @@
 // libFuzzer harness: every reader of text and bytes from users, on arbitrary input — case files,
 // scenes, PLY and STL meshes (counts before their data), campaign summaries as `merge` reads them,
-// and exec answer lines. A malformed input must end in the readers' own error types (FieldError,
-// std::runtime_error, nlohmann's json exceptions), never a crash, a hang or any other exception.
-// Built for libFuzzer (-DRAYPROOF_LIBFUZZER=ON) and, with replay_main.cpp, as a test that
-// replays fuzz/corpus/parsers_fuzzer under the sanitizer build.
+// and exec answer lines (variants' and tracers', nearest and any-hit). A malformed input must end in the readers' own
+// error types (FieldError, std::runtime_error, nlohmann's json exceptions), never a crash, a hang or any other
+// exception. Built for libFuzzer (-DRAYPROOF_LIBFUZZER=ON) and, with replay_main.cpp, as a test that replays
+// fuzz/corpus/parsers_fuzzer under the sanitizer build.
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -14,6 +14,7 @@
 #include "rayproof/fuzz/campaign.h"
 #include "rayproof/fuzz/tracer_campaign.h"
 #include "rayproof/peers/external.h"
+#include "rayproof/peers/tracers.h"
 
 namespace {
 template <class Read>
@@ -47,5 +48,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, size_t size) {
     }
   });
   expect_only_reader_errors([&] { rayproof::peers::parse_answer_line(text); });
+  for (const bool all : {false, true})  // an exec tracer's answer line, nearest and any-hit
+    expect_only_reader_errors([&] { rayproof::peers::read_tracer_answer_line(text, "r0", all); });
   return 0;
 }

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "rayproof/core/json_fields.h"
 #include "rayproof/core/tracer.h"
 #include "rayproof/peers/external.h"
 
@@ -20,6 +21,10 @@ std::vector<const Tracer*> load_tracer_plugin(const std::string& path, const Ext
 // Registers `name` as a tracer answered by `/bin/sh -c command` over the exec-tracer protocol
 // (precision: options.exec_precision). Throws on a bad or clashing name.
 const Tracer& add_exec_tracer(const std::string& name, const std::string& command, const ExternalOptions& options);
+// One answer line of the exec-tracer protocol (tracer.md), checked: the answer due for `id`
+// (nearest, or with `all` the any-hit list or {"error": "unsupported"}), or {"error": ...}
+// without an id (the command could not read the mesh). Throws FieldError naming the field.
+json read_tracer_answer_line(const std::string& line, const std::string& id, bool all);
 
 // The peer tracers (the command line registers them once, Embree where it was built in).
 void register_embree_tracers();  // embree_tracer.cpp, in rayproof::embree
