@@ -88,6 +88,8 @@ struct CheckRun {
   std::vector<const Tracer*> tracers;                // judged on mesh cases
   std::map<std::string, std::map<std::string, long>> tracer_kinds;  // tracer → kind → cases
   long mesh_cases = 0;
+  double case_timeout = 10;  // --case-timeout: also the oracle's budget on one mesh case
+  long oracle_timeouts = 0;  // mesh cases not judged: the oracle ran past the budget
   double tolerance_ulps = kDefaultToleranceUlps;
   std::string fail_on = "none";
   long failing = 0;                                                  // tracer outcomes --fail-on counts
@@ -100,27 +102,47 @@ struct CheckRun {
 };
 
 // A mesh case (docs/spec/tracer.md): every chosen tracer on it, as it sees it (float tracers: the
-// case rounded to float), judged against the oracle's truth over the mesh.
+// case rounded to float), judged against the oracle's truth over the mesh. First everything is
+// judged, within the oracle's budget (--case-timeout): a case the oracle cannot finish in it is
+// not judged, and nothing of it is written or counted; then it is counted and written.
 void judge_mesh_case(const std::string& path, long line, const MeshCase& c, CheckRun& run, std::ostream& out) {
   ++run.mesh_cases;
-  MeshOracle oracle(c.mesh);
-  const json expect = fuzz::expect_json(oracle, c.ray);
+  json expect;
+  std::vector<std::optional<fuzz::TracerOutcome>> outcomes;  // nullopt: not representable for that tracer
+  try {
+    const ScopedOracleBudget budget(run.case_timeout);
+    MeshOracle oracle(c.mesh);
+    expect = fuzz::expect_json(oracle, c.ray);
+    for (const Tracer* t : run.tracers) {
+      const auto seen = fuzz::as_seen_by(*t, c);
+      if (!seen) {
+        outcomes.emplace_back();
+        continue;
+      }
+      fuzz::VerdictSettings settings{run.tolerance_ulps, std::nullopt};
+      if (c.found.is_object() && c.found.contains("range"))  // replayed as found (checked when read)
+        settings.range = range_rule_from_string(c.found.at("range").get<std::string>());
+      outcomes.emplace_back(fuzz::judge_tracer_on_case(*t, *seen, settings));
+    }
+  } catch (const OracleTimeout& e) {
+    ++run.oracle_timeouts;
+    std::cerr << "rayproof: " << printable(path) << ":" << line << ": case '" << printable(c.id)
+              << "': not judged: " << e.what() << "\n";
+    return;
+  }
   nlohmann::ordered_json result;
   result["id"] = c.id;
   result["expect"] = expect;
   if (c.all) result["all"] = true;
   nlohmann::ordered_json tracers = nlohmann::ordered_json::object();
-  for (const Tracer* t : run.tracers) {
-    const auto seen = fuzz::as_seen_by(*t, c);
-    if (!seen) {
+  for (std::size_t i = 0; i < run.tracers.size(); ++i) {
+    const Tracer* t = run.tracers[i];
+    if (!outcomes[i]) {
       tracers[t->name] = {{"skipped", "not_representable"}};
       ++run.tracer_kinds[t->name]["not_representable"];
       continue;
     }
-    fuzz::VerdictSettings settings{run.tolerance_ulps, std::nullopt};
-    if (c.found.is_object() && c.found.contains("range"))  // replayed as found (checked when read)
-      settings.range = range_rule_from_string(c.found.at("range").get<std::string>());
-    const fuzz::TracerOutcome o = fuzz::judge_tracer_on_case(*t, *seen, settings);
+    const fuzz::TracerOutcome& o = *outcomes[i];
     if (is_disagreement(o.kind)) ++run.tracer_levels[t->name][std::string(to_string(o.level))];
     if (fails_on(run.fail_on, o.kind, o.level)) ++run.failing;
     tracers[t->name] = fuzz::check_entry(o, c.all);
@@ -291,6 +313,7 @@ int run_check(const CheckOptions& opts) {
                Oracle(Oracle::Options{!opts.exact_only})};
   run.tracers = parse_tracers(opts.tracer_flags.names);
   run.tolerance_ulps = opts.tracer_flags.tolerance_ulps;
+  run.case_timeout = opts.ext.case_timeout;
   run.fail_on = opts.tracer_flags.fail_on;
   run.ids.insert(opts.ids.begin(), opts.ids.end());
   run.shapes = parse_shapes(opts.shapes);
@@ -349,6 +372,7 @@ int run_check(const CheckOptions& opts) {
                                  {"rule", opts.rule},
                                  {"variants", summary_json(run.summary)},
                                  {"mesh_cases", run.mesh_cases},
+                                 {"oracle_timeouts", run.oracle_timeouts},
                                  {"tracers", run.tracer_kinds},
                                  {"tracer_levels", run.tracer_levels},
                                  {"tolerance_ulps", run.tolerance_ulps},
@@ -365,8 +389,10 @@ int run_check(const CheckOptions& opts) {
   if (run.failing > 0)
     std::cerr << "rayproof check: --fail-on " << run.fail_on << ": " << run.failing
               << " variant and tracer outcomes fail\n";
-  return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0 || run.stopped > 0 || run.failing > 0) ? 1
-                                                                                                                   : 0;
+  return (run.unreadable > 0 || run.contradicted > 0 || answer_problems > 0 || run.stopped > 0 || run.failing > 0 ||
+          run.oracle_timeouts > 0)
+             ? 1
+             : 0;
 }
 
 }  // namespace

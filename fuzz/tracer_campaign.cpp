@@ -376,7 +376,10 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const 
                                    bool with_backward_error) {
   TracerOutcome out;
   out.range = settings.range_of(t);
-  BuiltScene built = t.build(*seen.mesh);
+  BuiltScene built = [&] {
+    const PausedOracleBudget tracer_time;  // check's oracle budget counts the oracle's time alone
+    return t.build(*seen.mesh);
+  }();
   if (!built.scene) {
     // A tracer that stopped earlier answers nothing more: no kind of its own to show (shrinking
     // then keeps the case as found).
@@ -389,7 +392,10 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const 
   if (seen.all) {
     if (!t.has_all_hits) return out.kind = TraceKind::unsupported, out;
     std::vector<AllHitsAnswer> a(1);
-    built.scene->all_hits(std::span(&seen.ray, 1), a);
+    {
+      const PausedOracleBudget tracer_time;
+      built.scene->all_hits(std::span(&seen.ray, 1), a);
+    }
     out.all = a[0];
     if (out.all.unsupported) return out.kind = TraceKind::unsupported, out;
     if (out.all.failure != AnswerFailure::none) {
@@ -403,7 +409,10 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const 
     if (with_backward_error) add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
   } else {
     std::vector<TraceAnswer> a(1);
-    built.scene->nearest(std::span(&seen.ray, 1), a);
+    {
+      const PausedOracleBudget tracer_time;
+      built.scene->nearest(std::span(&seen.ray, 1), a);
+    }
     out.answer = a[0];
     if (out.answer.failure != AnswerFailure::none) {
       out.kind = kind_of_failure(out.answer.failure);

@@ -727,6 +727,35 @@ TEST(TracerBadInput, AWorkerAtItsMemoryLimitIsAnOutOfMemoryFinding) {
   EXPECT_EQ(roomy.at("fans\tbad-hog").value("tracer_errors", 0), 128) << roomy.dump();
 }
 
+// Item 10 of issue 42: check's --case-timeout covers the exact oracle too. A ray through 40,000
+// stacked triangles in any-hit mode: judged in the default budget, not judged (and said so,
+// nothing written) in a millisecond.
+TEST(TracerBadInput, CaseTimeoutCoversTheOracle) {
+  const std::string dir = test_dir();
+  {
+    std::ofstream f(dir + "/stack.jsonl");
+    f << R"({"id": "stack", "all": true, "mesh": {"vertices": [)";
+    constexpr int kTriangles = 40000;
+    for (int i = 0; i < kTriangles; ++i)
+      f << (i ? "," : "") << "[0," << 0 << "," << i << "],[4,0," << i << "],[0,4," << i << "]";
+    f << R"(], "triangles": [)";
+    for (int i = 0; i < kTriangles; ++i)
+      f << (i ? "," : "") << "[" << 3 * i << "," << 3 * i + 1 << "," << 3 * i + 2 << "]";
+    f << R"(]}, "ray": {"origin": [1, 1, -1], "direction": [0, 0, 1], "tmin": 0, "tmax": "inf"}})"
+      << "\n";
+  }
+  const std::string check = "check " + dir + "/stack.jsonl --tracers bvh-watertight";
+  const auto judged = run_cli(check);
+  EXPECT_EQ(judged.status, 0) << judged.err;
+  EXPECT_NE(judged.out.find("\"id\":\"stack\""), std::string::npos) << judged.out.substr(0, 300);
+  const auto hurried = run_cli(check + " --case-timeout 0.001 --summary " + dir + "/s.json");
+  EXPECT_EQ(hurried.status, 1) << hurried.err;
+  EXPECT_NE(hurried.err.find("case 'stack': not judged: the exact oracle took longer than 0.001 s"), std::string::npos)
+      << hurried.err;
+  EXPECT_EQ(hurried.out, "");
+  EXPECT_EQ(json::parse(std::ifstream(dir + "/s.json")).at("oracle_timeouts"), 1);
+}
+
 TEST(TracerBadInput, ExecTracersThatMisbehave) {
   const std::string dir = test_dir();
   auto script = [&](const std::string& name, const std::string& body) {

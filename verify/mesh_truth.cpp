@@ -1,5 +1,8 @@
 #include "rayproof/verify/mesh_truth.h"
 
+#include <chrono>
+#include <cstdio>
+
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -132,8 +135,45 @@ int MeshOracle::compare_t(const Ray& ray, const MeshContact& a, const MeshContac
   return compare(exact_t(ray, a.triangle), exact_t(ray, b.triangle));
 }
 
+namespace {
+struct OracleBudget {
+  bool active = false;
+  double seconds = 0;
+  std::chrono::steady_clock::time_point deadline;
+  unsigned calls = 0;
+};
+thread_local OracleBudget oracle_budget;
+void spend_oracle_budget() {
+  OracleBudget& b = oracle_budget;
+  if (!b.active || (++b.calls & 255u) != 0 || std::chrono::steady_clock::now() <= b.deadline) return;
+  b.active = false;  // thrown once: what handles it may ask the oracle again
+  char text[96];
+  std::snprintf(text, sizeof text, "the exact oracle took longer than %g s (--case-timeout)", b.seconds);
+  throw OracleTimeout(text);
+}
+}  // namespace
+
+ScopedOracleBudget::ScopedOracleBudget(double seconds) {
+  oracle_budget = {true, seconds,
+                   std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                          std::chrono::duration<double>(seconds)),
+                   0};
+}
+ScopedOracleBudget::~ScopedOracleBudget() { oracle_budget.active = false; }
+PausedOracleBudget::PausedOracleBudget() : paused_(oracle_budget.active) {
+  if (!paused_) return;
+  left_ = oracle_budget.deadline - std::chrono::steady_clock::now();
+  oracle_budget.active = false;
+}
+PausedOracleBudget::~PausedOracleBudget() {
+  if (!paused_) return;
+  oracle_budget.deadline = std::chrono::steady_clock::now() + left_;
+  oracle_budget.active = true;
+}
+
 std::optional<MeshContact> MeshOracle::contact(const TracerRay& r, std::uint32_t triangle) {
   if (triangle >= mesh_->triangle_count()) return std::nullopt;
+  spend_oracle_budget();
   MeshContact c;
   c.triangle = triangle;
   if (degenerate_[triangle]) {

@@ -17,10 +17,12 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string_view>
 #include <unordered_map>
 #include <vector>
@@ -104,6 +106,33 @@ struct TraceJudgement {
 };
 
 // One per thread and mesh (it owns an oracle, which counts its stages).
+// A time budget for the exact oracle on one case (issue 42: check's --case-timeout covers the
+// oracle too): while a ScopedOracleBudget lives on this thread, MeshOracle throws OracleTimeout
+// once its work runs past it (checked every 256 triangle contacts, the unit its cost grows by).
+struct OracleTimeout : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+class ScopedOracleBudget {
+ public:
+  explicit ScopedOracleBudget(double seconds);
+  ~ScopedOracleBudget();
+  ScopedOracleBudget(const ScopedOracleBudget&) = delete;
+  ScopedOracleBudget& operator=(const ScopedOracleBudget&) = delete;
+};
+// The budget stopped while the code under test runs (its own --case-timeout bounds it): only
+// the oracle's time is spent.
+class PausedOracleBudget {
+ public:
+  PausedOracleBudget();
+  ~PausedOracleBudget();
+  PausedOracleBudget(const PausedOracleBudget&) = delete;
+  PausedOracleBudget& operator=(const PausedOracleBudget&) = delete;
+
+ private:
+  bool paused_ = false;
+  std::chrono::steady_clock::duration left_{};
+};
+
 class MeshOracle {
  public:
   explicit MeshOracle(std::shared_ptr<const TriangleMesh> mesh);
