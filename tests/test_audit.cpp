@@ -1,6 +1,7 @@
 // The scene audit (docs/spec/audit.md): a BVH that never skips what the exact ray meets, the
 // exact tracer's decisions, the audit's counts on scenes built to have known answers, counts that
 // match the images, and a report a real browser opens.
+#include <gmpxx.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -210,6 +211,67 @@ TEST(Bvh, NeverSkipsAContactAtTheLimitsOfItsWidening) {
         expect_visits_every_contact(opposite_index, ShapeKind::triangle, ray, oracle, "overflowing distance");
   }
   EXPECT_GT(overflowing, 20);
+}
+
+// SlabRay's widening at the most its proof allows: axis rays whose three roundings of a slab
+// parameter t = fl(fl(bound − o)·fl(1/d)) all fall just past a midpoint the same way, so the
+// computed t is off the exact t* = (bound − o)/d by nearly 3u (u = 2^-53). Built per rounding:
+// d = 1 − k·2^-53 puts 1/d just past a midpoint of its rounding (k odd: above; some even k near
+// 2^26.5: below, found by the reciprocal's exact residual); the bound's mantissa j then puts the
+// product just past one, and an origin of about −2^-53 the difference. The widened entry must not
+// exceed ℓ* and the widened exit must reach υ* (exactly, in rationals); and these rays must defeat
+// a widening by 2u, or the test would pass one too small. (A widening by γ(3), a third of the
+// proof's, survives them and 3.2 million adversarial rays at every mantissa, |t − t*| up to
+// 2.98u·t*: t is a double, and fl(t·(1 − 3u)) lands on the grid below t* even then.)
+TEST(Bvh, TheSlabWideningCoversThreeRoundingsThatAllGoOneWay) {
+  const double u = kUnitRoundoff;
+  std::mt19937_64 rng(3);
+  // The product D·R (D = 1 + j·2^-52, R = 1 + r·2^-52) is 1 + (j + r)·2^-52 + j·r·2^-104: its
+  // rounding falls just above the midpoint when j·r just exceeds 2^51, just below when it just
+  // falls short.
+  const auto mantissa_index = [](double reciprocal, bool up) -> std::uint64_t {
+    const auto r = static_cast<std::uint64_t>((reciprocal - 1) * 0x1p52);
+    if (r < 1024) return 0;
+    return up ? (std::uint64_t{1} << 51) / r + 1 : ((std::uint64_t{1} << 51) - 1) / r;
+  };
+  for (const bool entry_side : {true, false}) {
+    long rays = 0, beaten = 0;
+    double worst_error = 0;
+    for (int n = 0; n < 2000000 && rays < 200; ++n) {
+      const std::uint64_t k = entry_side ? 2 * (rng() % (1 << 18)) + 1 : 2 * ((1ULL << 25) + rng() % (1ULL << 26));
+      const double d = 1 - static_cast<double>(k) * 0x1p-53, reciprocal = 1 / d;
+      const double residual = -std::fma(-d, reciprocal, 1);  // d·R − 1, exactly: R's relative error
+      if (entry_side ? residual < u * (1 - 0x1p-10) : residual > -u * (1 - 0x1p-10)) continue;
+      const std::uint64_t j = mantissa_index(reciprocal, entry_side);
+      if (j < 2 || j > (std::uint64_t{1} << 40)) continue;
+      const double rounded_difference = 1 + static_cast<double>(j) * 0x1p-52;
+      // entry: bound − o = D − 2^-53 + 2^-70 rounds up to D; exit: D + 2^-53 − 2^-70 down to D.
+      const double bound = entry_side ? rounded_difference - 0x1p-52 : rounded_difference;
+      const double origin = entry_side ? -(0x1p-53 + 0x1p-70) : -(0x1p-53 - 0x1p-70);
+      ASSERT_EQ(bound - origin, rounded_difference);
+      const mpq_class truth = (mpq_class(bound) - mpq_class(origin)) / mpq_class(d);
+      const double computed = (bound - origin) * (1 / d);  // SlabRay's t: three roundings
+      const double error = mpq_class(mpq_class(computed) / truth - 1).get_d();
+      ++rays;
+      if (entry_side) {
+        worst_error = std::max(worst_error, error);
+        const SlabRay slab(Ray{Vec3(origin, 0, 0), Vec3(d, 0, 0)});
+        const Bounds box{Vec3(bound, -1, -1), Vec3(bound + 1, 1, 1)};
+        double entry = -1;
+        EXPECT_TRUE(slab.meets(box, std::numeric_limits<double>::infinity(), entry)) << "k = " << k;
+        EXPECT_LE(mpq_class(entry), truth) << "entry past the exact one, k = " << k << ", j = " << j;
+        if (mpq_class(computed * (1 - 2 * u)) > truth) ++beaten;
+      } else {
+        worst_error = std::min(worst_error, error);
+        EXPECT_GE(mpq_class(SlabRay::widened_exit(computed)), truth) << "exit short of the exact one, k = " << k;
+        if (mpq_class(computed * (1 + 2 * u)) < truth) ++beaten;
+      }
+    }
+    const char* side = entry_side ? "entry" : "exit";
+    EXPECT_EQ(rays, 200) << side;
+    EXPECT_GT(std::abs(worst_error), 2.99 * u) << side << ": no parameter came within 1% of the proof's 3u";
+    EXPECT_GT(beaten, 100) << side << ": too few rays defeat a widening by 2u";
+  }
 }
 
 // A sphere's box is c ± r rounded outward: a ray that dips into the sphere between fl(c + r) and

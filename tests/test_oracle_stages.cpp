@@ -363,6 +363,7 @@ TEST(OracleVersusRationals, SpheresAndPlanesOnEveryFamily) {
 }  // namespace
 }  // namespace rayproof
 
+#include <algorithm>
 #include <random>
 
 #include "rayproof/verify/filtered.h"
@@ -417,6 +418,55 @@ TEST(FilterBounds, NearSingularDeterminantsNeverGetAWrongSign) {
   EXPECT_GT(certified, 20000);
   EXPECT_GT(dd_certified, certified);
   EXPECT_GT(near_the_bound, 50) << "certified cases within a few bits of the filter's bound";
+}
+
+// The premise of FilteredDD's bound: each double-double operation is one rounding of the model
+// at ε = kEpsilonDD, fl(x ∘ y) = (x ∘ y)(1 + δ) with |δ| ≤ ε. Normalised pairs whose low parts
+// reach half an ulp of the high, sums that cancel to a few bits, products across 2^±30: the
+// relative errors met, measured in rationals, must stay below ε — and must exceed u² = 2^-106
+// (about 4u² for products), or an ε 64 times too small would pass here as everywhere else.
+TEST(FilterBounds, DoubleDoubleOperationsAreOneRoundingAtTheirEpsilon) {
+  std::mt19937_64 rng(100);
+  std::uniform_real_distribution<double> mantissa(1, 2), u(-1, 1);
+  const auto pick = [&](double& hi, double& lo) {  // a normalised pair, |lo| ≤ ulp(hi)/2
+    hi = (rng() & 1 ? 1 : -1) * mantissa(rng);
+    const double half_ulp = std::ldexp(1.0, std::ilogb(hi) - 53);
+    switch (rng() % 3) {
+      case 0: lo = half_ulp * u(rng); break;
+      case 1: lo = half_ulp * (1 - std::ldexp(std::abs(u(rng)), -20)) * (rng() & 1 ? 1 : -1); break;
+      default: lo = half_ulp * std::ldexp(u(rng), -static_cast<int>(rng() % 30)); break;
+    }
+    const double sum = hi + lo;
+    lo -= sum - hi;
+    hi = sum;
+  };
+  const auto relative_error = [](double rh, double rl, const Q& exact) {
+    return Q(abs(Q(rh) + Q(rl) - exact) / abs(exact)).get_d();
+  };
+  double worst_sum = 0, worst_product = 0;
+  for (int n = 0; n < 60000; ++n) {
+    double ah, al, bh, bl, rh, rl;
+    pick(ah, al);
+    pick(bh, bl);
+    const int scale = static_cast<int>(rng() % 61) - 30;
+    bh = std::ldexp(bh, scale), bl = std::ldexp(bl, scale);
+    if (rng() & 1) {  // b about −a: the sum cancels to anywhere between 1 and 50 bits
+      bh = -ah * (1 + std::ldexp(u(rng), -static_cast<int>(rng() % 50)));
+      bl = std::ldexp(u(rng), std::ilogb(bh) - 54);
+      const double sum = bh + bl;
+      bl -= sum - bh;
+      bh = sum;
+    }
+    dd_sum(ah, al, bh, bl, rh, rl);
+    if (const Q exact = Q(ah) + Q(al) + Q(bh) + Q(bl); exact != 0)
+      worst_sum = std::max(worst_sum, relative_error(rh, rl, exact));
+    dd_product<DekkerProduct>(ah, al, bh, bl, rh, rl);
+    worst_product = std::max(worst_product, relative_error(rh, rl, (Q(ah) + Q(al)) * (Q(bh) + Q(bl))));
+  }
+  EXPECT_LE(worst_sum, filter_detail::kEpsilonDD);
+  EXPECT_LE(worst_product, filter_detail::kEpsilonDD);
+  EXPECT_GT(worst_sum, 0x1p-106) << "no sum met an error above u²";
+  EXPECT_GT(worst_product, 0x1p-105) << "no product met an error above 2u²";
 }
 
 }  // namespace

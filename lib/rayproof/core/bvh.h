@@ -131,6 +131,15 @@ struct SlabRay {
   //    excludes everything, as it should; an origin exactly on that slab's plane gives 0·inf =
   //    NaN, which the comparisons below ignore (no constraint: the closed slab holds the ray).
   static constexpr double kShrink = 1 - 3 * gamma(3), kGrow = 1 + 3 * gamma(3), kTiny = 0x1p-1070;
+  // The widened ends of the proof above (before entry's max with 0), for a double or four lanes.
+  template <class T>
+  [[gnu::always_inline]] static T widened_entry(T lower) {
+    return lower * kShrink - kTiny;
+  }
+  template <class T>
+  [[gnu::always_inline]] static T widened_exit(T upper) {
+    return upper * kGrow + kTiny;
+  }
   bool meets(const Bounds& b, double t_limit, double& entry) const {
     double lower = -std::numeric_limits<double>::infinity(), upper = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 3; ++k) {
@@ -143,8 +152,8 @@ struct SlabRay {
     // of, and no widening makes that a hit (widening inf would give NaN).
     if (!(lower < std::numeric_limits<double>::infinity()) || !(upper > -std::numeric_limits<double>::infinity()))
       return false;
-    lower = lower * kShrink - kTiny;
-    upper = upper * kGrow + kTiny;
+    lower = widened_entry(lower);
+    upper = widened_exit(upper);
     entry = lower > 0 ? lower : 0;
     return entry <= upper && entry <= t_limit;
   }
@@ -166,7 +175,7 @@ struct SlabRay {
       upper = t_far < upper ? t_far : upper;
     }
     const Mask4 bounded = (lower < inf) & (upper > -inf);
-    const Double4 lo = lower * kShrink - kTiny, hi = upper * kGrow + kTiny;
+    const Double4 lo = widened_entry(lower), hi = widened_exit(upper);
     const Double4 zero{}, at = lo > zero ? lo : zero;
     std::memcpy(entry, &at, sizeof(Double4));
     return Lanes::bits(bounded & (at <= hi) & (at <= t_limit));

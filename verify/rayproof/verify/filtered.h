@@ -38,16 +38,18 @@
 namespace rayproof {
 
 namespace filter_detail {
-// γ_ε(k + 2) for k = 0 … 63, ε = u (doubles) or 2^-100 (double-double).
-template <int kLog2Epsilon>
-constexpr std::array<double, 64> gamma_table() {
+// The unit of one double-double operation in the model above (dd_sum, dd_product below: their
+// proved relative errors 3u² + 13u³ and 7u² lie below it; tests/test_oracle_stages.cpp meets
+// errors over 4u² on adversarial pairs, so a unit of u² would not be a bound).
+inline constexpr double kEpsilonDD = 0x1p-100;
+// γ_ε(k + 2) for k = 0 … 63.
+constexpr std::array<double, 64> gamma_table(double eps) {
   std::array<double, 64> g{};
-  const double eps = kLog2Epsilon == -53 ? kUnitRoundoff : 0x1p-100;
   for (int k = 0; k < 64; ++k) g[k] = ((k + 2) * eps) / (1 - (k + 2) * eps);
   return g;
 }
-inline constexpr auto kGammaDouble = gamma_table<-53>();
-inline constexpr auto kGammaDD = gamma_table<-100>();
+inline constexpr auto kGammaDouble = gamma_table(kUnitRoundoff);
+inline constexpr auto kGammaDD = gamma_table(kEpsilonDD);
 
 // Whether a product of magnitudes ma·mb = m keeps the model valid: a zero factor makes it exactly
 // zero; otherwise m must lie in [lo, hi] (an underflow to 0 must not pass for an exact zero).
