@@ -176,10 +176,12 @@ void add_audit_command(CLI::App& app, int& exit_code) {
     const std::vector<std::string> stems = studies::audit_file_stems(audit);
     for (std::size_t i = 0; i < audit.variants.size(); ++i) {
       const studies::VariantAudit& va = audit.variants[i];
-      if (va.cases.empty()) continue;
+      const std::size_t written = va.cases.size() + va.mesh_cases.size();
+      if (written == 0) continue;
       const std::string file = (std::filesystem::absolute(opts->dir) / (stems[i] + "-cases.jsonl")).string();
-      std::cerr << "wrong pixels of " << printable(va.label) << " as cases: " << va.cases.size();
-      if (va.cases_left_out > 0) std::cerr << " of " << va.cases.size() + va.cases_left_out;
+      std::cerr << "wrong pixels of " << printable(va.label) << (va.tracer ? " as mesh cases: " : " as cases: ")
+                << written;
+      if (va.cases_left_out > 0) std::cerr << " of " << written + va.cases_left_out;
       std::cerr << "; replay: " << printable(studies::cases_replay_command(va, file)) << "\n";
     }
     for (const std::string& w : audit.warnings)  // the scene's own were printed when it was loaded

@@ -13,6 +13,7 @@
 #include "rayproof/core/parallel.h"
 #include "rayproof/core/scene_rays.h"
 #include "rayproof/core/timing.h"
+#include "rayproof/fuzz/tracer_campaign.h"
 #include "rayproof/studies/offsets.h"
 #include "rayproof/verify/exact_scene.h"
 
@@ -92,6 +93,7 @@ struct Contender {
 // shares them (so a tracer's watertightness is judged on the mesh it was given), each lone
 // triangle on its own; float tracers get them rounded to float.
 struct TracerOnScene {
+  std::shared_ptr<const TriangleMesh> mesh;  // the scene's triangles in double, as the mesh cases hold them
   std::unique_ptr<TracerScene> scene;
   std::vector<std::int32_t> primitive_of;  // the built mesh's triangle index → the scene's primitive
   Precision precision = Precision::f64;
@@ -121,6 +123,7 @@ struct TracerOnScene {
       primitive_of.push_back(id);
     }
     if (primitive_of.empty()) return;
+    this->mesh = std::make_shared<const TriangleMesh>(mesh);
     if (precision == Precision::f32) {
       auto rounded = mesh_rounded_to_float(mesh);
       if (!rounded) {
@@ -210,7 +213,8 @@ class Auditor {
     PixelCounts counts;
     Image render, diff;
     std::vector<WrongPixelCase> cases;
-    long cases_left_out = 0;
+    std::vector<MeshCase> mesh_cases;  // a tracer's
+    long cases_left_out = 0, pixels_right_as_mesh_cases = 0;
     std::string stopped;  // a tracer that built nothing: why
   };
 
@@ -252,9 +256,9 @@ class Auditor {
             shadows.recording = false;
           }
           for (int x = 0; x < cam.width; ++x) {
-            const PixelVerdict v = variant_pixel(
-                st.tracer, {c, tracer.get(), draw && !c.tracer, batch_shadows ? &shadows : nullptr, reach}, row[x], x,
-                y, per_row[y]);
+            const PixelVerdict v =
+                variant_pixel(st.tracer, {c, tracer.get(), draw, batch_shadows ? &shadows : nullptr, reach}, row[x], x,
+                              y, per_row[y]);
             if (draw) paint(out, size_t(y) * cam.width + x, v);
           }
         },
@@ -263,10 +267,59 @@ class Auditor {
     for (RowResult& r : per_row) {
       out.counts += r.counts;
       for (WrongPixelCase& w : r.cases)
-        if (out.cases.size() < kMaxCasesPerVariant)
+        if (out.cases.size() < kMaxCasesPerVariant || tracer)  // a tracer's are picked from all of them
           out.cases.push_back(std::move(w));
         else
           ++out.cases_left_out;
+    }
+    if (tracer && tracer->scene && draw) {
+      std::vector<WrongPixelCase> primary;
+      for (WrongPixelCase& w : out.cases)
+        if (!w.shadow_ray) primary.push_back(std::move(w));
+      out.cases.clear();
+      out.mesh_cases = tracer_mesh_cases(*c.tracer, *tracer, primary, out.pixels_right_as_mesh_cases);
+      out.cases_left_out =
+          std::max(0L, out.counts.wrong - static_cast<long>(out.mesh_cases.size()) - out.pixels_right_as_mesh_cases);
+    }
+    return out;
+  }
+
+  // A tracer's wrong primary pixels as mesh cases: up to kMaxMeshCasesPerTracer of them, spread
+  // evenly over `wrong`, each judged on the scene's triangles as one mesh (the tracer rebuilt for
+  // it, as `check` will) and shrunk as `fuzz --tracer` shrinks its findings. A pixel whose mesh
+  // case the judge calls right is counted in `right` (the pixel was wrong only among other kinds).
+  std::vector<MeshCase> tracer_mesh_cases(const Tracer& t, const TracerOnScene& on,
+                                          const std::vector<WrongPixelCase>& wrong, long& right) const {
+    std::vector<MeshCase> out;
+    const fuzz::VerdictSettings settings;
+    const std::size_t n = std::min(wrong.size(), kMaxMeshCasesPerTracer);
+    for (std::size_t i = 0; i < n; ++i) {
+      const WrongPixelCase& w = wrong[i * wrong.size() / n];
+      MeshCase whole;
+      whole.id = t.name + "-" + std::to_string(w.x) + "-" + std::to_string(w.y) + "-" + w.kind;
+      whole.mesh = on.mesh;
+      whole.ray = TracerRay{w.ray, 0, std::numeric_limits<double>::infinity()};
+      const std::optional<MeshCase> seen = fuzz::as_seen_by(t, whole);
+      if (!seen) continue;
+      const fuzz::TracerOutcome found = fuzz::judge_tracer_on_case(t, *seen, settings);
+      if (found.kind == TraceKind::right) {
+        ++right;
+        continue;
+      }
+      MeshCase c = fuzz::shrink_mesh_case(t, *seen, found.kind, 300, settings, found.level, false, &found);
+      const fuzz::TracerOutcome now = c.mesh == seen->mesh ? found : fuzz::judge_tracer_on_case(t, c, settings);
+      MeshOracle oracle(c.mesh);
+      c.expect = fuzz::expect_json(oracle, c.ray);
+      c.found = {{"tracer", t.name},
+                 {"kind", std::string(to_string(now.kind))},
+                 {"pixel", {w.x, w.y}},
+                 {"pixel_verdict", w.kind},
+                 {"mode", "nearest"},
+                 {"reported", fuzz::reported_json(now, false)},
+                 {"precision", std::string(to_string(t.precision))},
+                 {"triangles_found_in", seen->mesh->triangle_count()}};
+      fuzz::add_verdict_fields(c.found, now);
+      out.push_back(std::move(c));
     }
     return out;
   }
@@ -810,6 +863,7 @@ SceneAudit audit_scene(const Scene& scene, const SceneAuditOptions& options) {
     va.counts = pass.counts;
     va.render = std::move(pass.render), va.diff = std::move(pass.diff);
     va.cases = std::move(pass.cases), va.cases_left_out = pass.cases_left_out;
+    va.mesh_cases = std::move(pass.mesh_cases), va.pixels_right_as_mesh_cases = pass.pixels_right_as_mesh_cases;
     va.stopped = std::move(pass.stopped);
     if (c.variant) va.proved_offset_ulps = scene_needs_ulps(auditor.index(), *c.variant, auditor.offsets_box());
     const auto timing = auditor.time_variant(c);

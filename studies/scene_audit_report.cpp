@@ -90,6 +90,14 @@ std::string reproduce_command(const SceneAudit& a, const std::string& scene_path
 }  // namespace
 
 std::string cases_replay_command(const VariantAudit& va, const std::string& cases_file) {
+  if (va.tracer) {  // the tracer loaded as the audit loaded it (reproduce_command's origins)
+    std::string cmd = "rayproof check " + shell_quoted(cases_file) + " --tracers " + shell_quoted(va.name);
+    if (va.origin.rfind("exec: ", 0) == 0)
+      cmd += " --tracer-exec " + shell_quoted(va.name + "=" + va.origin.substr(6));
+    else if (va.origin.find('/') != std::string::npos)
+      cmd += " --tracer " + shell_quoted(va.origin);
+    return cmd;
+  }
   std::string cmd = "rayproof check " + shell_quoted(cases_file) + " --variants " + shell_quoted(va.name);
   if (const std::string flags = va.variant ? loading_flags(*va.variant) : ""; !flags.empty()) cmd += " " + flags;
   return cmd;
@@ -126,11 +134,17 @@ std::vector<std::string> users_code_verdicts(const SceneAudit& a) {
 
 namespace {
 
-bool has_cases_file(const VariantAudit& va) { return !va.cases.empty(); }
+bool has_cases_file(const VariantAudit& va) { return !va.cases.empty() || !va.mesh_cases.empty(); }
+std::size_t cases_written(const VariantAudit& va) { return va.cases.size() + va.mesh_cases.size(); }
 
-// STEM-cases.jsonl: each wrong pixel as a case (cases.md), "found" saying where it came from.
+// STEM-cases.jsonl: each wrong pixel as a case (cases.md; a tracer's as a mesh case, tracer.md),
+// "found" saying where it came from.
 std::string cases_jsonl(const VariantAudit& va, const std::string& stem, const std::string& scene_path) {
   std::string out;
+  for (MeshCase c : va.mesh_cases) {
+    c.found["audit"] = scene_path;
+    out += json_text(mesh_case_to_json(c)) + "\n";
+  }
   for (const WrongPixelCase& w : va.cases) {
     Case c;
     c.ray = w.ray;
@@ -174,8 +188,9 @@ json variant_row_json(const VariantAudit& va, const std::string& stem) {
   if (va.proved_offset_ulps) e["proved_offset_ulps"] = *va.proved_offset_ulps;
   if (has_cases_file(va)) {
     e["cases"] = stem + "-cases.jsonl";
-    e["cases_written"] = va.cases.size();
+    e["cases_written"] = cases_written(va);
     e["cases_left_out"] = va.cases_left_out;
+    if (va.tracer) e["pixels_right_as_mesh_cases"] = va.pixels_right_as_mesh_cases;
   }
   if (va.tracer) e["tracer"] = true;  // a whole tracer (tracer.md), drawing every triangle
   if (va.variant && va.variant->external) {
@@ -459,8 +474,11 @@ void html_images(std::ostream& h, const SceneAudit& a) {
       << va.counts.wrongly_lit << " wrongly lit)</figcaption></figure>";
     if (has_cases_file(va)) {  // under the three images, as wide as they are
       const std::string file = stems[&va - a.variants.data()] + "-cases.jsonl";
-      h << "<p class=\"cases\">" << va.cases.size() << " wrong pixels as cases" << (va.cases_left_out ? " (of " : "")
-        << (va.cases_left_out ? std::to_string(va.cases.size() + va.cases_left_out) + ")" : "") << ": <a href=\""
+      const std::size_t written = cases_written(va);
+      h << "<p class=\"cases\">" << written
+        << (va.tracer ? " wrong pixels as mesh cases, shrunk" : " wrong pixels as cases")
+        << (va.cases_left_out ? " (of " : "")
+        << (va.cases_left_out ? std::to_string(written + va.cases_left_out) + ")" : "") << ": <a href=\""
         << markup::escape(file) << "\">" << markup::escape(file) << "</a>, replayed in this directory by <code>"
         << markup::escape(cases_replay_command(va, file)) << "</code></p>";
     }

@@ -909,6 +909,30 @@ TEST(TracerAudit, BvhTracerRowsEqualTheirVariantsRows) {
   EXPECT_TRUE(std::filesystem::exists(dir + "/a/naive-float-bvh-diff.png"));
   EXPECT_TRUE(a.at("headroom").contains("bvh-watertight-top-left"));
   EXPECT_TRUE(a.at("headroom").contains("naive-float-bvh"));
+  // A tracer's wrong pixels as mesh cases (issue 39, item 8): the cracks, each shrunk to a few of
+  // the grid's triangles, a bug-level hole, and `check --tracers` replays each as what it was found.
+  const json& mt = rows.at("bvh-moller-trumbore");
+  ASSERT_TRUE(mt.contains("cases")) << mt.dump();
+  EXPECT_EQ(mt.at("cases_written").get<long>() + mt.at("cases_left_out").get<long>() +
+                mt.at("pixels_right_as_mesh_cases").get<long>(),
+            mt.at("wrong").get<long>());
+  const std::vector<json> cases = read_lines(dir + "/a/" + mt.at("cases").get<std::string>());
+  ASSERT_EQ(cases.size(), mt.at("cases_written").get<std::size_t>());
+  EXPECT_GE(cases.size(), 4u);
+  for (const json& c : cases) {
+    SCOPED_TRACE(c.dump());
+    EXPECT_EQ(c.at("found").at("kind"), "hole");
+    EXPECT_EQ(c.at("found").at("level"), "bug");
+    EXPECT_LE(c.at("mesh").at("triangles").size(), 8u);  // a few triangles, not the grid's hundreds
+    EXPECT_GT(c.at("found").at("triangles_found_in").get<long>(), 100);
+  }
+  const auto replay = run_cli("check " + dir + "/a/" + mt.at("cases").get<std::string>() +
+                              " --tracers bvh-moller-trumbore -o " + dir + "/replayed.jsonl");
+  ASSERT_EQ(replay.status, 0) << replay.err;
+  const std::vector<json> replayed = read_lines(dir + "/replayed.jsonl");
+  ASSERT_EQ(replayed.size(), cases.size());
+  for (std::size_t i = 0; i < cases.size(); ++i)
+    EXPECT_EQ(replayed[i].at("tracers").at("bvh-moller-trumbore").at("kind"), "hole") << replayed[i].dump();
 }
 
 // Issue 42, item 13: answers no ray can have (NaN t, a triangle out of range, t below tmin) are

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "rayproof/core/mesh_case.h"
 #include "rayproof/core/render.h"
 #include "rayproof/core/scene.h"
 #include "rayproof/core/tracer.h"
@@ -70,6 +71,9 @@ struct WrongPixelCase {
 };
 // At most this many cases per variant, in pixel order (the rest are counted).
 inline constexpr std::size_t kMaxCasesPerVariant = 256;
+// At most this many mesh cases per tracer (each costs the tracer's rebuilds while it is shrunk),
+// spread evenly over its wrong primary pixels.
+inline constexpr std::size_t kMaxMeshCasesPerTracer = 8;
 
 struct VariantAudit {
   const Variant* variant = nullptr;     // or
@@ -90,9 +94,15 @@ struct VariantAudit {
   bool timed_in_worker = false;
   bool users_code() const { return origin != "built-in"; }
   Image render, diff;                 // the variant's render; wrong pixels over the dimmed exact render
-  std::vector<WrongPixelCase> cases;  // variants only (a tracer's triangles are judged as a mesh)
-  long cases_left_out = 0;
-  std::string stopped;  // external code that stopped: why (its later answers are misses)
+  std::vector<WrongPixelCase> cases;  // a variant's wrong pixels
+  // A whole tracer's wrong primary pixels as mesh cases (tracer.md, "Mesh findings"), judged on
+  // the scene's triangles as one mesh, each shrunk to the fewest triangles that still show its kind
+  // and level; `check --tracers NAME` replays them. Shadow errors are counted, not written: a
+  // shadow ray starts at a computed hit point, and what it meets there is `rayproof offsets`' question.
+  std::vector<MeshCase> mesh_cases;
+  long cases_left_out = 0;              // wrong pixels not written (past the cap)
+  long pixels_right_as_mesh_cases = 0;  // a tracer's wrong pixels whose mesh case the judge calls right
+  std::string stopped;                  // external code that stopped: why (its later answers are misses)
   // A variant that stopped (crash, hang, protocol error) left pixels unjudged: never exact.
   bool exact_for_scene() const { return counts.any_wrong() == 0 && stopped.empty(); }
   // Headroom: pixels wrong or shadow wrong (what exact_for_scene counts) per exponent of
