@@ -11,7 +11,7 @@
 #include "rayproof/core/atomic_file.h"
 #include "rayproof/peers/external.h"
 #include "rayproof/core/mesh_case.h"
-#include "rayproof/fuzz/tracer_campaign.h"
+#include "rayproof/verify/tracer_judge.h"
 #include "rayproof/verify/backward_error.h"
 #include "rayproof/verify/compare.h"
 #include "rayproof/verify/mesh_truth.h"
@@ -108,21 +108,21 @@ struct CheckRun {
 void judge_mesh_case(const std::string& path, long line, const MeshCase& c, CheckRun& run, std::ostream& out) {
   ++run.mesh_cases;
   json expect;
-  std::vector<std::optional<fuzz::TracerOutcome>> outcomes;  // nullopt: not representable for that tracer
+  std::vector<std::optional<TracerOutcome>> outcomes;  // nullopt: not representable for that tracer
   try {
     const ScopedOracleBudget budget(run.case_timeout);
     MeshOracle oracle(c.mesh);
-    expect = fuzz::expect_json(oracle, c.ray);
+    expect = expect_json(oracle, c.ray);
     for (const Tracer* t : run.tracers) {
-      const auto seen = fuzz::as_seen_by(*t, c);
+      const auto seen = as_seen_by(*t, c);
       if (!seen) {
         outcomes.emplace_back();
         continue;
       }
-      fuzz::VerdictSettings settings{run.tolerance_ulps, std::nullopt};
+      VerdictSettings settings{run.tolerance_ulps, std::nullopt};
       if (c.found.is_object() && c.found.contains("range"))  // replayed as found (checked when read)
         settings.range = range_rule_from_string(c.found.at("range").get<std::string>());
-      outcomes.emplace_back(fuzz::judge_tracer_on_case(*t, *seen, settings));
+      outcomes.emplace_back(judge_tracer_on_case(*t, *seen, settings));
     }
   } catch (const OracleTimeout& e) {
     ++run.oracle_timeouts;
@@ -142,10 +142,10 @@ void judge_mesh_case(const std::string& path, long line, const MeshCase& c, Chec
       ++run.tracer_kinds[t->name]["not_representable"];
       continue;
     }
-    const fuzz::TracerOutcome& o = *outcomes[i];
+    const TracerOutcome& o = *outcomes[i];
     if (is_disagreement(o.kind)) ++run.tracer_levels[t->name][std::string(to_string(o.level))];
     if (fails_on(run.fail_on, o.kind, o.level)) ++run.failing;
-    tracers[t->name] = fuzz::check_entry(o, c.all);
+    tracers[t->name] = check_entry(o, c.all);
     ++run.tracer_kinds[t->name][std::string(to_string(o.kind))];
     if (o.kind == TraceKind::crash || o.kind == TraceKind::timeout || o.kind == TraceKind::out_of_memory) {
       ++run.stopped;

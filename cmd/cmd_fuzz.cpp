@@ -170,9 +170,13 @@ int run_tracer_fuzz(const FuzzOptions& opts) {
   std::uint64_t failing = 0;
   for (const auto& [key, t] : report.tallies) {
     if (opts.tracers.fail_on == "none") break;
-    for (const char* k : {"tracer_errors", "crash", "timeout", "out_of_memory"}) failing += t.count(k);
-    for (const char* k : kLevelledTraceKinds)
-      failing += opts.tracers.fail_on == "rounding" ? t.count(k) : t.level(std::string(k) + "_bugs");
+    for (const TraceKindInfo& k : kTraceKinds) {
+      if (!k.disagreement) continue;
+      if (!k.verdict || opts.tracers.fail_on == "rounding")
+        failing += t.count(k.kind);  // failures to answer fail at every level
+      else
+        failing += t.level(std::string(k.name) + "_bugs");
+    }
   }
   if (failing == 0) return 0;
   std::cerr << "rayproof fuzz: --fail-on " << opts.tracers.fail_on << ": " << failing << " tracer outcomes fail\n";

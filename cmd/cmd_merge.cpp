@@ -147,7 +147,8 @@ int run_merge(const MergeOptions& o) {
       merged_tracers.merge(shard);
       tracer_findings_summarized += shard.findings_written;
       for (const auto& [k, t] : shard.tallies)
-        if (t.count("crash") + t.count("timeout") + t.count("out_of_memory") > 0) stopped_in[k.name].insert(path);
+        if (t.count(TraceKind::crash) + t.count(TraceKind::timeout) + t.count(TraceKind::out_of_memory) > 0)
+          stopped_in[k.name].insert(path);
       continue;
     }
     variants = true;

@@ -82,8 +82,9 @@ TracerCampaignReport TracerCampaignReport::from_json(const json& j) {
       throw FieldError(where + ".cases", std::to_string(t.cases) + " cases, but the campaign traced " +
                                              std::to_string(traced) + " rays of " + family);
     if (!any_hit)
-      for (const char* kind : {"double_hit", "missed_in_any_hit", "unsupported"})
-        if (t.count(kind) > 0) throw FieldError(where + "." + kind, "an any-hit kind in a nearest tally");
+      for (TraceKind kind : {TraceKind::double_hit, TraceKind::missed_in_any_hit, TraceKind::unsupported})
+        if (t.count(kind) > 0)
+          throw FieldError(where + "." + std::string(to_string(kind)), "an any-hit kind in a nearest tally");
   }
   return r;
 }
@@ -105,7 +106,7 @@ std::string one_hit_rule_line(const TracerCampaignReport& r, const std::string& 
     levels = levels || t.tolerance_ulps.has_value();
     holes += t.tolerance_ulps ? t.level("edge_hole_bugs") : t.edge_holes;
     doubles += t.edge_double_hits, edge_rays += t.edge_rays;
-    if (k.family.size() > 4 && k.family.ends_with("-any")) any_hit_rays += t.cases - t.count("unsupported");
+    if (k.family.size() > 4 && k.family.ends_with("-any")) any_hit_rays += t.cases - t.count(TraceKind::unsupported);
   }
   std::ostringstream out;
   out << "one hit per shared edge and vertex: ";
@@ -151,7 +152,8 @@ std::vector<std::string> tracer_diagnosis(const TracerCampaignReport& r, const s
   std::uint64_t all_holes = 0, reported = 0;
   for (const auto& [k, t] : r.tallies)
     if (k.name == tracer && !k.family.ends_with("-any"))
-      all_holes += t.count("hole"), reported += t.ulps.count() + t.count("false_hit") + t.count("not_nearest");
+      all_holes += t.count(TraceKind::hole),
+          reported += t.ulps.count() + t.count(TraceKind::false_hit) + t.count(TraceKind::not_nearest);
   if (all_holes > 0 && reported == 0)
     return {"no hit reported on any ray: all " + std::to_string(all_holes) +
             " rays that cross a triangle are holes: the rays meet no geometry (an empty or unbuilt structure, "
@@ -247,36 +249,37 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
     const char* title;
     std::function<std::uint64_t(const TracerTally&)> value;
   };
-  auto bugs = [](const char* kind) {
+  auto bugs = [](TraceKind kind) {
     return [kind](const TracerTally& t) {
-      return t.tolerance_ulps ? t.level(std::string(kind) + "_bugs") : t.count(kind);
+      return t.tolerance_ulps ? t.level(std::string(to_string(kind)) + "_bugs") : t.count(kind);
     };
   };
-  auto sum = [](std::vector<std::string> kinds) {
+  auto sum = [](std::vector<TraceKind> kinds) {
     return [kinds](const TracerTally& t) {
       std::uint64_t n = 0;
-      for (const std::string& k : kinds) n += t.count(k);
+      for (TraceKind k : kinds) n += t.count(k);
       return n;
     };
   };
-  const std::vector<Column> columns = {
-      {"cases", [](const TracerTally& t) { return t.cases; }},
-      {"right", sum({"right"})},
-      {"hole", bugs("hole")},
-      {"false", bugs("false_hit")},
-      {"farther", bugs("not_nearest")},
-      {"double", bugs("double_hit")},
-      {"missed", bugs("missed_in_any_hit")},
-      {"r:any",
-       [](const TracerTally& t) {
-         std::uint64_t n = 0;
-         if (t.tolerance_ulps)
-           for (const char* k : kLevelledTraceKinds) n += t.level(std::string(k) + "_rounding");
-         return n;
-       }},
-      {"n/r", sum({"not_representable"})},
-      {"other", sum({"in_plane", "unsupported"})},
-      {"failed", sum({"tracer_error", "crash", "timeout", "build_failed", "out_of_memory"})}};
+  const std::vector<Column> columns = {{"cases", [](const TracerTally& t) { return t.cases; }},
+                                       {"right", sum({TraceKind::right})},
+                                       {"hole", bugs(TraceKind::hole)},
+                                       {"false", bugs(TraceKind::false_hit)},
+                                       {"farther", bugs(TraceKind::not_nearest)},
+                                       {"double", bugs(TraceKind::double_hit)},
+                                       {"missed", bugs(TraceKind::missed_in_any_hit)},
+                                       {"r:any",
+                                        [](const TracerTally& t) {
+                                          std::uint64_t n = 0;
+                                          if (t.tolerance_ulps)
+                                            for (const TraceKindInfo& k : kTraceKinds)
+                                              if (k.levelled) n += t.level(std::string(k.name) + "_rounding");
+                                          return n;
+                                        }},
+                                       {"n/r", sum({TraceKind::not_representable})},
+                                       {"other", sum({TraceKind::in_plane, TraceKind::unsupported})},
+                                       {"failed", sum({TraceKind::tracer_error, TraceKind::crash, TraceKind::timeout,
+                                                       TraceKind::build_failed, TraceKind::out_of_memory})}};
   std::map<std::string, std::vector<std::pair<std::string, const TracerTally*>>> by_tracer;
   for (const auto& [k, t] : r.tallies) by_tracer[k.name].push_back({k.family, &t});
   out << "per family: right, then bug-level hole, false (hit), farther (not the nearest), double (hit on one edge),\n"
@@ -319,144 +322,7 @@ void print_tracer_report(const TracerCampaignReport& r, TableFormat format, std:
   }
 }
 
-// ----------------------------------------------------------------------------- one case
-std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c) {
-  if (t.precision == Precision::f64) return c;
-  const auto mesh = mesh_rounded_to_float(*c.mesh);
-  const auto ray = ray_rounded_to_float(c.ray);
-  if (!mesh || !ray) return std::nullopt;
-  MeshCase seen = c;
-  seen.mesh = std::make_shared<TriangleMesh>(*mesh);
-  seen.ray = *ray;
-  return seen;
-}
-
-namespace {
-TraceKind kind_of_failure(AnswerFailure f) {
-  return f == AnswerFailure::timeout         ? TraceKind::timeout
-         : f == AnswerFailure::out_of_memory ? TraceKind::out_of_memory
-         : f == AnswerFailure::crash         ? TraceKind::crash
-         : f == AnswerFailure::build_refused ? TraceKind::build_failed
-                                             : TraceKind::tracer_error;
-}
-}  // namespace
-
-bool has_backward_error(TraceKind k) {
-  return k == TraceKind::hole || k == TraceKind::false_hit || k == TraceKind::not_nearest ||
-         k == TraceKind::double_hit || k == TraceKind::missed_in_any_hit;
-}
-
-void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const TracerRay& ray, const MeshTruth& truth,
-                        Precision p, const VerdictSettings& settings, bool all) {
-  o.level = Level::bug;
-  o.backward = {};
-  if (!has_backward_error(o.kind)) return;
-  MeshAnswer a;
-  a.all = all;
-  a.triangle = o.answer.triangle;
-  a.triangles = o.all.triangles;
-  o.backward = backward_error(oracle, ray, truth, o.judgement, a, p, o.range, settings.tolerance_ulps);
-  o.level = level_of(o.backward, settings.tolerance_ulps);
-}
-
-void add_verdict_fields(json& found, const TracerOutcome& o) {
-  found["range"] = std::string(to_string(o.range));
-  if (!has_backward_error(o.kind)) {
-    if (is_disagreement(o.kind)) found["level"] = "bug";
-    return;
-  }
-  found["level"] = std::string(to_string(o.level));
-  found["beta"] = beta_json(o.backward);
-  if (o.backward.witness) found["witness"] = o.backward.witness->to_json();
-  if (o.backward.refused) found["witness_check"] = "refused";
-  if (o.backward.estimated) found["witness_check"] = "not needed: beyond the tolerance";
-}
-
-TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const VerdictSettings& settings,
-                                   bool with_backward_error) {
-  TracerOutcome out;
-  out.range = settings.range_of(t);
-  BuiltScene built = [&] {
-    const PausedOracleBudget tracer_time;  // check's oracle budget counts the oracle's time alone
-    return t.build(*seen.mesh);
-  }();
-  if (!built.scene) {
-    // A tracer that stopped earlier answers nothing more: no kind of its own to show (shrinking
-    // then keeps the case as found).
-    const bool declined = built.failure == AnswerFailure::none || built.failure == AnswerFailure::stopped;
-    out.kind = declined ? TraceKind::build_failed : kind_of_failure(built.failure);
-    out.reason = built.reason;
-    return out;
-  }
-  MeshOracle oracle(seen.mesh);
-  if (seen.all) {
-    if (!t.has_all_hits) return out.kind = TraceKind::unsupported, out;
-    std::vector<AllHitsAnswer> a(1);
-    {
-      const PausedOracleBudget tracer_time;
-      built.scene->all_hits(std::span(&seen.ray, 1), a);
-    }
-    out.all = a[0];
-    if (out.all.unsupported) return out.kind = TraceKind::unsupported, out;
-    if (out.all.failure != AnswerFailure::none) {
-      out.kind = kind_of_failure(out.all.failure);
-      out.reason = t.stop_reason();
-      return out;
-    }
-    const MeshTruth truth = oracle.truth(seen.ray, true);
-    out.judgement = oracle.judge_all_hits(seen.ray, truth, out.all, settings.rules_for(t));
-    out.kind = out.judgement.kind;
-    if (with_backward_error) add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
-  } else {
-    std::vector<TraceAnswer> a(1);
-    {
-      const PausedOracleBudget tracer_time;
-      built.scene->nearest(std::span(&seen.ray, 1), a);
-    }
-    out.answer = a[0];
-    if (out.answer.failure != AnswerFailure::none) {
-      out.kind = kind_of_failure(out.answer.failure);
-      out.reason = t.stop_reason();
-      return out;
-    }
-    const MeshTruth truth = oracle.truth(seen.ray, false);
-    out.judgement = oracle.judge_nearest(seen.ray, truth, out.answer, t.precision, settings.rules_for(t));
-    out.kind = out.judgement.kind;
-    if (with_backward_error) add_backward_error(out, oracle, seen.ray, truth, t.precision, settings, seen.all);
-  }
-  out.reason = out.judgement.detail;
-  return out;
-}
-
-json expect_json(const MeshTruth& complete) {
-  const auto t = complete.first_required() ? std::optional(complete.first_required()->t) : complete.t_star();
-  return {{"touched", complete.touched()},
-          {"nearest", complete.nearest()},
-          {"t", t ? json(hex_double(*t)) : json(nullptr)}};
-}
-
-json expect_json(MeshOracle& oracle, const TracerRay& ray) { return expect_json(oracle.truth(ray, true)); }
-
-json reported_json(const TracerOutcome& o, bool all) {
-  if (all) return {{"triangles", o.all.triangles}};
-  if (!o.answer.hit()) return {{"triangle", nullptr}};
-  return {{"triangle", o.answer.triangle}, {"t", std::isnan(o.answer.t) ? json("nan") : json(hex_double(o.answer.t))}};
-}
-
-nlohmann::ordered_json check_entry(const TracerOutcome& o, bool all) {
-  nlohmann::ordered_json entry = reported_json(o, all);
-  entry["kind"] = std::string(to_string(o.kind));
-  if (has_backward_error(o.kind)) {
-    entry["beta"] = beta_json(o.backward);
-    entry["level"] = std::string(to_string(o.level));
-  } else if (is_disagreement(o.kind)) {
-    entry["level"] = "bug";
-  }
-  if (!o.reason.empty()) entry["reason"] = o.reason;
-  if (o.judgement.ulp) entry["ulp"] = *o.judgement.ulp;
-  return entry;
-}
-
+// ----------------------------------------------------------------------------- shrinking
 namespace {
 // The mesh with only `keep`'s triangles (in their order) and the vertices they use.
 std::shared_ptr<TriangleMesh> subset(const TriangleMesh& m, const std::vector<std::uint32_t>& keep) {
@@ -675,7 +541,7 @@ void count_zero_direction_edge_hole(TracerTally& tally, const TracerOutcome& o, 
 
 // One judged ray counted: its kind, and verdicts.md's levels, β and notes.
 void count_outcome(TracerTally& tally, const TracerOutcome& o) {
-  tally.add(to_string(o.kind));
+  tally.add(o.kind);
   if (o.kind == TraceKind::right) {
     if (o.judgement.tie) ++tally.levels["ties"];
     if (o.judgement.at_range_end != RangeEnd::none) {
@@ -728,7 +594,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
     const RangeRule range = o.verdicts.range_of(t);
     const JudgeRules rules = o.verdicts.rules_for(t);
     for (TracerTally* x : {&near, &any}) x->tolerance_ulps = o.verdicts.tolerance_ulps, x->range = to_string(range);
-    auto count = [](TracerTally& tally, TraceKind k) { tally.add(to_string(k)); };
+    auto count = [](TracerTally& tally, TraceKind k) { tally.add(k); };
     std::vector<std::size_t> live;  // rays this tracer can be given
     for (std::size_t i = 0; i < s.rays.size(); ++i) {
       if (s.rays[i])

@@ -549,13 +549,13 @@ py::list check_tracer(py::object tracer, const py::list& cases, const std::strin
       MeshOracle oracle(c.mesh);
       nlohmann::ordered_json line;
       line["id"] = c.id;
-      line["expect"] = fuzz::expect_json(oracle, c.ray);
+      line["expect"] = expect_json(oracle, c.ray);
       if (c.all) line["all"] = true;
-      const auto seen = fuzz::as_seen_by(*t, c);
-      fuzz::VerdictSettings settings{tolerance_ulps, std::nullopt};
+      const auto seen = as_seen_by(*t, c);
+      VerdictSettings settings{tolerance_ulps, std::nullopt};
       if (c.found.is_object() && c.found.contains("range") && c.found["range"].is_string())
         settings.range = range_rule_from_string(c.found["range"].get<std::string>());
-      line["tracers"][t->name] = seen ? fuzz::check_entry(fuzz::judge_tracer_on_case(*t, *seen, settings), c.all)
+      line["tracers"][t->name] = seen ? check_entry(judge_tracer_on_case(*t, *seen, settings), c.all)
                                       : nlohmann::ordered_json{{"skipped", "not_representable"}};
       lines.push_back(std::move(line));
     }

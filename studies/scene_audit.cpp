@@ -291,7 +291,7 @@ class Auditor {
   std::vector<MeshCase> tracer_mesh_cases(const Tracer& t, const TracerOnScene& on,
                                           const std::vector<WrongPixelCase>& wrong, long& right) const {
     std::vector<MeshCase> out;
-    const fuzz::VerdictSettings settings;
+    const VerdictSettings settings;
     const std::size_t n = std::min(wrong.size(), kMaxMeshCasesPerTracer);
     for (std::size_t i = 0; i < n; ++i) {
       const WrongPixelCase& w = wrong[i * wrong.size() / n];
@@ -299,26 +299,26 @@ class Auditor {
       whole.id = t.name + "-" + std::to_string(w.x) + "-" + std::to_string(w.y) + "-" + w.kind;
       whole.mesh = on.mesh;
       whole.ray = TracerRay{w.ray, 0, std::numeric_limits<double>::infinity()};
-      const std::optional<MeshCase> seen = fuzz::as_seen_by(t, whole);
+      const std::optional<MeshCase> seen = as_seen_by(t, whole);
       if (!seen) continue;
-      const fuzz::TracerOutcome found = fuzz::judge_tracer_on_case(t, *seen, settings);
+      const TracerOutcome found = judge_tracer_on_case(t, *seen, settings);
       if (found.kind == TraceKind::right) {
         ++right;
         continue;
       }
       MeshCase c = fuzz::shrink_mesh_case(t, *seen, found.kind, 300, settings, found.level, false, &found);
-      const fuzz::TracerOutcome now = c.mesh == seen->mesh ? found : fuzz::judge_tracer_on_case(t, c, settings);
+      const TracerOutcome now = c.mesh == seen->mesh ? found : judge_tracer_on_case(t, c, settings);
       MeshOracle oracle(c.mesh);
-      c.expect = fuzz::expect_json(oracle, c.ray);
+      c.expect = expect_json(oracle, c.ray);
       c.found = {{"tracer", t.name},
                  {"kind", std::string(to_string(now.kind))},
                  {"pixel", {w.x, w.y}},
                  {"pixel_verdict", w.kind},
                  {"mode", "nearest"},
-                 {"reported", fuzz::reported_json(now, false)},
+                 {"reported", reported_json(now, false)},
                  {"precision", std::string(to_string(t.precision))},
                  {"triangles_found_in", seen->mesh->triangle_count()}};
-      fuzz::add_verdict_fields(c.found, now);
+      add_verdict_fields(c.found, now);
       out.push_back(std::move(c));
     }
     return out;

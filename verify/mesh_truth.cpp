@@ -12,31 +12,6 @@
 
 namespace rayproof {
 
-std::string_view to_string(TraceKind k) {
-  switch (k) {
-    case TraceKind::right: return "right";
-    case TraceKind::hole: return "hole";
-    case TraceKind::false_hit: return "false_hit";
-    case TraceKind::not_nearest: return "not_nearest";
-    case TraceKind::double_hit: return "double_hit";
-    case TraceKind::missed_in_any_hit: return "missed_in_any_hit";
-    case TraceKind::in_plane: return "in_plane";
-    case TraceKind::tracer_error: return "tracer_error";
-    case TraceKind::unsupported: return "unsupported";
-    case TraceKind::not_representable: return "not_representable";
-    case TraceKind::crash: return "crash";
-    case TraceKind::timeout: return "timeout";
-    case TraceKind::build_failed: return "build_failed";
-    case TraceKind::out_of_memory: return "out_of_memory";
-  }
-  return "?";
-}
-
-bool is_disagreement(TraceKind k) {
-  return k != TraceKind::right && k != TraceKind::in_plane && k != TraceKind::unsupported &&
-         k != TraceKind::not_representable && k != TraceKind::build_failed;
-}
-
 // ------------------------------------------------------------------------------- MeshTruth
 const CrossingPoint* MeshTruth::first_required() const {
   for (const CrossingPoint& p : points)

@@ -263,12 +263,7 @@ Tally Tally::from_json(const json& j) {
 
 // ------------------------------------------------------------------------------- TracerTally
 namespace {
-// The spec's count fields, in its order; each is written even when zero.
-constexpr const char* kTracerKinds[] = {
-    "right",    "hole",        "false_hit",     "not_nearest", "double_hit", "missed_in_any_hit",
-    "in_plane", "unsupported", "tracer_errors", "crash",       "timeout"};
-std::string kind_key(std::string_view kind) { return kind == "tracer_error" ? "tracer_errors" : std::string(kind); }
-// The notes beside the levelled kinds (tally.h, kLevelledTraceKinds).
+// The notes beside the levelled kinds (trace_kind.h).
 constexpr const char* kNotes[] = {"ties",
                                   "at_range_end",
                                   "at_tmin",
@@ -281,27 +276,27 @@ bool is_level_key(const std::string& k) {
   if (k.rfind("det_hole:", 0) == 0 || k.rfind("det_right:", 0) == 0) return true;  // |det| histograms
   for (const char* n : kNotes)
     if (k == n) return true;
-  for (const char* kind : kLevelledTraceKinds)
-    if (k == std::string(kind) + "_bugs" || k == std::string(kind) + "_rounding") return true;
+  for (const TraceKindInfo& kind : kTraceKinds)
+    if (kind.levelled && (k == std::string(kind.name) + "_bugs" || k == std::string(kind.name) + "_rounding"))
+      return true;
   return false;
 }
 }  // namespace
 
-std::uint64_t TracerTally::count(std::string_view kind) const {
-  const auto it = kinds.find(kind_key(kind));
+std::uint64_t TracerTally::count(TraceKind kind) const {
+  const auto it = kinds.find(std::string(info(kind).tally_key));
   return it == kinds.end() ? 0 : it->second;
 }
 
-void TracerTally::add(std::string_view kind) {
+void TracerTally::add(TraceKind kind) {
   ++cases;
-  ++kinds[kind_key(kind)];
+  ++kinds[std::string(info(kind).tally_key)];
 }
 
 std::uint64_t TracerTally::disagreements() const {
   std::uint64_t n = 0;
-  for (const char* k : {"hole", "false_hit", "not_nearest", "double_hit", "missed_in_any_hit", "tracer_errors", "crash",
-                        "timeout", "out_of_memory"})
-    n += count(k);
+  for (const TraceKindInfo& k : kTraceKinds)
+    if (k.disagreement) n += count(k.kind);
   return n;
 }
 
@@ -335,7 +330,8 @@ void TracerTally::merge(const TracerTally& o) {
 
 json TracerTally::to_json() const {
   json j = {{"cases", cases}};
-  for (const char* k : kTracerKinds) j[k] = count(k);
+  for (const TraceKindInfo& k : kTraceKinds)
+    if (k.spec_field) j[std::string(k.tally_key)] = count(k.kind);
   for (const auto& [k, n] : kinds)  // the compatible extras: not_representable, build_failed
     if (!j.contains(k)) j[k] = n;
   j["bits"] = bits_json(ulps);
@@ -344,8 +340,9 @@ json TracerTally::to_json() const {
   j["ulp"] = ulps.to_json();
   j["seconds"] = seconds, j["timed_rays"] = timed_rays;
   if (tolerance_ulps) {
-    for (const char* k : kLevelledTraceKinds)
-      for (const char* l : {"_bugs", "_rounding"}) j[std::string(k) + l] = level(std::string(k) + l);
+    for (const TraceKindInfo& k : kTraceKinds)
+      if (k.levelled)
+        for (const char* l : {"_bugs", "_rounding"}) j[std::string(k.name) + l] = level(std::string(k.name) + l);
     for (const char* k : kNotes) j[k] = level(k);
     for (const auto& [k, n] : levels)
       if (k.rfind("det_", 0) == 0) j[k] = n;
@@ -397,9 +394,10 @@ TracerTally TracerTally::from_json(const json& j) {
         const std::uint64_t n = read_count(it.value(), it.key());
         if (n) t.levels[it.key()] = n;
       }
-    for (const char* k : kLevelledTraceKinds) {
-      const std::string name(k);
-      if (t.level(name + "_bugs") + t.level(name + "_rounding") != t.count(name))
+    for (const TraceKindInfo& k : kTraceKinds) {
+      if (!k.levelled) continue;
+      const std::string name(k.name);
+      if (t.level(name + "_bugs") + t.level(name + "_rounding") != t.count(k.kind))
         throw FieldError(name + "_bugs", name + "_bugs and " + name + "_rounding do not add up to " + name);
     }
     if (j.contains("beta")) {

@@ -20,18 +20,9 @@
 #include "rayproof/verify/mesh_truth.h"
 #include "rayproof/verify/report.h"
 #include "rayproof/verify/tally.h"
+#include "rayproof/verify/tracer_judge.h"
 
 namespace rayproof::fuzz {
-
-// How answers are read (docs/spec/verdicts.md): the tolerance K splitting bugs from rounding-level
-// disagreements (0: the strict reading — no ties, every disagreement a bug) and, where given, a
-// range that overrides the tracer's own (check replays a finding under the range it was found with).
-struct VerdictSettings {
-  double tolerance_ulps = kDefaultToleranceUlps;
-  std::optional<RangeRule> range;
-  RangeRule range_of(const Tracer& t) const { return range.value_or(t.range); }
-  JudgeRules rules_for(const Tracer& t) const { return {range_of(t), tolerance_ulps > 0}; }
-};
 
 struct TracerCampaignOptions {
   VerdictSettings verdicts;
@@ -71,38 +62,6 @@ std::string one_hit_rule_line(const TracerCampaignReport& report, const std::str
 // a closed test's double hits.
 std::vector<std::string> tracer_diagnosis(const TracerCampaignReport& report, const std::string& tracer);
 
-// ---- one mesh case, judged: shared by the campaign, shrinking and `check`.
-struct TracerOutcome {
-  TraceKind kind = TraceKind::right;
-  TraceJudgement judgement;
-  BackwardError backward;  // disagreements of the table's kinds: β and its witness
-  Level level = Level::bug;
-  RangeRule range = RangeRule::open;
-  TraceAnswer answer;  // nearest mode
-  AllHitsAnswer all;   // any-hit mode
-  std::string reason;  // build failures, tracer errors, crashes: why
-};
-// The case as the tracer sees it (float: rounded; nullopt: not representable) ...
-std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c);
-// ... and judged there: the tracer builds over the mesh and answers the ray in the case's mode.
-TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const VerdictSettings& settings = {},
-                                   bool with_backward_error = true);
-// β and level of an outcome already judged (the table's kinds; errors, crashes: bugs, no β).
-void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const TracerRay& ray, const MeshTruth& truth,
-                        Precision p, const VerdictSettings& settings, bool all);
-// Whether a kind is split into bugs and rounding-level disagreements (verdicts.md §4).
-bool has_backward_error(TraceKind k);
-// The finding's verdict fields: level, beta, range, witness (verdicts.md §4).
-void add_verdict_fields(json& found, const TracerOutcome& o);
-// What the oracle expects of a case: {"touched", "nearest", "t"} (t: t* rounded, or null).
-json expect_json(MeshOracle& oracle, const TracerRay& ray);
-json expect_json(const MeshTruth& complete);  // from a truth(ray, true) at hand
-// The answer as the findings and check lines show it.
-json reported_json(const TracerOutcome& o, bool all);
-// A tracer's entry in a `check` line (tracer.md, Outputs): the answer, "kind", and for a
-// disagreement its "level" (with "beta" for the kinds that have one), "reason", "ulp". Shared by
-// the CLI's check and the Python module's, so both write the same lines.
-nlohmann::ordered_json check_entry(const TracerOutcome& o, bool all);
 // Fewer triangles (and only the vertices they use) on which the tracer still gives `kind`;
 // `budget` caps the rebuilds. The case itself when nothing smaller shows it.
 // With `level`, the shrunk case keeps that level too.

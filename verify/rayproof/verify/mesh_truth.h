@@ -30,27 +30,9 @@
 #include "rayproof/core/bvh.h"
 #include "rayproof/core/tracer.h"
 #include "rayproof/verify/oracle.h"
+#include "rayproof/verify/trace_kind.h"
 
 namespace rayproof {
-
-enum class TraceKind {
-  right,
-  hole,
-  false_hit,
-  not_nearest,
-  double_hit,
-  missed_in_any_hit,
-  in_plane,           // a miss where every contact is optional: cannot tell
-  tracer_error,       // NaN t, a triangle out of range, a repeated index
-  unsupported,        // any-hit asked of a tracer without it
-  not_representable,  // a float tracer's case that overflows float (or the far family beyond 2^40)
-  crash,
-  timeout,
-  build_failed,
-  out_of_memory,  // the tracer's worker died at its --worker-memory limit (a compatible extra kind)
-};
-std::string_view to_string(TraceKind k);
-bool is_disagreement(TraceKind k);  // the table's kinds and tracer errors, crashes and timeouts
 
 // One triangle's contact with the ray inside (tmin, tmax).
 struct MeshContact {

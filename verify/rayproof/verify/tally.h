@@ -13,6 +13,7 @@
 
 #include "rayproof/core/json_fields.h"
 #include "rayproof/verify/compare.h"
+#include "rayproof/verify/trace_kind.h"
 
 namespace rayproof {
 
@@ -91,13 +92,9 @@ struct Tally {
 // per kind of TraceKind (verify/mesh_truth.h), the t error over right answers, the one-hit rule's
 // evidence (rays meeting a shared edge or fan centre, and the holes and double hits there), and
 // the time the tracer took, so ns per ray comes out of the same object in every report.
-// The kinds of disagreement verdicts.md splits into bugs and rounding-level ones (KIND_bugs,
-// KIND_rounding): the one list the tally, the tables and --fail-on read.
-inline constexpr const char* kLevelledTraceKinds[] = {"hole", "false_hit", "not_nearest", "double_hit",
-                                                      "missed_in_any_hit"};
 
 struct TracerTally {
-  std::map<std::string, std::uint64_t> kinds;  // to_string(TraceKind) → count (every ray once)
+  std::map<std::string, std::uint64_t> kinds;  // tally_key (trace_kind.h) → count (every ray once)
   std::uint64_t cases = 0;
   std::uint64_t edge_rays = 0, edge_holes = 0, edge_double_hits = 0;
   // verdicts.md §4: per kind of disagreement KIND_bugs and KIND_rounding (they add up to KIND);
@@ -117,9 +114,9 @@ struct TracerTally {
   UlpHistogram ulps;   // right answers' t error, in the tracer's precision
   double seconds = 0;  // inside the tracer's calls (round trips included for external code)
   std::uint64_t timed_rays = 0;
-  std::uint64_t count(std::string_view kind) const;
-  void add(std::string_view kind);      // one ray of that kind (to_string(TraceKind)): cases and its count
-  std::uint64_t disagreements() const;  // the kinds of the spec's table plus tracer errors, crashes, timeouts
+  std::uint64_t count(TraceKind kind) const;
+  void add(TraceKind kind);             // one ray of that kind: cases and its count
+  std::uint64_t disagreements() const;  // the kinds kTraceKinds marks as disagreements
   double ns_per_ray() const { return timed_rays ? seconds * 1e9 / static_cast<double>(timed_rays) : 0; }
   void merge(const TracerTally& o);
   json to_json() const;
