@@ -3,16 +3,21 @@
 //  - ground truth: the exact nearest crossing over the mesh per ray (goal >= 10^6 rays/s/core);
 //  - a tracer plugin's nearest called in this process, against the same calls made through
 //    rayproof's worker process in batches (goal: through the worker <= 1.5x direct), and the
-//    whole judgement (truth + worker + kinds) per ray beside them.
+//    whole judgement (truth + worker + kinds) per ray beside them;
+//  - what verdicts cost (issue 39's goal: <= 1.2x on every family): a tracer campaign per family,
+//    every built-in tracer (bvh-*), both modes, run without backward errors and with them
+//    (the default K, witnesses checked) in the same iteration; the counter beta_cost is the ratio.
 #include <benchmark/benchmark.h>
 #include <dlfcn.h>
 
+#include <ctime>
 #include <filesystem>
 #include <memory>
 #include <vector>
 
 #include "rayproof/core/mesh.h"
 #include "rayproof/core/scene.h"
+#include "rayproof/fuzz/tracer_campaign.h"
 #include "rayproof/peers/tracers.h"
 #include "rayproof/tracer.h"
 #include "rayproof/verify/mesh_truth.h"
@@ -164,6 +169,31 @@ void BM_TracerJudged(benchmark::State& state) {
   state.counters["right_fraction"] = double(right) / double(state.items_processed());
 }
 BENCHMARK(BM_TracerJudged)->Name("tracers/plugin-nearest/judged")->MinTime(0.5)->UseRealTime();
+
+// One family's campaign without β and with it, back to back on one thread (far: fewer rays, each
+// far slower to judge exactly).
+void BM_VerdictCost(benchmark::State& state) {
+  const auto family = fuzz::kAllTracerFamilies[state.range(0)];
+  state.SetLabel(std::string(fuzz::to_string(family)));
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "rayproof-bench-verdict-cost.jsonl";
+  auto seconds = [&](bool beta) {
+    fuzz::TracerCampaignOptions o;
+    o.families = {family};
+    o.tracers = all_tracers();
+    o.count = family == fuzz::TracerFamily::far ? 500 : 4000;
+    o.output = out.string();
+    o.shrink = false;
+    o.verdicts.backward_error = beta;
+    const std::clock_t start = std::clock();  // processor time: one thread, the tracers in process
+    benchmark::DoNotOptimize(fuzz::run_tracer_campaign(o));
+    return double(std::clock() - start) / CLOCKS_PER_SEC;
+  };
+  double without = 0, with = 0;
+  for (auto _ : state) without += seconds(false), with += seconds(true);
+  std::filesystem::remove(out);
+  state.counters["beta_cost"] = with / without;
+}
+BENCHMARK(BM_VerdictCost)->Name("tracers/verdict-cost")->DenseRange(0, 7)->Iterations(2)->Unit(benchmark::kSecond);
 
 }  // namespace
 }  // namespace rayproof::bench

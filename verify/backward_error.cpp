@@ -149,7 +149,8 @@ struct LineContact {
   bool front = false, boundary = false;
   std::array<bool, 3> zero_edge{};
 };
-LineContact line_contact(const ExactVec& o, const ExactVec& d, const std::array<ExactVec, 3>& v) {
+// `inside`: the filter below has proved the line crosses the interior (the edge signs are skipped).
+LineContact line_contact(const ExactVec& o, const ExactVec& d, const std::array<ExactVec, 3>& v, bool inside = false) {
   LineContact c;
   const ExactVec n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
   if (is_zero(n)) return c.kind = LineContact::degenerate, c;
@@ -159,9 +160,8 @@ LineContact line_contact(const ExactVec& o, const ExactVec& d, const std::array<
     return c;
   }
   const int sd = sgn(den);
-  const ExactVec rel[3] = {sub(v[0], o), sub(v[1], o), sub(v[2], o)};
-  for (int k = 0; k < 3; ++k) {
-    const int se = sgn(dot(d, cross(rel[k], rel[(k + 1) % 3])));
+  for (int k = 0; k < 3 && !inside; ++k) {
+    const int se = sgn(dot(d, cross(sub(v[k], o), sub(v[(k + 1) % 3], o))));
     if (se == -sd) return c;
     c.zero_edge[k] = se == 0;
     c.boundary = c.boundary || se == 0;
@@ -203,13 +203,20 @@ IVec icross(const IVec& a, const IVec& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 Interval idot(const IVec& a, const IVec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-bool certainly_misses(const IVec& o, const IVec& d, const std::array<IVec, 3>& v) {
+// What the intervals decide of line_contact's kind: a miss, a crossing (n·d and every edge
+// certainly of one sign: inside, off every edge), or nothing (0).
+enum class Certain { nothing, miss, crossing };
+Certain certain_contact(const IVec& o, const IVec& d, const std::array<IVec, 3>& v) {
   const int sd = idot(icross(isub(v[1], v[0]), isub(v[2], v[0])), d).sign();
-  if (sd == 0) return false;
+  if (sd == 0) return Certain::nothing;
   const IVec rel[3] = {isub(v[0], o), isub(v[1], o), isub(v[2], o)};
-  for (int k = 0; k < 3; ++k)
-    if (idot(d, icross(rel[k], rel[(k + 1) % 3])).sign() == -sd) return true;
-  return false;
+  bool inside = true;
+  for (int k = 0; k < 3; ++k) {
+    const int se = idot(d, icross(rel[k], rel[(k + 1) % 3])).sign();
+    if (se == -sd) return Certain::miss;
+    inside = inside && se == sd;
+  }
+  return inside ? Certain::crossing : Certain::nothing;
 }
 
 // A point p lying in the triangle's plane: inside the closed triangle?
@@ -239,6 +246,27 @@ struct MovedInput {
   std::array<ExactVec, 3> triangle(std::uint32_t t) const {
     const auto c = mesh.corners(t);
     return {vertex(c[0]), vertex(c[1]), vertex(c[2])};
+  }
+  // line_contact of the witness's ray with triangle t, the intervals first.
+  LineContact contact(std::uint32_t t) const { return contact(interval_vec(w.origin), interval_vec(w.direction), t); }
+  LineContact contact(const IVec& io, const IVec& id, std::uint32_t t) const {
+    const Certain filtered = certain_contact(io, id, triangle_intervals(t));
+    if (filtered == Certain::miss) return {};
+    return line_contact(w.origin, w.direction, triangle(t), filtered == Certain::crossing);
+  }
+  // The same corners as intervals for the filter: a point interval where the vertex is a double.
+  std::array<IVec, 3> triangle_intervals(std::uint32_t t) const {
+    const auto c = mesh.corners(t);
+    std::array<IVec, 3> out;
+    for (int k = 0; k < 3; ++k) {
+      if (const auto it = w.vertices.find(c[k]); it != w.vertices.end()) {
+        out[k] = interval_vec(it->second);
+      } else {
+        const Vec3 p = mesh.vertex(c[k]);
+        out[k] = {Interval{p.x(), p.x()}, Interval{p.y(), p.y()}, Interval{p.z(), p.z()}};
+      }
+    }
+    return out;
   }
 };
 
@@ -309,10 +337,7 @@ ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witne
       truth.unknown.insert(t);
       continue;
     }
-    const auto corners = in.triangle(t);
-    if (certainly_misses(io, id, {interval_vec(corners[0]), interval_vec(corners[1]), interval_vec(corners[2])}))
-      continue;
-    const LineContact c = line_contact(w.origin, w.direction, corners);
+    const LineContact c = in.contact(io, id, t);
     if (c.kind == LineContact::in_plane || c.kind == LineContact::degenerate) {
       truth.unknown.insert(t);
       continue;
@@ -384,15 +409,16 @@ std::vector<std::uint32_t> reported_of(const MeshAnswer& a, std::size_t triangle
 
 // ε of a witness: the largest move over what it may move, exactly, rounded up.
 double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const Witness& w, double u) {
-  const Q uS = exact_of(u) * exact_of(w.scale), ud = exact_of(u) * exact_of(max_abs(r.ray.direction));
-  Q most = 0;
+  // The largest coordinate move and the largest direction move first, then one division each.
+  Q point = 0, direction = 0;
   for (int k = 0; k < 3; ++k) {
-    most = std::max(most, Q(abs(w.origin[k] - exact_of(r.ray.origin[k])) / uS));
-    most = std::max(most, Q(abs(w.direction[k] - exact_of(r.ray.direction[k])) / ud));
+    point = std::max(point, Q(abs(w.origin[k] - exact_of(r.ray.origin[k]))));
+    direction = std::max(direction, Q(abs(w.direction[k] - exact_of(r.ray.direction[k]))));
   }
   for (const auto& [i, v] : w.vertices)
-    for (int k = 0; k < 3; ++k) most = std::max(most, Q(abs(v[k] - exact_of(oracle.mesh().vertex(i)[k])) / uS));
-  return round_up(most);
+    for (int k = 0; k < 3; ++k) point = std::max(point, Q(abs(v[k] - exact_of(oracle.mesh().vertex(i)[k]))));
+  const Q uS = exact_of(u) * exact_of(w.scale), ud = exact_of(u) * exact_of(max_abs(r.ray.direction));
+  return round_up(std::max(Q(point / uS), Q(direction / ud)));
 }
 
 Witness unmoved(const TracerRay& r, double scale) {
@@ -457,7 +483,7 @@ bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, c
   if (room <= 0) return false;
   std::optional<double> shift;  // contact at t − shift: vertices move by −shift·d
   for (std::uint32_t tri : tris) {
-    const LineContact c = line_contact(w.origin, w.direction, in.triangle(tri));
+    const LineContact c = in.contact(tri);
     if (c.kind != LineContact::crossing) return false;
     if (range == RangeRule::closed ? c.t < lo : c.t <= lo)
       shift = Q(c.t - (lo + room)).get_d();
@@ -683,6 +709,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   }
   const double scale = involved_scale(oracle, r, truth, a, subject);
   std::vector<Witness> candidates;
+  candidates.reserve(3 * around.size() + 3 * around.size() + 1);  // edges, vertices, the unmoved ray
   auto through = [&](const ExactVec& q, double tp) {
     if (!(tp > 0)) return;
     Witness w = unmoved(r, scale);
@@ -725,31 +752,62 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // Six tries where each needs the reported triangle moved into place first, eight otherwise
   // (a hole's escape may be the fifth-nearest vertex, the fan centre a reported neighbour owns).
   const std::size_t kTries = place_subject ? 6 : 8;
-  if (place_subject) {  // first the tries whose moved ray meets the reported triangle at all (one rational test)
-    std::stable_partition(candidates.begin(), candidates.end(), [&](const Witness& w) {
-      const MovedInput moved{mesh, w};
-      return line_contact(w.origin, w.direction, moved.triangle(*subject)).kind == LineContact::crossing;
-    });
+  if (place_subject) {  // first the tries whose moved ray meets the reported triangle at all
+    auto meets = [&](const Witness& w) { return MovedInput{mesh, w}.contact(*subject).kind == LineContact::crossing; };
+    // As a stable partition followed by keeping kTries, testing only as far as it needs.
+    std::vector<Witness> meeting, other;
+    meeting.reserve(candidates.size()), other.reserve(candidates.size());
+    for (Witness& w : candidates) {
+      if (meeting.size() == kTries) break;
+      (meets(w) ? meeting : other).push_back(std::move(w));
+    }
+    for (Witness& w : other) meeting.push_back(std::move(w));
+    candidates = std::move(meeting);
   }
   if (candidates.size() > kTries) candidates.resize(kTries);
-  if (place_subject) {
-    const double smallest = candidates.front().ulps;
-    std::erase_if(candidates, [&](Witness& w) { return !move_into_place(oracle, r, w, to_place, range, u, !a.all); });
-    if (candidates.empty()) return out.beta = smallest, out.refused = true, out;  // unproved, never "none"
-    for (Witness& w : candidates) w.ulps = witness_ulps(oracle, r, w, u);
-    std::sort(candidates.begin(), candidates.end(), by_ulps);
-  }
-  out.beta = candidates.front().ulps;
-  if (out.beta > check_up_to) return out.estimated = true, out;  // a bug, whichever try would pass
-  for (Witness& w : candidates) {
-    if (w.ulps > check_up_to) break;
-    if (witness_holds(oracle, r, w, range, a, p) == true) {
-      out.beta = w.ulps;
-      out.witness = std::move(w);
+  // Best first: a try's ε before it is moved into place bounds its ε after from below (a move only
+  // adds), so the tries are taken by what they may still reach, each moved into place (a rational
+  // truth) only when it comes first and checked only when, placed, it is still the smallest: the
+  // same β as moving and checking every try, with far fewer rational truths.
+  struct Try {
+    Witness w;
+    bool placed;
+  };
+  std::vector<Try> tries;
+  tries.reserve(candidates.size());
+  for (Witness& w : candidates) tries.push_back({std::move(w), !place_subject});
+  const double smallest = tries.front().w.ulps;  // sorted above
+  std::optional<double> least_placed;            // the smallest ε of a try in place: β where every check fails
+  while (!tries.empty()) {
+    const auto next = std::min_element(tries.begin(), tries.end(), [](const Try& x, const Try& y) {
+      return x.w.ulps != y.w.ulps ? x.w.ulps < y.w.ulps : x.placed > y.placed;
+    });
+    Try& t = *next;
+    if (!t.placed) {
+      if (!move_into_place(oracle, r, t.w, to_place, range, u, !a.all)) {
+        tries.erase(next);
+        continue;
+      }
+      t.w.ulps = witness_ulps(oracle, r, t.w, u);
+      t.placed = true;
+      continue;
+    }
+    if (!least_placed) least_placed = t.w.ulps;
+    if (t.w.ulps > check_up_to) {
+      out.beta = *least_placed;
+      if (out.beta > check_up_to) return out.estimated = true, out;  // a bug, whichever try would pass
+      break;
+    }
+    if (witness_holds(oracle, r, t.w, range, a, p) == true) {
+      out.beta = t.w.ulps;
+      out.witness = std::move(t.w);
       out.checked = true;
       return out;
     }
+    tries.erase(next);
   }
+  if (!least_placed) return out.beta = smallest, out.refused = true, out;  // none could be placed: unproved
+  out.beta = *least_placed;
   if (closed_around) return BackwardError{};  // closed around the crossing, nothing reported: none
   out.refused = true;
   return out;

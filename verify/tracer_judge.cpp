@@ -29,7 +29,7 @@ void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const Tracer
                         Precision p, const VerdictSettings& settings, bool all) {
   o.level = Level::bug;
   o.backward = {};
-  if (!has_backward_error(o.kind)) return;
+  if (!has_backward_error(o.kind) || !settings.backward_error) return;
   MeshAnswer a;
   a.all = all;
   a.triangle = o.answer.triangle;

@@ -21,6 +21,8 @@ namespace rayproof {
 struct VerdictSettings {
   double tolerance_ulps = kDefaultToleranceUlps;
   std::optional<RangeRule> range;
+  // False: disagreements keep level bug and get no β (the baseline a benchmark measures β's cost against).
+  bool backward_error = true;
   RangeRule range_of(const Tracer& t) const { return range.value_or(t.range); }
   JudgeRules rules_for(const Tracer& t) const { return {range_of(t), tolerance_ulps > 0}; }
 };
