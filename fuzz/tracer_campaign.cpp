@@ -339,6 +339,21 @@ std::shared_ptr<TriangleMesh> subset(const TriangleMesh& m, const std::vector<st
 }
 }  // namespace
 
+ShrunkFinding shrink_finding(const Tracer& t, const MeshCase& seen, const TracerOutcome& found,
+                             const VerdictSettings& settings, int budget, const json& expect) {
+  ShrunkFinding out;
+  out.c = budget > 0 ? shrink_mesh_case(t, seen, found.kind, budget, settings, found.level, false, &found) : seen;
+  out.shrunk = out.c.mesh != seen.mesh;
+  out.now = out.shrunk ? judge_tracer_on_case(t, out.c, settings) : found;
+  if (out.shrunk || expect.is_null()) {
+    MeshOracle oracle(out.c.mesh);
+    out.c.expect = expect_json(oracle, out.c.ray);
+  } else {
+    out.c.expect = expect;
+  }
+  return out;
+}
+
 MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind, int budget,
                           const VerdictSettings& settings, std::optional<Level> level, bool levels_each_probe,
                           const TracerOutcome* found) {
@@ -718,15 +733,10 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
   // Past the shrinking quota a finding keeps only the triangles its ray touches or was reported
   // and their neighbours (one probe): a 65,536-triangle mesh is no finding to open.
   c.expect = f.expect;
-  if (o.shrink) c = shrink_mesh_case(t, c, f.kind, shrink ? 300 : 1, o.verdicts, f.outcome.level, false, &f.outcome);
-  const bool shrunk = c.mesh != f.seen.mesh;
-  const TracerOutcome now = shrunk ? judge_tracer_on_case(t, c, o.verdicts) : f.outcome;
-  if (shrunk || f.expect.is_null()) {
-    MeshOracle oracle(c.mesh);
-    c.expect = expect_json(oracle, c.ray);
-  } else {
-    c.expect = f.expect;
-  }
+  ShrunkFinding kept = shrink_finding(t, c, f.outcome, o.verdicts, o.shrink ? (shrink ? 300 : 1) : 0, f.expect);
+  c = std::move(kept.c);
+  const bool shrunk = kept.shrunk;
+  const TracerOutcome& now = kept.now;
   // Shrinking kept only probes that showed f.kind, so a re-judgement of the case it kept that
   // shows another kind is the tracer answering one ray two ways: the kind written is the one of
   // the answer written, and the finding says so (issue 42).

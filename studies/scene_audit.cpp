@@ -306,10 +306,9 @@ class Auditor {
         ++right;
         continue;
       }
-      MeshCase c = fuzz::shrink_mesh_case(t, *seen, found.kind, 300, settings, found.level, false, &found);
-      const TracerOutcome now = c.mesh == seen->mesh ? found : judge_tracer_on_case(t, c, settings);
-      MeshOracle oracle(c.mesh);
-      c.expect = expect_json(oracle, c.ray);
+      fuzz::ShrunkFinding kept = fuzz::shrink_finding(t, *seen, found, settings, 300);
+      MeshCase& c = kept.c;
+      const TracerOutcome& now = kept.now;
       c.found = {{"tracer", t.name},
                  {"kind", std::string(to_string(now.kind))},
                  {"pixel", {w.x, w.y}},
