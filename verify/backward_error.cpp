@@ -1,7 +1,13 @@
 #include "rayproof/verify/backward_error.h"
 
+#include "rayproof/core/fp.h"
+#include "rayproof/verify/expansion.h"
+
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <utility>
+#include <numeric>
 #include <set>
 
 namespace rayproof {
@@ -122,7 +128,6 @@ ExactVec cross(const ExactVec& a, const ExactVec& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 Q dot(const ExactVec& a, const ExactVec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-bool is_zero(const ExactVec& a) { return a[0] == 0 && a[1] == 0 && a[2] == 0; }
 
 ExactVec read_exact_vec(const json& j, const std::string& field) {
   if (!j.is_array() || j.size() != 3) throw FieldError(field, "expected [x, y, z]");
@@ -149,26 +154,86 @@ struct LineContact {
   bool front = false, boundary = false;
   std::array<bool, 3> zero_edge{};
 };
-// `inside`: the filter below has proved the line crosses the interior (the edge signs are skipped).
-LineContact line_contact(const ExactVec& o, const ExactVec& d, const std::array<ExactVec, 3>& v, bool inside = false) {
+// The terms in one exact number type T: rationals, or floating-point expansions (exact while
+// valid: nullopt where one left fp.h's safe range or its capacity, and the caller falls back).
+bool exact_ok(const Q&) { return true; }
+bool exact_ok(const Expansion& e) { return e.valid(); }
+template <class T>
+using TVec = std::array<T, 3>;
+template <class T>
+TVec<T> tsub(const TVec<T>& a, const TVec<T>& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+template <class T>
+TVec<T> tcross(const TVec<T>& a, const TVec<T>& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+template <class T>
+T tdot(const TVec<T>& a, const TVec<T>& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+// `inside`: the filter below has proved the line crosses the interior (the edge signs are
+// skipped). A crossing's t is num / den.
+template <class T>
+std::optional<LineContact> contact_terms(const TVec<T>& o, const TVec<T>& d, const std::array<TVec<T>, 3>& v,
+                                         bool inside, T& num, T& den) {
   LineContact c;
-  const ExactVec n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
-  if (is_zero(n)) return c.kind = LineContact::degenerate, c;
-  const Q den = dot(n, d), num = dot(n, sub(v[0], o));
-  if (den == 0) {
-    if (num == 0) c.kind = LineContact::in_plane;
+  const TVec<T> n = tcross(tsub(v[1], v[0]), tsub(v[2], v[0]));
+  if (!exact_ok(n[0]) || !exact_ok(n[1]) || !exact_ok(n[2])) return std::nullopt;
+  if (sgn(n[0]) == 0 && sgn(n[1]) == 0 && sgn(n[2]) == 0) return c.kind = LineContact::degenerate, c;
+  den = tdot(n, d), num = tdot(n, tsub(v[0], o));
+  if (!exact_ok(den) || !exact_ok(num)) return std::nullopt;
+  if (sgn(den) == 0) {
+    if (sgn(num) == 0) c.kind = LineContact::in_plane;
     return c;
   }
   const int sd = sgn(den);
   for (int k = 0; k < 3 && !inside; ++k) {
-    const int se = sgn(dot(d, cross(sub(v[k], o), sub(v[(k + 1) % 3], o))));
+    const T edge = tdot(d, tcross(tsub(v[k], o), tsub(v[(k + 1) % 3], o)));
+    if (!exact_ok(edge)) return std::nullopt;
+    const int se = sgn(edge);
     if (se == -sd) return c;
     c.zero_edge[k] = se == 0;
     c.boundary = c.boundary || se == 0;
   }
   c.kind = LineContact::crossing;
-  c.t = num / den;
   c.front = sd < 0;
+  return c;
+}
+LineContact line_contact(const ExactVec& o, const ExactVec& d, const std::array<ExactVec, 3>& v, bool inside = false) {
+  Q num, den;
+  LineContact c = *contact_terms<Q>(o, d, v, inside, num, den);
+  if (c.kind == LineContact::crossing) c.t = num / den;
+  return c;
+}
+
+// The same in expansions: a dyadic rational as the exact sum of at most 6 doubles, none below
+// fp.h's safe range (else false: the rationals decide).
+using EVec = TVec<Expansion>;
+bool expansion_of(const Q& x, Expansion& out) {
+  out = Expansion();
+  Q rest = x;
+  for (int i = 0; i < 6 && rest != 0; ++i) {
+    const double part = rest.get_d();  // truncated: the rest keeps x's sign, smaller each time
+    if (!(std::abs(part) >= kSafeMagnitudeMin) || !std::isfinite(part)) return false;
+    out = out + Expansion(part);
+    rest -= exact_of(part);
+  }
+  return rest == 0 && out.valid();
+}
+bool expansion_of(const ExactVec& v, EVec& out) {
+  return expansion_of(v[0], out[0]) && expansion_of(v[1], out[1]) && expansion_of(v[2], out[2]);
+}
+EVec expansion_of(const Vec3& v) { return {Expansion(v.x()), Expansion(v.y()), Expansion(v.z())}; }
+Q rational_of(const Expansion& e) {
+  Q sum = 0;
+  for (int i = 0; i < e.size(); ++i) sum += exact_of(e.component(i));
+  return sum;
+}
+std::optional<LineContact> line_contact(const EVec& o, const EVec& d, const std::array<EVec, 3>& v, bool inside) {
+  Expansion num, den;
+  std::optional<LineContact> c = contact_terms<Expansion>(o, d, v, inside, num, den);
+  if (c && c->kind == LineContact::crossing) c->t = rational_of(num) / rational_of(den);
   return c;
 }
 
@@ -252,7 +317,33 @@ struct MovedInput {
   LineContact contact(const IVec& io, const IVec& id, std::uint32_t t) const {
     const Certain filtered = certain_contact(io, id, triangle_intervals(t));
     if (filtered == Certain::miss) return {};
-    return line_contact(w.origin, w.direction, triangle(t), filtered == Certain::crossing);
+    const bool inside = filtered == Certain::crossing;
+    if (!ray_expansions) {
+      ray_expansions.emplace();
+      ray_converts = expansion_of(w.origin, ray_expansions->first) && expansion_of(w.direction, ray_expansions->second);
+    }
+    if (ray_converts) {  // expansions first (no allocation); rationals where they cannot say
+      std::array<EVec, 3> corners;
+      const auto c = mesh.corners(t);
+      bool converts = true;
+      for (int k = 0; k < 3 && converts; ++k) {
+        if (const auto it = w.vertices.find(c[k]); it != w.vertices.end())
+          converts = expansion_of(it->second, corners[k]);
+        else
+          corners[k] = expansion_of(mesh.vertex(c[k]));
+      }
+      if (converts)
+        if (auto fast = line_contact(ray_expansions->first, ray_expansions->second, corners, inside)) return *fast;
+    }
+    return line_contact(w.origin, w.direction, triangle(t), inside);
+  }
+  mutable std::optional<std::pair<EVec, EVec>> ray_expansions;  // the witness's ray, converted once
+  mutable bool ray_converts = false;
+  // Whether the witness's ray crosses triangle t (no t computed where the intervals decide).
+  bool crosses(std::uint32_t t) const {
+    const Certain filtered = certain_contact(interval_vec(w.origin), interval_vec(w.direction), triangle_intervals(t));
+    if (filtered != Certain::nothing) return filtered == Certain::crossing;
+    return contact(t).kind == LineContact::crossing;
   }
   // The same corners as intervals for the filter: a point interval where the vertex is a double.
   std::array<IVec, 3> triangle_intervals(std::uint32_t t) const {
@@ -407,13 +498,19 @@ std::vector<std::uint32_t> reported_of(const MeshAnswer& a, std::size_t triangle
   return out;
 }
 
+// The judged ray in rationals, made once for all of a β's tries.
+struct ExactRay {
+  ExactVec o, d;
+  explicit ExactRay(const Ray& r) : o(exact_vec(r.origin)), d(exact_vec(r.direction)) {}
+};
+
 // ε of a witness: the largest move over what it may move, exactly, rounded up.
-double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const Witness& w, double u) {
+double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const ExactRay& given, const Witness& w, double u) {
   // The largest coordinate move and the largest direction move first, then one division each.
   Q point = 0, direction = 0;
   for (int k = 0; k < 3; ++k) {
-    point = std::max(point, Q(abs(w.origin[k] - exact_of(r.ray.origin[k]))));
-    direction = std::max(direction, Q(abs(w.direction[k] - exact_of(r.ray.direction[k]))));
+    point = std::max(point, Q(abs(w.origin[k] - given.o[k])));
+    direction = std::max(direction, Q(abs(w.direction[k] - given.d[k])));
   }
   for (const auto& [i, v] : w.vertices)
     for (int k = 0; k < 3; ++k) point = std::max(point, Q(abs(v[k] - exact_of(oracle.mesh().vertex(i)[k]))));
@@ -421,18 +518,18 @@ double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const Witness&
   return round_up(std::max(Q(point / uS), Q(direction / ud)));
 }
 
-Witness unmoved(const TracerRay& r, double scale) {
+Witness unmoved(const ExactRay& given, double scale) {
   Witness w;
   w.scale = scale;
-  w.origin = exact_vec(r.ray.origin), w.direction = exact_vec(r.ray.direction);
+  w.origin = given.o, w.direction = given.d;
   return w;
 }
 
 // The ray moved so that at parameter tp it passes exactly through q: the move w = q − (o + tp·d)
 // is split as Δd = w·‖d‖∞ / (S + tp·‖d‖∞) (rounded: any double will do) and Δo = w − tp·Δd
 // (exact), so both use the same share of what they may move.
-void move_ray_through(Witness& w, const TracerRay& r, const ExactVec& q, double tp) {
-  const ExactVec o = exact_vec(r.ray.origin), d = exact_vec(r.ray.direction);
+void move_ray_through(Witness& w, const TracerRay& r, const ExactRay& given, const ExactVec& q, double tp) {
+  const ExactVec &o = given.o, &d = given.d;
   const Q tq = exact_of(tp);
   const double dn = max_abs(r.ray.direction), share = dn / (w.scale + tp * dn);
   for (int k = 0; k < 3; ++k) {
@@ -633,7 +730,8 @@ double involved_scale(const MeshOracle& oracle, const TracerRay& r, const MeshTr
 std::optional<bool> witness_holds(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
                                   const MeshAnswer& a, Precision p) {
   if (!(w.scale > 0) || !(w.ulps >= 0)) return false;
-  if (witness_ulps(oracle, r, w, unit_roundoff(p)) > w.ulps) return false;  // moves more than it claims
+  if (witness_ulps(oracle, r, ExactRay(r.ray), w, unit_roundoff(p)) > w.ulps)
+    return false;  // moves more than it claims
   for (const auto& [i, v] : w.vertices)
     if (i >= oracle.mesh().vertex_count()) return false;
   if (w.direction[0] == 0 && w.direction[1] == 0 && w.direction[2] == 0) return false;
@@ -708,15 +806,20 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     default: return out.refused = true, out;  // tracer errors, crashes: no β
   }
   const double scale = involved_scale(oracle, r, truth, a, subject);
+  const ExactRay given(r.ray);
   std::vector<Witness> candidates;
+  std::vector<bool> on_subject;  // per try: through a point of the subject's own boundary
   candidates.reserve(3 * around.size() + 3 * around.size() + 1);  // edges, vertices, the unmoved ray
-  auto through = [&](const ExactVec& q, double tp) {
+  auto through = [&](const ExactVec& q, double tp, bool of_subject) {
     if (!(tp > 0)) return;
-    Witness w = unmoved(r, scale);
-    move_ray_through(w, r, q, tp);
+    Witness w = unmoved(given, scale);
+    move_ray_through(w, r, given, q, tp);
     candidates.push_back(std::move(w));
+    on_subject.push_back(of_subject);
   };
-  if (place_subject) candidates.push_back(unmoved(r, scale));  // the subject moved along d alone (below)
+  if (place_subject)
+    candidates.push_back(unmoved(given, scale)),
+        on_subject.push_back(false);  // the subject moved along d alone (below)
   // The ray onto the nearest point of each edge, and onto each vertex: where a crossing stops
   // being required (an open edge, a vertex that is no closed fan's centre: either answer is right
   // there), joins a reported neighbour's (a shared edge or fan centre: the one-hit rule), or
@@ -729,7 +832,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       const bool open = !oracle.manifold_edge(c[k], c[(k + 1) % 3]);
       any_open = any_open || open;
       const auto [q, tp] = nearest_on_edge(r.ray, mesh.vertex(c[k]), mesh.vertex(c[(k + 1) % 3]));
-      through(q, tp);
+      through(q, tp, subject == t);
       vertices.insert(c[k]);
     }
   }
@@ -737,15 +840,29 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     const bool open = !oracle.closed_fan_centre(v);
     any_open = any_open || open;
     const Vec3 p = mesh.vertex(v);
-    through(exact_vec(p), (p - r.ray.origin).dot(r.ray.direction) / r.ray.direction.squaredNorm());
+    const bool of_subject = subject && std::ranges::count(mesh.corners(*subject), v) > 0;
+    through(exact_vec(p), (p - r.ray.origin).dot(r.ray.direction) / r.ray.direction.squaredNorm(), of_subject);
   }
   // Nothing reported, no open edge or vertex at the crossing: a closed, consistently wound
   // surface there, none — unless a try slips past a silhouette (a fold grazed) after all.
   const bool closed_around = only_open && !any_open;
   if (candidates.empty()) return closed_around ? out : (out.refused = true, out);
-  auto by_ulps = [](const Witness& x, const Witness& y) { return x.ulps < y.ulps; };
-  for (Witness& w : candidates) w.ulps = witness_ulps(oracle, r, w, u);
-  std::sort(candidates.begin(), candidates.end(), by_ulps);
+  for (Witness& w : candidates) w.ulps = witness_ulps(oracle, r, given, w, u);
+  // Sorted by ε, each try's "on the subject" kept with it.
+  std::vector<std::size_t> order(candidates.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t x, std::size_t y) { return candidates[x].ulps < candidates[y].ulps; });
+  std::vector<bool> through_subject;
+  {
+    std::vector<Witness> sorted;
+    sorted.reserve(candidates.size());
+    for (std::size_t i : order) {
+      through_subject.push_back(on_subject[i]);
+      sorted.push_back(std::move(candidates[i]));
+    }
+    candidates = std::move(sorted);
+  }
   // The few smallest tries go on (each check is a rational truth over the triangles near the
   // ray); a reported triangle that the moved ray meets beyond the first required crossing, or out
   // of range, is then moved along d into place as well, which only adds to the try's ε.
@@ -753,13 +870,30 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // (a hole's escape may be the fifth-nearest vertex, the fan centre a reported neighbour owns).
   const std::size_t kTries = place_subject ? 6 : 8;
   if (place_subject) {  // first the tries whose moved ray meets the reported triangle at all
-    auto meets = [&](const Witness& w) { return MovedInput{mesh, w}.contact(*subject).kind == LineContact::crossing; };
+    // A try through a point q of the subject's closed boundary (q exact on it, and the moved
+    // line passes exactly through q: move_ray_through) meets a non-degenerate subject exactly
+    // where its line is not parallel to the plane: each edge function is 0 or of n·d's sign at q.
+    const std::array<Vec3, 3> sv = {mesh.vertex(mesh.corners(*subject)[0]), mesh.vertex(mesh.corners(*subject)[1]),
+                                    mesh.vertex(mesh.corners(*subject)[2])};
+    const bool subject_degenerate = oracle.degenerate(*subject);
+    auto meets = [&](const Witness& w, bool through_it) {
+      if (!through_it || subject_degenerate) return MovedInput{mesh, w}.crosses(*subject);
+      auto point = [](const Vec3& v) {
+        return IVec{Interval{v.x(), v.x()}, Interval{v.y(), v.y()}, Interval{v.z(), v.z()}};
+      };
+      const int filtered =
+          idot(icross(isub(point(sv[1]), point(sv[0])), isub(point(sv[2]), point(sv[0]))), interval_vec(w.direction))
+              .sign();
+      if (filtered != 0) return true;
+      const ExactVec a = exact_vec(sv[0]);
+      return sgn(dot(cross(sub(exact_vec(sv[1]), a), sub(exact_vec(sv[2]), a)), w.direction)) != 0;
+    };
     // As a stable partition followed by keeping kTries, testing only as far as it needs.
     std::vector<Witness> meeting, other;
     meeting.reserve(candidates.size()), other.reserve(candidates.size());
-    for (Witness& w : candidates) {
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
       if (meeting.size() == kTries) break;
-      (meets(w) ? meeting : other).push_back(std::move(w));
+      (meets(candidates[i], through_subject[i]) ? meeting : other).push_back(std::move(candidates[i]));
     }
     for (Witness& w : other) meeting.push_back(std::move(w));
     candidates = std::move(meeting);
@@ -788,7 +922,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
         tries.erase(next);
         continue;
       }
-      t.w.ulps = witness_ulps(oracle, r, t.w, u);
+      t.w.ulps = witness_ulps(oracle, r, given, t.w, u);
       t.placed = true;
       continue;
     }

@@ -34,6 +34,8 @@ class Expansion {
   }
 
   bool valid() const { return valid_; }
+  int size() const { return n_; }
+  double component(int i) const { return c_[i]; }  // increasing magnitude; their sum is the value
   int sign() const { return n_ == 0 ? 0 : (c_[n_ - 1] > 0 ? 1 : -1); }
   // A double within a few ulps of the value: the components summed, smallest first.
   double estimate() const {
