@@ -273,9 +273,7 @@ class Auditor {
           ++out.cases_left_out;
     }
     if (tracer && tracer->scene && draw) {
-      std::vector<WrongPixelCase> primary;
-      for (WrongPixelCase& w : out.cases)
-        if (!w.shadow_ray) primary.push_back(std::move(w));
+      const std::vector<WrongPixelCase> primary = std::move(out.cases);  // the sink kept primary rays only
       out.cases.clear();
       out.mesh_cases = tracer_mesh_cases(*c.tracer, *tracer, primary, out.pixels_right_as_mesh_cases);
       out.cases_left_out =
@@ -581,14 +579,17 @@ class Auditor {
     std::vector<WrongPixelCase> cases;
   };
 
-  // Where a pixel's wrong answer is written as a case (variant_pixel's helpers add to it).
+  // Where a pixel's wrong answer is written as a case (variant_pixel's helpers add to it). A
+  // tracer's are primary rays only: they become mesh cases (tracer_mesh_cases), and a shadow
+  // error is counted, not written.
   struct CaseSink {
     bool keep;
+    bool primary_only;
     int x, y;
     std::vector<WrongPixelCase>& cases;
     const SceneIndex& index;
     void add(const char* what, int light, bool shadow_ray, const Ray& r, std::int32_t primitive) {
-      if (keep && primitive >= 0 && cases.size() < kMaxCasesPerVariant)
+      if (keep && primitive >= 0 && !(primary_only && shadow_ray) && cases.size() < kMaxCasesPerVariant)
         cases.push_back({x, y, what, light, shadow_ray, r, primitive, index.primitive(primitive).shape});
     }
   };
@@ -696,7 +697,7 @@ class Auditor {
     const Camera& cam = scene_.camera;
     const Ray ray = cam.ray_through(x + 0.5, y + 0.5);
     const ExactPixel& e = exact_[size_t(y) * cam.width + x];
-    CaseSink sink{pass.keep_cases, x, y, row.cases, index_};
+    CaseSink sink{pass.keep_cases, pass.on != nullptr, x, y, row.cases, index_};
     const Primary v = judge_primary(tracer, pass.c.kind, ray, e, mine, sink);
     const ShadowVerdict s = judge_shadows(tracer, pass, ray, e, v, sink);
     PixelCounts& counts = row.counts;
