@@ -730,8 +730,8 @@ double involved_scale(const MeshOracle& oracle, const TracerRay& r, const MeshTr
 std::optional<bool> witness_holds(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
                                   const MeshAnswer& a, Precision p) {
   if (!(w.scale > 0) || !(w.ulps >= 0)) return false;
-  if (witness_ulps(oracle, r, ExactRay(r.ray), w, unit_roundoff(p)) > w.ulps)
-    return false;  // moves more than it claims
+  // A witness that moves more than it claims is refused.
+  if (witness_ulps(oracle, r, ExactRay(r.ray), w, unit_roundoff(p)) > w.ulps) return false;
   for (const auto& [i, v] : w.vertices)
     if (i >= oracle.mesh().vertex_count()) return false;
   if (w.direction[0] == 0 && w.direction[1] == 0 && w.direction[2] == 0) return false;
