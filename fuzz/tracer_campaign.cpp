@@ -340,16 +340,14 @@ std::shared_ptr<TriangleMesh> subset(const TriangleMesh& m, const std::vector<st
 }  // namespace
 
 ShrunkFinding shrink_finding(const Tracer& t, const MeshCase& seen, const TracerOutcome& found,
-                             const VerdictSettings& settings, int budget, const json& expect) {
+                             const VerdictSettings& settings, int budget) {
   ShrunkFinding out;
   out.c = budget > 0 ? shrink_mesh_case(t, seen, found.kind, budget, settings, found.level, false, &found) : seen;
   out.shrunk = out.c.mesh != seen.mesh;
   out.now = out.shrunk ? judge_tracer_on_case(t, out.c, settings) : found;
-  if (out.shrunk || expect.is_null()) {
+  if (out.shrunk || seen.expect.is_null()) {  // else seen's, which the case still has
     MeshOracle oracle(out.c.mesh);
     out.c.expect = expect_json(oracle, out.c.ray);
-  } else {
-    out.c.expect = expect;
   }
   return out;
 }
@@ -733,7 +731,7 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
   // Past the shrinking quota a finding keeps only the triangles its ray touches or was reported
   // and their neighbours (one probe): a 65,536-triangle mesh is no finding to open.
   c.expect = f.expect;
-  ShrunkFinding kept = shrink_finding(t, c, f.outcome, o.verdicts, o.shrink ? (shrink ? 300 : 1) : 0, f.expect);
+  ShrunkFinding kept = shrink_finding(t, c, f.outcome, o.verdicts, o.shrink ? (shrink ? 300 : 1) : 0);
   c = std::move(kept.c);
   const bool shrunk = kept.shrunk;
   const TracerOutcome& now = kept.now;

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <optional>
 #include <utility>
-#include <numeric>
 #include <set>
 
 namespace rayproof {
@@ -123,11 +122,21 @@ std::string beta_bucket(const BackwardError& b) {
 namespace {
 using Q = mpq_class;
 
-ExactVec sub(const ExactVec& a, const ExactVec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-ExactVec cross(const ExactVec& a, const ExactVec& b) {
+// Vector terms in one exact number type T: rationals (ExactVec), or floating-point expansions.
+template <class T>
+using TVec = std::array<T, 3>;
+template <class T>
+TVec<T> sub(const TVec<T>& a, const TVec<T>& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+template <class T>
+TVec<T> cross(const TVec<T>& a, const TVec<T>& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
-Q dot(const ExactVec& a, const ExactVec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+template <class T>
+T dot(const TVec<T>& a, const TVec<T>& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 ExactVec read_exact_vec(const json& j, const std::string& field) {
   if (!j.is_array() || j.size() != 3) throw FieldError(field, "expected [x, y, z]");
@@ -154,34 +163,20 @@ struct LineContact {
   bool front = false, boundary = false;
   std::array<bool, 3> zero_edge{};
 };
-// The terms in one exact number type T: rationals, or floating-point expansions (exact while
-// valid: nullopt where one left fp.h's safe range or its capacity, and the caller falls back).
+// The contact's terms in either exact type (expansions are exact while valid: nullopt where one
+// left fp.h's safe range or its capacity, and the caller falls back to rationals).
 bool exact_ok(const Q&) { return true; }
 bool exact_ok(const Expansion& e) { return e.valid(); }
-template <class T>
-using TVec = std::array<T, 3>;
-template <class T>
-TVec<T> tsub(const TVec<T>& a, const TVec<T>& b) {
-  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-}
-template <class T>
-TVec<T> tcross(const TVec<T>& a, const TVec<T>& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-template <class T>
-T tdot(const TVec<T>& a, const TVec<T>& b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 // `inside`: the filter below has proved the line crosses the interior (the edge signs are
 // skipped). A crossing's t is num / den.
 template <class T>
 std::optional<LineContact> contact_terms(const TVec<T>& o, const TVec<T>& d, const std::array<TVec<T>, 3>& v,
                                          bool inside, T& num, T& den) {
   LineContact c;
-  const TVec<T> n = tcross(tsub(v[1], v[0]), tsub(v[2], v[0]));
+  const TVec<T> n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
   if (!exact_ok(n[0]) || !exact_ok(n[1]) || !exact_ok(n[2])) return std::nullopt;
   if (sgn(n[0]) == 0 && sgn(n[1]) == 0 && sgn(n[2]) == 0) return c.kind = LineContact::degenerate, c;
-  den = tdot(n, d), num = tdot(n, tsub(v[0], o));
+  den = dot(n, d), num = dot(n, sub(v[0], o));
   if (!exact_ok(den) || !exact_ok(num)) return std::nullopt;
   if (sgn(den) == 0) {
     if (sgn(num) == 0) c.kind = LineContact::in_plane;
@@ -189,7 +184,7 @@ std::optional<LineContact> contact_terms(const TVec<T>& o, const TVec<T>& d, con
   }
   const int sd = sgn(den);
   for (int k = 0; k < 3 && !inside; ++k) {
-    const T edge = tdot(d, tcross(tsub(v[k], o), tsub(v[(k + 1) % 3], o)));
+    const T edge = dot(d, cross(sub(v[k], o), sub(v[(k + 1) % 3], o)));
     if (!exact_ok(edge)) return std::nullopt;
     const int se = sgn(edge);
     if (se == -sd) return c;
@@ -263,21 +258,17 @@ struct Interval {
 };
 using IVec = std::array<Interval, 3>;
 IVec interval_vec(const ExactVec& v) { return {Interval::of(v[0]), Interval::of(v[1]), Interval::of(v[2])}; }
-IVec isub(const IVec& a, const IVec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-IVec icross(const IVec& a, const IVec& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-Interval idot(const IVec& a, const IVec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+IVec point_interval(const Vec3& v) { return {Interval{v.x(), v.x()}, Interval{v.y(), v.y()}, Interval{v.z(), v.z()}}; }
 // What the intervals decide of line_contact's kind: a miss, a crossing (n·d and every edge
 // certainly of one sign: inside, off every edge), or nothing (0).
 enum class Certain { nothing, miss, crossing };
 Certain certain_contact(const IVec& o, const IVec& d, const std::array<IVec, 3>& v) {
-  const int sd = idot(icross(isub(v[1], v[0]), isub(v[2], v[0])), d).sign();
+  const int sd = dot(cross(sub(v[1], v[0]), sub(v[2], v[0])), d).sign();
   if (sd == 0) return Certain::nothing;
-  const IVec rel[3] = {isub(v[0], o), isub(v[1], o), isub(v[2], o)};
+  const IVec rel[3] = {sub(v[0], o), sub(v[1], o), sub(v[2], o)};
   bool inside = true;
   for (int k = 0; k < 3; ++k) {
-    const int se = idot(d, icross(rel[k], rel[(k + 1) % 3])).sign();
+    const int se = dot(d, cross(rel[k], rel[(k + 1) % 3])).sign();
     if (se == -sd) return Certain::miss;
     inside = inside && se == sd;
   }
@@ -317,12 +308,16 @@ struct MovedInput {
   LineContact contact(const IVec& io, const IVec& id, std::uint32_t t) const {
     const Certain filtered = certain_contact(io, id, triangle_intervals(t));
     if (filtered == Certain::miss) return {};
-    const bool inside = filtered == Certain::crossing;
+    return exact_contact(t, filtered == Certain::crossing);
+  }
+  // line_contact without the filter (`inside`: it proved the interior crossed), expansions first
+  // (no allocation), rationals where they cannot say.
+  LineContact exact_contact(std::uint32_t t, bool inside) const {
     if (!ray_expansions) {
       ray_expansions.emplace();
       ray_converts = expansion_of(w.origin, ray_expansions->first) && expansion_of(w.direction, ray_expansions->second);
     }
-    if (ray_converts) {  // expansions first (no allocation); rationals where they cannot say
+    if (ray_converts) {
       std::array<EVec, 3> corners;
       const auto c = mesh.corners(t);
       bool converts = true;
@@ -343,7 +338,7 @@ struct MovedInput {
   bool crosses(std::uint32_t t) const {
     const Certain filtered = certain_contact(interval_vec(w.origin), interval_vec(w.direction), triangle_intervals(t));
     if (filtered != Certain::nothing) return filtered == Certain::crossing;
-    return contact(t).kind == LineContact::crossing;
+    return exact_contact(t, false).kind == LineContact::crossing;
   }
   // The same corners as intervals for the filter: a point interval where the vertex is a double.
   std::array<IVec, 3> triangle_intervals(std::uint32_t t) const {
@@ -353,8 +348,7 @@ struct MovedInput {
       if (const auto it = w.vertices.find(c[k]); it != w.vertices.end()) {
         out[k] = interval_vec(it->second);
       } else {
-        const Vec3 p = mesh.vertex(c[k]);
-        out[k] = {Interval{p.x(), p.x()}, Interval{p.y(), p.y()}, Interval{p.z(), p.z()}};
+        out[k] = point_interval(mesh.vertex(c[k]));
       }
     }
     return out;
@@ -807,19 +801,20 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   }
   const double scale = involved_scale(oracle, r, truth, a, subject);
   const ExactRay given(r.ray);
-  std::vector<Witness> candidates;
-  std::vector<bool> on_subject;  // per try: through a point of the subject's own boundary
+  struct Try {
+    Witness w;
+    bool through_subject = false;  // through a point of the subject's own boundary
+    bool placed = false;           // the subject moved into place (or no subject to place)
+  };
+  std::vector<Try> candidates;
   candidates.reserve(3 * around.size() + 3 * around.size() + 1);  // edges, vertices, the unmoved ray
   auto through = [&](const ExactVec& q, double tp, bool of_subject) {
     if (!(tp > 0)) return;
     Witness w = unmoved(given, scale);
     move_ray_through(w, r, given, q, tp);
-    candidates.push_back(std::move(w));
-    on_subject.push_back(of_subject);
+    candidates.push_back({std::move(w), of_subject});
   };
-  if (place_subject)
-    candidates.push_back(unmoved(given, scale)),
-        on_subject.push_back(false);  // the subject moved along d alone (below)
+  if (place_subject) candidates.push_back({unmoved(given, scale)});  // the subject moved along d alone (below)
   // The ray onto the nearest point of each edge, and onto each vertex: where a crossing stops
   // being required (an open edge, a vertex that is no closed fan's centre: either answer is right
   // there), joins a reported neighbour's (a shared edge or fan centre: the one-hit rule), or
@@ -847,22 +842,8 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // surface there, none — unless a try slips past a silhouette (a fold grazed) after all.
   const bool closed_around = only_open && !any_open;
   if (candidates.empty()) return closed_around ? out : (out.refused = true, out);
-  for (Witness& w : candidates) w.ulps = witness_ulps(oracle, r, given, w, u);
-  // Sorted by ε, each try's "on the subject" kept with it.
-  std::vector<std::size_t> order(candidates.size());
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  std::sort(order.begin(), order.end(),
-            [&](std::size_t x, std::size_t y) { return candidates[x].ulps < candidates[y].ulps; });
-  std::vector<bool> through_subject;
-  {
-    std::vector<Witness> sorted;
-    sorted.reserve(candidates.size());
-    for (std::size_t i : order) {
-      through_subject.push_back(on_subject[i]);
-      sorted.push_back(std::move(candidates[i]));
-    }
-    candidates = std::move(sorted);
-  }
+  for (Try& c : candidates) c.w.ulps = witness_ulps(oracle, r, given, c.w, u);
+  std::sort(candidates.begin(), candidates.end(), [](const Try& x, const Try& y) { return x.w.ulps < y.w.ulps; });
   // The few smallest tries go on (each check is a rational truth over the triangles near the
   // ray); a reported triangle that the moved ray meets beyond the first required crossing, or out
   // of range, is then moved along d into place as well, which only adds to the try's ε.
@@ -873,29 +854,25 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     // A try through a point q of the subject's closed boundary (q exact on it, and the moved
     // line passes exactly through q: move_ray_through) meets a non-degenerate subject exactly
     // where its line is not parallel to the plane: each edge function is 0 or of n·d's sign at q.
-    const std::array<Vec3, 3> sv = {mesh.vertex(mesh.corners(*subject)[0]), mesh.vertex(mesh.corners(*subject)[1]),
-                                    mesh.vertex(mesh.corners(*subject)[2])};
+    const auto sc = mesh.corners(*subject);
+    const std::array<Vec3, 3> sv = {mesh.vertex(sc[0]), mesh.vertex(sc[1]), mesh.vertex(sc[2])};
+    const IVec normal =
+        cross(sub(point_interval(sv[1]), point_interval(sv[0])), sub(point_interval(sv[2]), point_interval(sv[0])));
     const bool subject_degenerate = oracle.degenerate(*subject);
-    auto meets = [&](const Witness& w, bool through_it) {
-      if (!through_it || subject_degenerate) return MovedInput{mesh, w}.crosses(*subject);
-      auto point = [](const Vec3& v) {
-        return IVec{Interval{v.x(), v.x()}, Interval{v.y(), v.y()}, Interval{v.z(), v.z()}};
-      };
-      const int filtered =
-          idot(icross(isub(point(sv[1]), point(sv[0])), isub(point(sv[2]), point(sv[0]))), interval_vec(w.direction))
-              .sign();
-      if (filtered != 0) return true;
+    auto meets = [&](const Try& c) {
+      if (!c.through_subject || subject_degenerate) return MovedInput{mesh, c.w}.crosses(*subject);
+      if (dot(normal, interval_vec(c.w.direction)).sign() != 0) return true;
       const ExactVec a = exact_vec(sv[0]);
-      return sgn(dot(cross(sub(exact_vec(sv[1]), a), sub(exact_vec(sv[2]), a)), w.direction)) != 0;
+      return sgn(dot(cross(sub(exact_vec(sv[1]), a), sub(exact_vec(sv[2]), a)), c.w.direction)) != 0;
     };
     // As a stable partition followed by keeping kTries, testing only as far as it needs.
-    std::vector<Witness> meeting, other;
+    std::vector<Try> meeting, other;
     meeting.reserve(candidates.size()), other.reserve(candidates.size());
-    for (std::size_t i = 0; i < candidates.size(); ++i) {
+    for (Try& c : candidates) {
       if (meeting.size() == kTries) break;
-      (meets(candidates[i], through_subject[i]) ? meeting : other).push_back(std::move(candidates[i]));
+      (meets(c) ? meeting : other).push_back(std::move(c));
     }
-    for (Witness& w : other) meeting.push_back(std::move(w));
+    for (Try& c : other) meeting.push_back(std::move(c));
     candidates = std::move(meeting);
   }
   if (candidates.size() > kTries) candidates.resize(kTries);
@@ -903,13 +880,8 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // adds), so the tries are taken by what they may still reach, each moved into place (a rational
   // truth) only when it comes first and checked only when, placed, it is still the smallest: the
   // same β as moving and checking every try, with far fewer rational truths.
-  struct Try {
-    Witness w;
-    bool placed;
-  };
-  std::vector<Try> tries;
-  tries.reserve(candidates.size());
-  for (Witness& w : candidates) tries.push_back({std::move(w), !place_subject});
+  std::vector<Try> tries = std::move(candidates);
+  for (Try& t : tries) t.placed = !place_subject;
   const double smallest = tries.front().w.ulps;  // sorted above
   std::optional<double> least_placed;            // the smallest ε of a try in place: β where every check fails
   while (!tries.empty()) {

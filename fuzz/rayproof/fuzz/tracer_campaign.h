@@ -71,13 +71,13 @@ MeshCase shrink_mesh_case(const Tracer& t, const MeshCase& seen, TraceKind kind,
 
 // A finding as written: shrunk (shrink_mesh_case, keeping its kind and level; `budget` probes),
 // the outcome of the case kept (re-judged where it shrank, else `found`), and its `expect`
-// (`expect` as given where the case did not shrink and one is given, else computed).
+// (seen's where the case did not shrink and seen has one, else computed).
 struct ShrunkFinding {
   MeshCase c;
   TracerOutcome now;
   bool shrunk = false;
 };
 ShrunkFinding shrink_finding(const Tracer& t, const MeshCase& seen, const TracerOutcome& found,
-                             const VerdictSettings& settings, int budget, const json& expect = nullptr);
+                             const VerdictSettings& settings, int budget);
 
 }  // namespace rayproof::fuzz
