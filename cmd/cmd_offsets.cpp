@@ -37,7 +37,9 @@ Scene scene_of_mesh(const std::string& path) {
         {"width", 320},
         {"height", 240}}},
       {"lights", json::array({{{"type", "point"}, {"position", {eye.x(), eye.y(), eye.z()}}, {"intensity", 1}}})},
-      {"objects", json::array({{{"type", "mesh"}, {"file", path}, {"id", "mesh"}}})}};
+      // The scene's files are resolved from its own directory: the mesh's, here.
+      {"objects",
+       json::array({{{"type", "mesh"}, {"file", std::filesystem::path(path).filename().string()}, {"id", "mesh"}}})}};
   return parse_scene(json_text(scene), path);
 }
 }  // namespace
