@@ -69,12 +69,56 @@
 // b̃²(1 + κ) ≥ 4ãC̃(1 − κ) (stable: b̃² ≤ 4γ(4)²|d|²F′²), or the textbook's √disc exceeds b̃,
 // which needs 4ãC̃(1 − κ) < κb̃²; c = δ(2R + δ) ≥ 2Rδ beyond E_C plus that rules all out.
 //
+// Watertight (Woop, Benthin & Wald; variants.cpp watertight, either edge rule: top-left only turns
+// hits into misses). Axes kx, ky, kz with |d_kz| the largest, so the exact shear S = d_kx/d_kz has
+// |S| ≤ 1 and s̃x = S(1 + δ). With A_i = v_i − o exact, the exact sheared coordinates are
+// X_i = A_i,kx − S·A_i,kz, the exact edge functions U_i (U_0 = X_2Y_1 − Y_2X_1, opposite v_0),
+// depths Z_i = A_i,kz/d_kz, and N = Σ U_i Z_i, D = Σ U_i = n·d/d_kz (±): t = N/D, and the point
+// o + t̃·d lies off the plane by |N − t̃·D|·|d_kz|/|n|. The code computes ũ_i = U_i + e_i,
+// z̃_i = fl(fl(1/d_kz)·ã_i,kz), Ñ = fl-dot(ũ, z̃) = Σ ũ_i z̃_i + ρ_N, D̃ = Σ ũ_i + ρ_D and
+// t̃ = fl(Ñ/D̃) = (Ñ/D̃)(1 + θ). Since Ñ − t̃D̃ = −θÑ, exactly
+//     N − t̃D = Σ ũ_i(Z_i − z̃_i) − ρ_N + t̃ρ_D − θÑ − Σ e_i(Z_i − t̃).                 (5)
+// Where (1) would pay for the depths Z_i (the distance to the origin) in every edge function's
+// error, (5) pays only for Z_i − t̃: for any point P of the ray, X_i = (v_i − P)_kx − S(v_i − P)_kz,
+// and Z_i − t̃ = (v_i − P)_kz/d_kz, for P = o + t̃d, within the point's rounding r of p̃, which lies
+// in the domain. So, per vertex, with E_i bounding |v_i − x| over x in the domain, axis by axis:
+//     |X_i| ≤ E_i,kx + r_kx + E_i,kz + r_kz,  |Z_i − t̃|·|d_kz| ≤ E_i,kz + r_kz,
+// and e_i follows by step 1 from those magnitudes and ã_i's errors u·|A_i| (a zero edge function
+// recomputed in the wider type errs by at most 2u of its value, Kahan's as float's, below step 1's
+// 2u of its two products). A reported hit has ũ_i of one sign, so Σ|ũ_i| = |D̃ − ρ_D| ≤ |D| + Σ|e_i|
+// ≤ |n|₁ + Σ|e_i| =: S_u (|D| = |n·d|/|d_kz| ≤ Σ_k |n_k|·|d_k/d_kz| ≤ |n|₁). With |ρ_N| ≤ γ(3)Σ|ũ_i z̃_i|,
+// |ρ_D| ≤ γ(2)Σ|ũ_i|, |z̃_i − Z_i|·|d_kz| ≤ ζ_i = err_i + γ(2)(|A_i,kz| + err_i) and |t̃·d_kz| ≤ W_kz:
+//     |N − t̃D|·|d_kz| ≤ S_u(max ζ_i + γ(3)·max|z̃_i d_kz|) + W_kz·S_u(γ(2) + g(1 + γ(2)))
+//                      + |Σ e_i·(v_i − P)_kz|,                                         (6)
+// g = u/(1 − u), divided by |n| plus (2)'s rounding of the point, for each of the three axes kz.
+// The domain is Möller–Trumbore's for the same triangle, so both are judged on the same hits.
+// The last term, split: ũ_i = U_i(X̃, Ỹ) + ρ_i, |ρ_i| ≤ γ(2)(|X̃_c Ỹ_b| + |Ỹ_c X̃_b|) (U_i =
+// X_c Y_b − Y_c X_b), and U_i is bilinear, so U_i(X̃, Ỹ) − U_i is its first order in ΔX, ΔY plus
+// ΔX_c ΔY_b − ΔY_c ΔX_b. At first order the S terms cancel: Σ_i (∂U_i/∂X_j)(v_i − P)_kz = ±f_j,kx
+// and Σ_i (∂U_i/∂Y_j)(v_i − P)_kz = ±f_j,ky, f_j = (v_a − P) × (v_b − P) for the two vertices
+// after j. Of ΔX_j, the shear's rounding δ·S·A_j,kz is common to the three: it is the move of d_kx
+// to d_kx(1 + δ), under which N = ±n·(v_0 − o)/d_kz stays and D = ±n·d/d_kz moves by δ·n_kx·S,
+// so it adds at most u·W_kx·|n_kx| (ΔX′, ΔY′: the rest of the errors, by step 1):
+//     |Σ e_i (v_i − P)_kz| ≤ u(W_kx|n_kx| + W_ky|n_ky|) + Σ_j (|ΔX′_j||f_j,kx| + |ΔY′_j||f_j,ky|)
+//                            + Σ_i (|ΔX_c ΔY_b| + |ΔY_c ΔX_b| + |ρ_i|)(E_i,kz + r_kz).       (8)
+// |f_j| is bounded two ways, the smaller taken: f_j is affine in P, so its size is largest at the
+// domain's corners (P within r of them: plus r times its gradient); or, with P = P₀ + h·n̂ (P₀ on
+// the plane), f_j = β_j·n + h·n̂ × (v_b − v_a) (β_j, P's barycentric, is constant along n: at the
+// corners too), and h = |N − t̃D|·|d_kz|/|n| is what is bounded: moved to the left, the bound is
+// divided by 1 − c, c = Σ_j (|ΔX′_j| + |ΔY′_j|)·|v_a − v_b|/|n|, where c ≤ 1/2.
+// Re-hits as for (3): from o′ δ off on the side it leaves to, N and −t̃D have one sign, so
+// |N| + t̃|D| = |N − t̃D|, and g·t̃|D̃| ≤ g·t̃(|D| + Σ|e_i| + |ρ_D|) leaves, with g < 1 − c,
+//     δ·|n| ≤ S_u(max ζ_i + γ(3)·max|z̃_i d_kz|) + W′_kz(γ(2)(1 + g)S_u + g·Σ|e_i|)
+//            + |Σ e_i·(v_i − P)_kz|,                                                    (7)
+// over 1 − c the projected way. (7) is a polynomial of degree 3 with nonnegative coefficients in
+// how far the origins reach beyond the domain (ζ, e and r grow linearly with it, S_u with e),
+// over a constant: below a knee K it lies under its chord, beyond it under its value at K times
+// (reach/K)³.
+//
 // Hearn–Baker's discriminant r² − |l|² is not rounded in proportion to the quadratic's
 // coefficients (its |l|² errs by γ·|o − m|² even where β and c vanish), so the small root's
-// bound above needs a lower bound on q that tangent rays from the surface do not give; it and
-// the watertight triangles (t from sheared edge functions, whose rounding identity (1) bounds only
-// away from grazing incidence) get the witness side only: their rules stay `unproved` unless a
-// witness shows `unsafe`.
+// bound above needs a lower bound on q that tangent rays from the surface do not give; it gets
+// the witness side only: its rules stay `unproved` unless a witness shows `unsafe`.
 #include "rayproof/verify/offset_bounds.h"
 
 #include <algorithm>
@@ -133,6 +177,11 @@ struct RunningBound {
     const double err = up(up(up(a.mag * b.err) + up(b.mag * a.err)) + up(a.err * b.err));
     return {mag, up(err + up(u * up(mag + err)))};
   }
+  // x − y of two computed values whose exact difference is known to be at most `mag`.
+  Bounded difference_within(const Bounded& x, const Bounded& y, double mag) const {
+    const double err = up(x.err + y.err);
+    return {mag, up(err + up(u * up(mag + err)))};
+  }
   // In the order variants.cpp writes them: cross component a_j b_k − a_k b_j, dot (x + y) + z.
   BVec cross(const BVec& a, const BVec& b) const {
     return {add(mul(a[1], b[2]), mul(a[2], b[1])), add(mul(a[2], b[0]), mul(a[0], b[2])),
@@ -149,7 +198,7 @@ BVec inputs(const Vec3& mags) {
 // The exact normal's length from below and its unit components from above. Expansion::estimate
 // is within a few ulps of the exact value; 2^-45 covers it with room.
 struct NormalBounds {
-  double length_lo = 0;
+  double length_lo = 0, length_hi = 0;
   Vec3 unit_abs_hi = Vec3::Zero();
 };
 NormalBounds normal_bounds(const std::array<Expansion, 3>& n) {
@@ -162,7 +211,8 @@ NormalBounds normal_bounds(const std::array<Expansion, 3>& n) {
     sum += est[i] * est[i];
   }
   b.length_lo = down(std::sqrt(sum) * (1 - 0x1p-45));
-  if (!(b.length_lo > 0) || !std::isfinite(b.length_lo)) return NormalBounds{};
+  b.length_hi = up(std::sqrt(sum) * (1 + 0x1p-45));
+  if (!(b.length_lo > 0) || !std::isfinite(b.length_hi)) return NormalBounds{};
   for (int i = 0; i < 3; ++i) b.unit_abs_hi[i] = std::min(1.0, up(up(est[i] * (1 + 0x1p-45)) / b.length_lo));
   return b;
 }
@@ -222,19 +272,33 @@ double quotient_rehit(Precision p, int roundings, double err_N, double err_D, co
 
 // Möller–Trumbore (variants.cpp moller_trumbore): p = d × e2, det = e1·p, q = s × e1,
 // t = (e2·q)·(1/det): two roundings in the quotient.
-std::optional<OffsetProof> moller_trumbore_proof(Precision p, const Triangle& input, const Bounds& scene_box) {
+// A triangle as a variant of precision p sees it, its edges and its normal, exact.
+struct RoundedTriangle {
   Triangle tri;
-  for (int k = 0; k < 3; ++k) tri.v[k] = in_precision(p, input.v[k]);
-  const Bounds box = in_precision(p, scene_box);
-  std::array<Expansion, 3> e1x, e2x;
+  std::array<Expansion, 3> e1x, e2x, nx;
+  NormalBounds nb;
+};
+RoundedTriangle rounded_triangle(Precision p, const Triangle& input) {
+  RoundedTriangle r;
+  for (int k = 0; k < 3; ++k) r.tri.v[k] = in_precision(p, input.v[k]);
   for (int i = 0; i < 3; ++i) {
-    e1x[i] = exact_difference(tri.v[1][i], tri.v[0][i]);
-    e2x[i] = exact_difference(tri.v[2][i], tri.v[0][i]);
+    r.e1x[i] = exact_difference(r.tri.v[1][i], r.tri.v[0][i]);
+    r.e2x[i] = exact_difference(r.tri.v[2][i], r.tri.v[0][i]);
   }
-  const std::array<Expansion, 3> nx = {e1x[1] * e2x[2] - e1x[2] * e2x[1], e1x[2] * e2x[0] - e1x[0] * e2x[2],
-                                       e1x[0] * e2x[1] - e1x[1] * e2x[0]};
-  const NormalBounds nb = normal_bounds(nx);
+  const auto& e1x = r.e1x;
+  const auto& e2x = r.e2x;
+  r.nx = {e1x[1] * e2x[2] - e1x[2] * e2x[1], e1x[2] * e2x[0] - e1x[0] * e2x[2], e1x[0] * e2x[1] - e1x[1] * e2x[0]};
+  r.nb = normal_bounds(r.nx);
+  return r;
+}
+
+std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTriangle& rt, const Bounds& scene_box) {
+  const Triangle& tri = rt.tri;
+  const NormalBounds& nb = rt.nb;
+  const auto& e1x = rt.e1x;
+  const auto& e2x = rt.e2x;
   if (!(nb.length_lo > 0)) return std::nullopt;
+  const Bounds box = in_precision(p, scene_box);
   const RunningBound A{unit_roundoff(p)};
   BVec e1, e2;
   for (int i = 0; i < 3; ++i) {
@@ -268,6 +332,139 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const Triangle& in
   const Vec3 rehit_travel = travel(proof.point_box, proof.point_box);
   proof.rehit_base = quotient_rehit(p, 2, N_at(near_mag).err, D_at(rehit_travel).err, nb);
   proof.rehit_per_reach = quotient_rehit(p, 2, N_at(ones).err, D_at(ones).err, nb);
+  return proof;
+}
+
+// Watertight: (6) and (7) above.
+std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& rt, const Bounds& scene_box) {
+  const auto mt = moller_trumbore_proof(p, rt, scene_box);
+  if (!mt) return std::nullopt;
+  const Triangle& tri = rt.tri;
+  const NormalBounds& nb = rt.nb;
+  const auto& nx = rt.nx;
+  const Bounds box = in_precision(p, scene_box);
+  const Vec3 n_est(nx[0].estimate(), nx[1].estimate(), nx[2].estimate());
+  const double u = unit_roundoff(p), g2 = gamma_up(p, 2), g3 = gamma_up(p, 3), g = up(u / down(1 - u));
+  const RunningBound A{u};
+  const Bounds& domain = mt->point_box;
+  // (8): per vertex j and the pair (a, b) after it, f_j(x) = (v_a − x) × (v_b − x) at the domain's
+  // corners, per axis, and β_j(x) = n·f_j(x)/|n|² there; the gradients' sizes in x.
+  const double g6 = gamma_up(Precision::f64, 6), length_sq_lo = down(nb.length_lo * nb.length_lo);
+  std::array<std::array<Vec3, 3>, 8> sub_normal;
+  std::array<std::array<double, 3>, 8> beta;
+  std::array<Vec3, 3> sub_slope;
+  std::array<double, 3> edge_length;
+  for (int j = 0; j < 3; ++j) {
+    const Vec3& va = tri.v[(j + 1) % 3];
+    const Vec3& vb = tri.v[(j + 2) % 3];
+    edge_length[j] = up((va - vb).norm() * (1 + 0x1p-50));
+    for (int k = 0; k < 3; ++k)
+      sub_slope[j][k] = up(up(std::abs(va[(k + 1) % 3] - vb[(k + 1) % 3]) * (1 + 0x1p-50)) +
+                           up(std::abs(va[(k + 2) % 3] - vb[(k + 2) % 3]) * (1 + 0x1p-50)));
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 corner(c & 1 ? domain.hi.x() : domain.lo.x(), c & 2 ? domain.hi.y() : domain.lo.y(),
+                        c & 4 ? domain.hi.z() : domain.lo.z());
+      const Vec3 qa = va - corner, qb = vb - corner, qc = cross(qa, qb);
+      double n_dot = std::abs(n_est.dot(qc)), n_dot_err = 0;
+      for (int k = 0; k < 3; ++k) {  // in double: the differences and the cross product within γ(6) of their terms
+        const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+        const double err = up(g6 * up(std::abs(qa[k1] * qb[k2]) + std::abs(qa[k2] * qb[k1])));
+        sub_normal[c][j][k] = up(std::abs(qc[k]) + err);
+        // n·f: the estimate's 2^-45, the dot's rounding and f's error, each against |n_k|.
+        n_dot_err = up(n_dot_err + up(std::abs(n_est[k]) * up(1 + 0x1p-44) * up(up(std::abs(qc[k]) * 0x1p-44) + err)));
+      }
+      beta[c][j] = up(up(n_dot + n_dot_err) / length_sq_lo);
+    }
+  }
+  const Vec3 n_abs(upper_abs(nx[0]), upper_abs(nx[1]), upper_abs(nx[2]));
+  const double n_1 = up(up(n_abs[0] + n_abs[1]) + n_abs[2]);  // |D| = |n·d|/|d_kz| ≤ |n|₁
+  // A bound on |N − t̃D|·|d_kz| two ways, (8): `corners` takes |f_j| at the domain's corners;
+  // `projected` takes f_j = β_j·n + h·n̂ × (v_b − v_a), over 1 − c.
+  struct Along {
+    double corners, projected;
+  };
+  // |N − t̃D|·|d_kz| for origins in `origins` and dominant axis kz: (6), or (7) for a re-hit.
+  auto along = [&](const Bounds& origins, int kz, bool rehit) {
+    const int kx = (kz + 1) % 3, ky = (kz + 2) % 3;
+    const Vec3 W = travel(origins, domain), P = largest_abs(domain);
+    Vec3 r;
+    for (int i = 0; i < 3; ++i) r[i] = up(up(u * W[i]) + up(u * P[i] / down(1 - u)));
+    const double r_max = r.maxCoeff();
+    // The shear's own rounding s̃ = S(1 + δ) is common to the three vertices: it is (8)'s last
+    // term. X_rest, Y_rest carry every other error.
+    const Bounded shear{1, u}, shear_rest{up(1 + u), 0};
+    std::array<Bounded, 3> X, Y, X_rest, Y_rest;
+    double zeta = 0, z_mag = 0;
+    std::array<double, 3> depth;
+    for (int i = 0; i < 3; ++i) {
+      const Vec3 far = reach_from(origins, tri.v[i]), E = reach_from(domain, tri.v[i]);
+      const Bounded az = A.difference(far[kz]);
+      depth[i] = up(E[kz] + r[kz]);
+      X[i] = A.difference_within(A.difference(far[kx]), A.mul(shear, az), up(up(E[kx] + r[kx]) + depth[i]));
+      Y[i] = A.difference_within(A.difference(far[ky]), A.mul(shear, az), up(up(E[ky] + r[ky]) + depth[i]));
+      X_rest[i] = A.difference_within(A.difference(far[kx]), A.mul(shear_rest, az), X[i].mag);
+      Y_rest[i] = A.difference_within(A.difference(far[ky]), A.mul(shear_rest, az), Y[i].mag);
+      zeta = std::max(zeta, up(az.err + up(g2 * up(far[kz] + az.err))));
+      z_mag = std::max(z_mag, up(up(far[kz] + az.err) * up(1 + g2)));
+    }
+    // e_i bounded whole (for S_u), and (8): Σ e_i·(v_i − P)_kz, first order at the corners.
+    auto edge_err = [&](int i, int j) { return A.add(A.mul(X[i], Y[j]), A.mul(Y[i], X[j])).err; };
+    const std::array<double, 3> e = {edge_err(2, 1), edge_err(0, 2), edge_err(1, 0)};  // opposite v_0, v_1, v_2
+    const double sum_e = up(up(e[0] + e[1]) + e[2]), S_u = up(n_1 + sum_e);
+    const double common = up(up(u * up(W[kx] * n_abs[kx])) + up(u * up(W[ky] * n_abs[ky])));
+    double at_corners = common, projected = common, c_sum = 0;
+    for (int j = 0; j < 3; ++j) c_sum = up(c_sum + up(up(X_rest[j].err + Y_rest[j].err) * edge_length[j]));
+    const double sqrt3_r = up(up(std::sqrt(3.0)) * r_max);
+    for (int c = 0; c < 8; ++c) {
+      double sum = 0, sum_projected = 0;
+      for (int j = 0; j < 3; ++j) {
+        sum = up(up(sum + up(X_rest[j].err * up(sub_normal[c][j][kx] + up(r_max * sub_slope[j][kx])))) +
+                 up(Y_rest[j].err * up(sub_normal[c][j][ky] + up(r_max * sub_slope[j][ky]))));
+        const double b = up(beta[c][j] + up(up(sqrt3_r * edge_length[j]) / nb.length_lo));
+        sum_projected = up(sum_projected + up(b * up(up(X_rest[j].err * n_abs[kx]) + up(Y_rest[j].err * n_abs[ky]))));
+      }
+      at_corners = std::max(at_corners, up(common + sum));
+      projected = std::max(projected, up(common + sum_projected));
+    }
+    double weighted_e = 0;
+    for (int i = 0; i < 3; ++i) {
+      const Bounded &xc = X[(i + 2) % 3], &yb = Y[(i + 1) % 3], &yc = Y[(i + 2) % 3], &xb = X[(i + 1) % 3];
+      const double second = up(up(xc.err * yb.err) + up(yc.err * xb.err));
+      const double rounding =
+          up(g2 * up(up(up(xc.mag + xc.err) * up(yb.mag + yb.err)) + up(up(yc.mag + yc.err) * up(xb.mag + xb.err))));
+      weighted_e = up(weighted_e + up(depth[i] * up(second + rounding)));
+    }
+    const double per_travel =
+        rehit ? up(up(up(g2 * up(1 + g)) * S_u) + up(g * sum_e)) : up(S_u * up(g2 + up(g * up(1 + g2))));
+    const double rest = up(up(up(S_u * up(zeta + up(g3 * z_mag))) + weighted_e) + up(W[kz] * per_travel));
+    const double c = up(c_sum / nb.length_lo);
+    return Along{up(rest + at_corners), c <= 0.5 ? up(up(rest + projected) / down(1 - c)) : INFINITY};
+  };
+  // Over the three dominant axes, divided by |n|: each way, and the better.
+  auto worst = [&](const Bounds& origins, bool rehit) {
+    Along w{0, 0};
+    for (int kz = 0; kz < 3; ++kz) {
+      const Along a = along(origins, kz, rehit);
+      w = {std::max(w.corners, a.corners), std::max(w.projected, a.projected)};
+    }
+    return Along{up(w.corners / nb.length_lo), up(w.projected / nb.length_lo)};
+  };
+  OffsetProof proof;
+  proof.point_box = domain;
+  const Along at_hit = worst(box, false);
+  proof.point = up(std::min(at_hit.corners, at_hit.projected) +
+                   point_rounding(p, nb.unit_abs_hi, travel(box, domain), largest_abs(domain)));
+  if (!std::isfinite(proof.point)) return std::nullopt;
+  // Re-hits: each way is (7) over 1 or 1 − c, a polynomial in the reach over a constant; below the
+  // knee the line through its values at 0 and the knee, the one that starts lower; beyond it the
+  // corners' way (whose c is 1 throughout) at the knee times (reach/knee)³.
+  proof.rehit_knee = up((domain.hi - domain.lo).maxCoeff());
+  const Along at_0 = worst(domain, true), at_knee = worst(widened(domain, proof.rehit_knee), true);
+  const bool projected = at_knee.projected < INFINITY && at_0.projected < at_0.corners;
+  proof.rehit_base = projected ? at_0.projected : at_0.corners;
+  const double knee_value = projected ? at_knee.projected : at_knee.corners;
+  proof.rehit_per_reach = up(std::max(0.0, up(knee_value - proof.rehit_base)) / down(proof.rehit_knee));
+  proof.rehit_beyond_knee = at_knee.corners;
   return proof;
 }
 
@@ -410,7 +607,7 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   return proof;
 }
 
-enum class Formula { none, moller_trumbore, plane_direct, slab, robust_slab, textbook, stable, stable_fma };
+enum class Formula { none, moller_trumbore, watertight, plane_direct, slab, robust_slab, textbook, stable, stable_fma };
 // The formula a built-in variant computes (its structure-of-arrays twins are bit-identical).
 Formula formula_of(const Variant& v) {
   if (v.external != nullptr || v.kernel == nullptr || v.is_oracle) return Formula::none;
@@ -418,6 +615,7 @@ Formula formula_of(const Variant& v) {
   if (name.ends_with("-batch")) name.remove_suffix(6);
   if (name.ends_with("-f32")) name.remove_suffix(4);
   if (name == "moller-trumbore") return Formula::moller_trumbore;
+  if (name == "watertight" || name == "watertight-top-left") return Formula::watertight;
   if (name == "direct") return Formula::plane_direct;
   if (name == "slab") return Formula::slab;
   if (name == "robust-slab") return Formula::robust_slab;
@@ -434,6 +632,10 @@ Precision precision_of(const Variant& v) {
 }  // namespace
 
 double OffsetProof::rehit_at(double reach) const {
+  if (reach > rehit_knee) {  // a cubic's value at the knee times (reach/knee)³
+    const double ratio = up(reach / rehit_knee);
+    return up(rehit_beyond_knee * up(ratio * up(ratio * ratio)));
+  }
   return up(up(rehit_base + up(rehit_per_reach * reach)) + up(rehit_per_reach_squared * up(reach * reach)));
 }
 
@@ -441,7 +643,11 @@ std::optional<OffsetProof> offset_proof(const Variant& v, const Shape& shape, co
   const Precision p = precision_of(v);
   switch (formula_of(v)) {
     case Formula::moller_trumbore:
-      if (const auto* t = std::get_if<Triangle>(&shape)) return moller_trumbore_proof(p, *t, scene_box);
+      if (const auto* t = std::get_if<Triangle>(&shape))
+        return moller_trumbore_proof(p, rounded_triangle(p, *t), scene_box);
+      break;
+    case Formula::watertight:
+      if (const auto* t = std::get_if<Triangle>(&shape)) return watertight_proof(p, rounded_triangle(p, *t), scene_box);
       break;
     case Formula::plane_direct:
       if (const auto* pl = std::get_if<Plane>(&shape)) return plane_proof(p, *pl, scene_box);

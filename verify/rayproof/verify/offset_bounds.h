@@ -5,6 +5,7 @@
 // filtered.h carries its proofs; every bound is evaluated with upward rounding.
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -34,6 +35,9 @@ struct OffsetProof {
   // whose origin lies within point_box widened by `reach` (a sphere: within `point` + `reach`
   // of its surface), cannot be reported hitting the primitive by the variant (within the domain).
   double rehit_base = 0, rehit_per_reach = 0, rehit_per_reach_squared = 0;
+  // Beyond the knee (a derivation of degree 3, bounded by a line below it):
+  // rehit_beyond_knee·(reach/knee)³.
+  double rehit_knee = INFINITY, rehit_beyond_knee = INFINITY;
   double rehit_at(double reach) const;
   // Where the domain's computed hit points lie.
   Bounds point_box;
