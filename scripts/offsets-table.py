@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """docs/results/offsets.md's table: `rayproof offsets` on the bundled bunny
-scene scaled by 2^k, k = -30 ... 30 in steps of 10, for Möller–Trumbore in double and float.
+scene scaled by 2^k, k = -30 ... 30 in steps of 10, for Möller–Trumbore and the watertight test in
+double and float.
 Prints the Markdown rows (k values with identical rows merged) and the bracket distribution.
-Usage: scripts/offsets-table.py BUILD_DIR [--count N]   (about a minute on 2 cores)
+Usage: scripts/offsets-table.py BUILD_DIR [--count N]   (about two minutes on 2 cores)
 """
 import json
 import pathlib
@@ -12,7 +13,7 @@ import tempfile
 
 build = pathlib.Path(sys.argv[1])
 count = sys.argv[sys.argv.index("--count") + 1] if "--count" in sys.argv else "100000"
-variants = "moller-trumbore,moller-trumbore-f32"
+variants = "moller-trumbore,moller-trumbore-f32,watertight,watertight-f32"
 rows = {}
 with tempfile.TemporaryDirectory() as tmp:
     for k in range(-30, 31, 10):

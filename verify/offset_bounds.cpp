@@ -456,15 +456,19 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
                    point_rounding(p, nb.unit_abs_hi, travel(box, domain), largest_abs(domain)));
   if (!std::isfinite(proof.point)) return std::nullopt;
   // Re-hits: each way is (7) over 1 or 1 − c, a polynomial in the reach over a constant; below the
-  // knee the line through its values at 0 and the knee, the one that starts lower; beyond it the
-  // corners' way (whose c is 1 throughout) at the knee times (reach/knee)³.
+  // knee (the domain's size) the line through its values at 0 and the knee, the one that starts
+  // lower. Beyond it the corners' way, convex (a maximum of polynomials with nonnegative
+  // coefficients): its chord up to a second knee, where the terms of degree 2 and 3 (u² and u³
+  // times the reach's powers) are still 2^-10 of the linear ones, then (reach/knee2)³.
   proof.rehit_knee = up((domain.hi - domain.lo).maxCoeff());
+  proof.rehit_knee2 = up(up(proof.rehit_knee * 0x1p-10) / u);
   const Along at_0 = worst(domain, true), at_knee = worst(widened(domain, proof.rehit_knee), true);
   const bool projected = at_knee.projected < INFINITY && at_0.projected < at_0.corners;
   proof.rehit_base = projected ? at_0.projected : at_0.corners;
   const double knee_value = projected ? at_knee.projected : at_knee.corners;
   proof.rehit_per_reach = up(std::max(0.0, up(knee_value - proof.rehit_base)) / down(proof.rehit_knee));
-  proof.rehit_beyond_knee = at_knee.corners;
+  proof.rehit_at_knee = at_knee.corners;
+  proof.rehit_at_knee2 = worst(widened(domain, proof.rehit_knee2), true).corners;
   return proof;
 }
 
@@ -632,9 +636,13 @@ Precision precision_of(const Variant& v) {
 }  // namespace
 
 double OffsetProof::rehit_at(double reach) const {
-  if (reach > rehit_knee) {  // a cubic's value at the knee times (reach/knee)³
-    const double ratio = up(reach / rehit_knee);
-    return up(rehit_beyond_knee * up(ratio * up(ratio * ratio)));
+  if (reach > rehit_knee2) {  // a cubic with nonnegative coefficients grows at most as (reach/knee2)³
+    const double ratio = up(reach / rehit_knee2);
+    return up(rehit_at_knee2 * up(ratio * up(ratio * ratio)));
+  }
+  if (reach > rehit_knee) {  // a convex function under its chord
+    const double slope = up(std::max(0.0, up(rehit_at_knee2 - rehit_at_knee)) / down(rehit_knee2 - rehit_knee));
+    return up(rehit_at_knee + up(slope * up(reach - rehit_knee)));
   }
   return up(up(rehit_base + up(rehit_per_reach * reach)) + up(rehit_per_reach_squared * up(reach * reach)));
 }

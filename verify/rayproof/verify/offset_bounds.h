@@ -35,9 +35,9 @@ struct OffsetProof {
   // whose origin lies within point_box widened by `reach` (a sphere: within `point` + `reach`
   // of its surface), cannot be reported hitting the primitive by the variant (within the domain).
   double rehit_base = 0, rehit_per_reach = 0, rehit_per_reach_squared = 0;
-  // Beyond the knee (a derivation of degree 3, bounded by a line below it):
-  // rehit_beyond_knee·(reach/knee)³.
-  double rehit_knee = INFINITY, rehit_beyond_knee = INFINITY;
+  // A derivation of degree 3 in the reach (the watertight test's): the line above is used up to
+  // rehit_knee, then the chord from (knee, at_knee) to (knee2, at_knee2), then at_knee2·(reach/knee2)³.
+  double rehit_knee = INFINITY, rehit_at_knee = INFINITY, rehit_knee2 = INFINITY, rehit_at_knee2 = INFINITY;
   double rehit_at(double reach) const;
   // Where the domain's computed hit points lie.
   Bounds point_box;
