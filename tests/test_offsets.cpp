@@ -274,6 +274,23 @@ TEST(Offsets, ProvedSafeNeedsTheWholeMargin) {
   const auto proof32 = offset_proof(*find_variant("moller-trumbore-f32"), tri, box);
   ASSERT_TRUE(proof32.has_value());
   EXPECT_GT(proof32->point, proof->point * 0x1p27);
+  // The watertight bound far beyond the triangle's size: a tiny triangle (2^-40 across) left by
+  // 10^-4 is proved safe in double (its re-hit bound stays linear that far), and the bound never
+  // decreases with the reach across its knees.
+  Triangle tiny = tri;
+  for (Vec3& v : tiny.v) v *= 0x1p-40;
+  Bounds tiny_box;
+  tiny_box.grow(Vec3(-1, -1, -1) * 0x1p-40);
+  tiny_box.grow(Vec3(2, 2, 2) * 0x1p-40);
+  const auto wt = offset_proof(*find_variant("watertight"), tiny, tiny_box);
+  ASSERT_TRUE(wt.has_value());
+  const OffsetRule fixed{OffsetRule::Kind::fixed, 1e-4, "fixed:1e-4"};
+  EXPECT_TRUE(rule_proved_safe(*wt, rule_displacement(fixed, Precision::f64, wt->point_box, n, 0)));
+  double previous = 0;
+  for (double reach = 0x1p-60; reach < 1e10; reach *= 3) {
+    EXPECT_GE(wt->rehit_at(reach), previous) << reach;
+    previous = wt->rehit_at(reach);
+  }
   // No derivation for users' code or formulas not derived: the witness side only.
   EXPECT_FALSE(offset_proof(*find_variant("hearn-baker"), Sphere{Vec3(0, 0, 0), 1}, box).has_value());
 }

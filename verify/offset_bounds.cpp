@@ -467,7 +467,7 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
   proof.rehit_base = projected ? at_0.projected : at_0.corners;
   const double knee_value = projected ? at_knee.projected : at_knee.corners;
   proof.rehit_per_reach = up(std::max(0.0, up(knee_value - proof.rehit_base)) / down(proof.rehit_knee));
-  proof.rehit_at_knee = at_knee.corners;
+  proof.rehit_at_knee = std::max(at_knee.corners, knee_value);  // never below the line that ends there
   proof.rehit_at_knee2 = worst(widened(domain, proof.rehit_knee2), true).corners;
   return proof;
 }
