@@ -721,16 +721,24 @@ double involved_scale(const MeshOracle& oracle, const TracerRay& r, const MeshTr
   return s > 0 ? s : 0x1p-1022;
 }
 
-std::optional<bool> witness_holds(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
-                                  const MeshAnswer& a, Precision p) {
-  if (!(w.scale > 0) || !(w.ulps >= 0)) return false;
-  // A witness that moves more than it claims is refused.
-  if (witness_ulps(oracle, r, ExactRay(r.ray), w, unit_roundoff(p)) > w.ulps) return false;
+namespace {
+// The answer right on the witness's input, exactly (its ε not checked).
+std::optional<bool> answer_right_on(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
+                                    const MeshAnswer& a) {
   for (const auto& [i, v] : w.vertices)
     if (i >= oracle.mesh().vertex_count()) return false;
   if (w.direction[0] == 0 && w.direction[1] == 0 && w.direction[2] == 0) return false;
   const ExactTruth truth = exact_truth(oracle, r, w, range, reported_of(a, oracle.mesh().triangle_count()));
   return exact_answer_right(truth, a);
+}
+}  // namespace
+
+std::optional<bool> witness_holds(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
+                                  const MeshAnswer& a, Precision p) {
+  if (!(w.scale > 0) || !(w.ulps >= 0)) return false;
+  // A witness that moves more than it claims is refused.
+  if (witness_ulps(oracle, r, ExactRay(r.ray), w, unit_roundoff(p)) > w.ulps) return false;
+  return answer_right_on(oracle, r, w, range, a);
 }
 
 BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const MeshTruth& truth,
@@ -904,7 +912,8 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       if (out.beta > check_up_to) return out.estimated = true, out;  // a bug, whichever try would pass
       break;
     }
-    if (witness_holds(oracle, r, t.w, range, a, p) == true) {
+    // Its ε is witness_ulps' own (above): what witness_holds would recompute first.
+    if (answer_right_on(oracle, r, t.w, range, a) == true) {
       out.beta = t.w.ulps;
       out.witness = std::move(t.w);
       out.checked = true;
