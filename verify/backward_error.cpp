@@ -688,8 +688,26 @@ bool MeshOracle::touches_at(const Ray& ray, std::uint32_t triangle, double t0) c
 
 RangeEnd MeshOracle::range_end_touched(const TracerRay& r, std::uint32_t triangle) const {
   if (triangle >= mesh_->triangle_count()) return RangeEnd::none;
-  const ExactVec o = exact_vec(r.ray.origin), d = exact_vec(r.ray.direction);
   const Triangle tri = mesh_->triangle(triangle);
+  {  // expansions first (exact while valid, no allocation): a crossing at t = num/den is at tmin
+     // where num − tmin·den is 0; rationals where they cannot say, and for a line in the plane
+    Expansion num, den;
+    const auto c = contact_terms<Expansion>(expansion_of(r.ray.origin), expansion_of(r.ray.direction),
+                                            {expansion_of(tri.v[0]), expansion_of(tri.v[1]), expansion_of(tri.v[2])},
+                                            false, num, den);
+    auto at = [&](double t) -> std::optional<bool> {
+      const Expansion rest = num - Expansion(t) * den;
+      return rest.valid() ? std::optional<bool>(sgn(rest) == 0) : std::nullopt;
+    };
+    if (c && c->kind != LineContact::crossing && c->kind != LineContact::in_plane) return RangeEnd::none;
+    if (c && c->kind == LineContact::crossing) {
+      const auto at_min = at(r.tmin);
+      const auto at_max = std::isfinite(r.tmax) ? at(r.tmax) : std::optional<bool>(false);
+      if (at_min && *at_min) return RangeEnd::tmin;
+      if (at_min && at_max) return *at_max ? RangeEnd::tmax : RangeEnd::none;
+    }
+  }
+  const ExactVec o = exact_vec(r.ray.origin), d = exact_vec(r.ray.direction);
   const std::array<ExactVec, 3> v = {exact_vec(tri.v[0]), exact_vec(tri.v[1]), exact_vec(tri.v[2])};
   const LineContact c = line_contact(o, d, v);
   if (c.kind == LineContact::crossing) {
