@@ -535,21 +535,46 @@ void move_ray_through(Witness& w, const TracerRay& r, const ExactRay& given, con
 }
 
 // The point of segment [a, b] nearest the ray's line (Euclidean, in double: only its size
-// matters), exactly on the segment (a + s·(b − a) with s in [0, 1]), and the ray's parameter there.
-std::pair<ExactVec, double> nearest_on_edge(const Ray& ray, const Vec3& a, const Vec3& b) {
+// matters) as a + s·(b − a) with s in [0, 1], and the ray's parameter there.
+std::pair<double, double> nearest_on_edge(const Ray& ray, const Vec3& a, const Vec3& b) {
   const Vec3 e = b - a, w0 = a - ray.origin, d = ray.direction;
   const double A = e.dot(e), B = e.dot(d), C = d.dot(d), D = e.dot(w0), E = d.dot(w0);
   const double den = A * C - B * B;
   double s = den > 0 ? (B * E - C * D) / den : 0.5;
   if (!(s >= 0)) s = 0;
   if (s > 1) s = 1;
-  ExactVec q;
-  const ExactVec ea = exact_vec(a), eb = exact_vec(b);
-  const Q sq = exact_of(s);
-  for (int k = 0; k < 3; ++k) q[k] = ea[k] + sq * (eb[k] - ea[k]);
   const Vec3 qd = a + s * e;
-  return {q, (qd - ray.origin).dot(d) / C};
+  return {s, (qd - ray.origin).dot(d) / C};
 }
+
+// A try's point: a + s·(b − a) exactly (a vertex: b = a, s = 0), met by the ray moved at tp.
+struct ThroughPoint {
+  Vec3 a, b;
+  double s, tp;
+  bool of_subject;
+  ExactVec exact() const {
+    ExactVec q;
+    const ExactVec ea = exact_vec(a), eb = exact_vec(b);
+    const Q sq = exact_of(s);
+    for (int k = 0; k < 3; ++k) q[k] = ea[k] + sq * (eb[k] - ea[k]);
+    return q;
+  }
+  // A lower bound of the try's ε before any vertex moves, in double: its move m = q − (o + tp·d)
+  // is Δo + tp·Δd, so |m_k| ≤ ε·u·(S + tp·‖d‖∞); m computed in double errs by less than 8 units
+  // of rounding of its terms (three roundings for q, two for o + tp·d, one for the difference).
+  double least_ulps(const Ray& ray, double u, double scale) const {
+    const double dn = max_abs(ray.direction);
+    double most = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double e = b[k] - a[k], q = a[k] + s * e, on_ray = ray.origin[k] + tp * ray.direction[k];
+      const double slack =
+          8 * kUnitRoundoff *
+          (std::abs(a[k]) + std::abs(s * e) + std::abs(ray.origin[k]) + std::abs(tp * ray.direction[k]));
+      most = std::max(most, std::abs(q - on_ray) * (1 - 4 * kUnitRoundoff) - slack);
+    }
+    return most / (u * (scale + tp * dn) * (1 + 0x1p-40));
+  }
+};
 
 // Moves triangle t's vertices along d so that its contact with the witness's ray comes to lie
 // in range and at or before the first required crossing; false where it has no such contact.
@@ -832,19 +857,11 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     bool through_subject = false;  // through a point of the subject's own boundary
     bool placed = false;           // the subject moved into place (or no subject to place)
   };
-  std::vector<Try> candidates;
-  candidates.reserve(3 * around.size() + 3 * around.size() + 1);  // edges, vertices, the unmoved ray
-  auto through = [&](const ExactVec& q, double tp, bool of_subject) {
-    if (!(tp > 0)) return;
-    Witness w = unmoved(given, scale);
-    move_ray_through(w, r, given, q, tp);
-    candidates.push_back({std::move(w), of_subject});
-  };
-  if (place_subject) candidates.push_back({unmoved(given, scale)});  // the subject moved along d alone (below)
   // The ray onto the nearest point of each edge, and onto each vertex: where a crossing stops
   // being required (an open edge, a vertex that is no closed fan's centre: either answer is right
   // there), joins a reported neighbour's (a shared edge or fan centre: the one-hit rule), or
   // reaches the reported triangle.
+  std::vector<ThroughPoint> points;
   bool any_open = false;
   std::set<std::uint32_t> vertices;
   for (std::uint32_t t : around) {
@@ -852,17 +869,45 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     for (int k = 0; k < 3; ++k) {
       const bool open = !oracle.manifold_edge(c[k], c[(k + 1) % 3]);
       any_open = any_open || open;
-      const auto [q, tp] = nearest_on_edge(r.ray, mesh.vertex(c[k]), mesh.vertex(c[(k + 1) % 3]));
-      through(q, tp, subject == t);
+      const Vec3 &va = mesh.vertex(c[k]), &vb = mesh.vertex(c[(k + 1) % 3]);
+      const auto [s, tp] = nearest_on_edge(r.ray, va, vb);
+      if (tp > 0) points.push_back({va, vb, s, tp, subject == t});
       vertices.insert(c[k]);
     }
   }
   for (std::uint32_t v : vertices) {
     const bool open = !oracle.closed_fan_centre(v);
     any_open = any_open || open;
-    const Vec3 p = mesh.vertex(v);
+    const Vec3& p = mesh.vertex(v);
     const bool of_subject = subject && std::ranges::count(mesh.corners(*subject), v) > 0;
-    through(exact_vec(p), (p - r.ray.origin).dot(r.ray.direction) / r.ray.direction.squaredNorm(), of_subject);
+    const double tp = (p - r.ray.origin).dot(r.ray.direction) / r.ray.direction.squaredNorm();
+    if (tp > 0) points.push_back({p, p, 0, tp, of_subject});
+  }
+  // The subject moved along d alone (the unmoved ray, ε 0 before the move) is the first try; where
+  // it still is after its move (every other try's ε is at least its lower bound) and holds, it is
+  // β, as the search below would find, without building the other tries in rationals.
+  if (place_subject) {
+    double lowest = INFINITY;
+    for (const ThroughPoint& q : points) lowest = std::min(lowest, q.least_ulps(r.ray, u, scale));
+    Witness first = unmoved(given, scale);
+    if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject) &&
+        move_into_place(oracle, r, first, to_place, range, u, !a.all)) {
+      first.ulps = witness_ulps(oracle, r, given, first, u);
+      if (first.ulps <= lowest && first.ulps <= check_up_to && answer_right_on(oracle, r, first, range, a) == true) {
+        out.beta = first.ulps;
+        out.witness = std::move(first);
+        out.checked = true;
+        return out;
+      }
+    }
+  }
+  std::vector<Try> candidates;
+  candidates.reserve(points.size() + 1);
+  if (place_subject) candidates.push_back({unmoved(given, scale)});  // the subject moved along d alone (below)
+  for (const ThroughPoint& q : points) {
+    Witness w = unmoved(given, scale);
+    move_ray_through(w, r, given, q.exact(), q.tp);
+    candidates.push_back({std::move(w), q.of_subject});
   }
   // Nothing reported, no open edge or vertex at the crossing: a closed, consistently wound
   // surface there, none — unless a try slips past a silhouette (a fold grazed) after all.
