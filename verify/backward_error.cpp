@@ -157,6 +157,9 @@ ExactVec read_exact_vec(const json& j, const std::string& field) {
 // The line o + t·d against one triangle, exactly: TrianglePolicy's terms (oracle.cpp) over the
 // rationals — n = (v₁ − v₀) × (v₂ − v₀), t = n·(v₀ − o) / n·d, edge k of sign d·((v_k − o) ×
 // (v_k+1 − o)); the line meets the closed triangle where no edge has the sign opposite to n·d.
+// The edge is computed in Plücker form, d·(v_k × v_k+1) + (v_k − v_k+1)·(d × o) (the same number:
+// (v_k − o) × (v_k+1 − o) = v_k × v_k+1 + o × (v_k − v_k+1)), the line's moment d × o made once:
+// a moved ray's coordinates are sums of several doubles, and products of its differences grew.
 struct LineContact {
   enum Kind { miss, crossing, in_plane, degenerate } kind = miss;
   Q t;
@@ -170,8 +173,8 @@ bool exact_ok(const Expansion& e) { return e.valid(); }
 // `inside`: the filter below has proved the line crosses the interior (the edge signs are
 // skipped). A crossing's t is num / den.
 template <class T>
-std::optional<LineContact> contact_terms(const TVec<T>& o, const TVec<T>& d, const std::array<TVec<T>, 3>& v,
-                                         bool inside, T& num, T& den) {
+std::optional<LineContact> contact_terms(const TVec<T>& o, const TVec<T>& d, const TVec<T>& moment,
+                                         const std::array<TVec<T>, 3>& v, bool inside, T& num, T& den) {
   LineContact c;
   const TVec<T> n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
   if (!exact_ok(n[0]) || !exact_ok(n[1]) || !exact_ok(n[2])) return std::nullopt;
@@ -184,7 +187,7 @@ std::optional<LineContact> contact_terms(const TVec<T>& o, const TVec<T>& d, con
   }
   const int sd = sgn(den);
   for (int k = 0; k < 3 && !inside; ++k) {
-    const T edge = dot(d, cross(sub(v[k], o), sub(v[(k + 1) % 3], o)));
+    const T edge = dot(d, cross(v[k], v[(k + 1) % 3])) + dot(sub(v[k], v[(k + 1) % 3]), moment);
     if (!exact_ok(edge)) return std::nullopt;
     const int se = sgn(edge);
     if (se == -sd) return c;
@@ -197,7 +200,7 @@ std::optional<LineContact> contact_terms(const TVec<T>& o, const TVec<T>& d, con
 }
 LineContact line_contact(const ExactVec& o, const ExactVec& d, const std::array<ExactVec, 3>& v, bool inside = false) {
   Q num, den;
-  LineContact c = *contact_terms<Q>(o, d, v, inside, num, den);
+  LineContact c = *contact_terms<Q>(o, d, cross(d, o), v, inside, num, den);
   if (c.kind == LineContact::crossing) c.t = num / den;
   return c;
 }
@@ -225,9 +228,10 @@ Q rational_of(const Expansion& e) {
   for (int i = 0; i < e.size(); ++i) sum += exact_of(e.component(i));
   return sum;
 }
-std::optional<LineContact> line_contact(const EVec& o, const EVec& d, const std::array<EVec, 3>& v, bool inside) {
+std::optional<LineContact> line_contact(const EVec& o, const EVec& d, const EVec& moment, const std::array<EVec, 3>& v,
+                                        bool inside) {
   Expansion num, den;
-  std::optional<LineContact> c = contact_terms<Expansion>(o, d, v, inside, num, den);
+  std::optional<LineContact> c = contact_terms<Expansion>(o, d, moment, v, inside, num, den);
   if (c && c->kind == LineContact::crossing) c->t = rational_of(num) / rational_of(den);
   return c;
 }
@@ -315,7 +319,9 @@ struct MovedInput {
   LineContact exact_contact(std::uint32_t t, bool inside) const {
     if (!ray_expansions) {
       ray_expansions.emplace();
-      ray_converts = expansion_of(w.origin, ray_expansions->first) && expansion_of(w.direction, ray_expansions->second);
+      ray_converts =
+          expansion_of(w.origin, ray_expansions->origin) && expansion_of(w.direction, ray_expansions->direction);
+      if (ray_converts) ray_expansions->moment = cross(ray_expansions->direction, ray_expansions->origin);
     }
     if (ray_converts) {
       std::array<EVec, 3> corners;
@@ -328,11 +334,16 @@ struct MovedInput {
           corners[k] = expansion_of(mesh.vertex(c[k]));
       }
       if (converts)
-        if (auto fast = line_contact(ray_expansions->first, ray_expansions->second, corners, inside)) return *fast;
+        if (auto fast = line_contact(ray_expansions->origin, ray_expansions->direction, ray_expansions->moment, corners,
+                                     inside))
+          return *fast;
     }
     return line_contact(w.origin, w.direction, triangle(t), inside);
   }
-  mutable std::optional<std::pair<EVec, EVec>> ray_expansions;  // the witness's ray, converted once
+  struct RayExpansions {
+    EVec origin, direction, moment;
+  };
+  mutable std::optional<RayExpansions> ray_expansions;  // the witness's ray, converted once
   mutable bool ray_converts = false;
   // Whether the witness's ray crosses triangle t (no t computed where the intervals decide).
   bool crosses(std::uint32_t t) const {
@@ -717,9 +728,9 @@ RangeEnd MeshOracle::range_end_touched(const TracerRay& r, std::uint32_t triangl
   {  // expansions first (exact while valid, no allocation): a crossing at t = num/den is at tmin
      // where num − tmin·den is 0; rationals where they cannot say, and for a line in the plane
     Expansion num, den;
-    const auto c = contact_terms<Expansion>(expansion_of(r.ray.origin), expansion_of(r.ray.direction),
-                                            {expansion_of(tri.v[0]), expansion_of(tri.v[1]), expansion_of(tri.v[2])},
-                                            false, num, den);
+    const EVec o = expansion_of(r.ray.origin), d = expansion_of(r.ray.direction);
+    const auto c = contact_terms<Expansion>(
+        o, d, cross(d, o), {expansion_of(tri.v[0]), expansion_of(tri.v[1]), expansion_of(tri.v[2])}, false, num, den);
     auto at = [&](double t) -> std::optional<bool> {
       const Expansion rest = num - Expansion(t) * den;
       return rest.valid() ? std::optional<bool>(sgn(rest) == 0) : std::nullopt;
