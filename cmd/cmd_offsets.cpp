@@ -4,9 +4,11 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <stdexcept>
 
 #include "commands.h"
 #include "rayproof/core/atomic_file.h"
+#include "rayproof/core/geometry.h"
 #include "rayproof/core/json_fields.h"
 #include "rayproof/core/mesh.h"
 #include "rayproof/studies/offsets.h"
@@ -26,8 +28,11 @@ Scene scene_of_mesh(const std::string& path) {
   for (const Triangle& t : mesh.triangles)
     for (const Vec3& v : t.v) box.grow(v);
   const Vec3 centre = (box.lo + box.hi) / 2;
-  const double size = (box.hi - box.lo).norm();
+  const double size = (box.hi - box.lo).stableNorm();  // no overflow for coordinates near the largest double
   const Vec3 eye = centre + 1.6 * size * Vec3(0.35, 0.45, 1).normalized();
+  if (!all_finite(eye))
+    throw std::runtime_error(path + ": the mesh is too large to place a camera and light beside it (" +
+                             "its bounding box's diagonal exceeds the largest double)");
   const json scene = {
       {"camera",
        {{"eye", {eye.x(), eye.y(), eye.z()}},

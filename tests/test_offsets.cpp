@@ -334,6 +334,11 @@ TEST(Offsets, CommandWritesItsFilesAndTheCasesReplay) {
   const auto relative = run_cli("offsets audit/edge-grid.off -o " + dir + " --count 100 --variants moller-trumbore");
   std::filesystem::current_path(previous);
   EXPECT_EQ(relative.status, 0) << relative.err;
+  // A mesh near the largest doubles: its box's diagonal overflowed, and the camera placed beside
+  // it was refused as a field of a scene the user never wrote.
+  std::ofstream(dir + "/huge.off") << "OFF\n3 1 0\n1e300 0 0\n0 1e300 0\n0 0 1e300\n3 0 1 2\n";
+  const auto huge = run_cli("offsets " + dir + "/huge.off -o " + dir + " --count 100 --variants watertight");
+  EXPECT_EQ(huge.status, 0) << huge.err;
 }
 
 // `audit` says what the proof needs and, with --offset proved, spawns its shadow rays there: no
