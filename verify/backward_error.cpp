@@ -867,6 +867,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     Witness w;
     bool through_subject = false;  // through a point of the subject's own boundary
     bool placed = false;           // the subject moved into place (or no subject to place)
+    bool unmoved = false;          // the subject moved along d alone
   };
   // The ray onto the nearest point of each edge, and onto each vertex: where a crossing stops
   // being required (an open edge, a vertex that is no closed fan's centre: either answer is right
@@ -897,24 +898,36 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // The subject moved along d alone (the unmoved ray, ε 0 before the move) is the first try; where
   // it still is after its move (every other try's ε is at least its lower bound) and holds, it is
   // β, as the search below would find, without building the other tries in rationals.
+  // Where it is not, the search below reuses what was learnt of it.
+  struct FirstTry {
+    std::optional<Witness> placed;  // nullopt: it could not be moved into place
+    bool refused = false;           // checked, and the answer is not right on it
+  };
+  std::optional<FirstTry> first_try;
   if (place_subject) {
     double lowest = INFINITY;
     for (const ThroughPoint& q : points) lowest = std::min(lowest, q.least_ulps(r.ray, u, scale));
     Witness first = unmoved(given, scale);
-    if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject) &&
-        move_into_place(oracle, r, first, to_place, range, u, !a.all)) {
-      first.ulps = witness_ulps(oracle, r, given, first, u);
-      if (first.ulps <= lowest && first.ulps <= check_up_to && answer_right_on(oracle, r, first, range, a) == true) {
-        out.beta = first.ulps;
-        out.witness = std::move(first);
-        out.checked = true;
-        return out;
+    if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject)) {
+      first_try.emplace();
+      if (move_into_place(oracle, r, first, to_place, range, u, !a.all)) {
+        first.ulps = witness_ulps(oracle, r, given, first, u);
+        if (first.ulps <= lowest && first.ulps <= check_up_to) {
+          if (answer_right_on(oracle, r, first, range, a) == true) {
+            out.beta = first.ulps;
+            out.witness = std::move(first);
+            out.checked = true;
+            return out;
+          }
+          first_try->refused = true;
+        }
+        first_try->placed = std::move(first);
       }
     }
   }
   std::vector<Try> candidates;
   candidates.reserve(points.size() + 1);
-  if (place_subject) candidates.push_back({unmoved(given, scale)});  // the subject moved along d alone (below)
+  if (place_subject) candidates.push_back({unmoved(given, scale), false, false, true});  // moved along d below
   for (const ThroughPoint& q : points) {
     Witness w = unmoved(given, scale);
     move_ray_through(w, r, given, q.exact(), q.tp);
@@ -971,12 +984,16 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       return x.w.ulps != y.w.ulps ? x.w.ulps < y.w.ulps : x.placed > y.placed;
     });
     Try& t = *next;
+    const bool known = t.unmoved && first_try;  // placed (and maybe checked) above already
     if (!t.placed) {
-      if (!move_into_place(oracle, r, t.w, to_place, range, u, !a.all)) {
+      if (known ? !first_try->placed : !move_into_place(oracle, r, t.w, to_place, range, u, !a.all)) {
         tries.erase(next);
         continue;
       }
-      t.w.ulps = witness_ulps(oracle, r, given, t.w, u);
+      if (known)
+        t.w = *first_try->placed;
+      else
+        t.w.ulps = witness_ulps(oracle, r, given, t.w, u);
       t.placed = true;
       continue;
     }
@@ -987,7 +1004,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       break;
     }
     // Its ε is witness_ulps' own (above): what witness_holds would recompute first.
-    if (answer_right_on(oracle, r, t.w, range, a) == true) {
+    if (!(known && first_try->refused) && answer_right_on(oracle, r, t.w, range, a) == true) {
       out.beta = t.w.ulps;
       out.witness = std::move(t.w);
       out.checked = true;
