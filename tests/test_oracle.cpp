@@ -12,6 +12,7 @@
 #include <cstring>
 #include <random>
 
+#include "rayproof/core/fp.h"
 #include "rayproof/verify/oracle.h"
 
 namespace rayproof {
@@ -270,6 +271,38 @@ TEST(OracleExtremes, PowerOfTwoScalingLeavesClassAndTUnchanged) {
       EXPECT_EQ(v.t, base.t) << "2^" << k;
     }
   }
+}
+
+// The filters' outward rounding steps by the bits (fp.h); it must be nextafter's step exactly,
+// signs, the largest double, the least subnormal and zeros included.
+TEST(OracleExtremes, NeighbouringDoublesAreNextaftersOnEveryKindOfDouble) {
+  std::vector<double> xs = {0.0,
+                            -0.0,
+                            DBL_MIN,
+                            -DBL_MIN,
+                            DBL_MAX,
+                            -DBL_MAX,
+                            5e-324,
+                            -5e-324,
+                            1.0,
+                            -1.0,
+                            INFINITY,
+                            -INFINITY,
+                            0x1p-1022 - 0x1p-1074,
+                            -(0x1p-1022 - 0x1p-1074)};
+  std::mt19937_64 rng(3);
+  for (int i = 0; i < 20000; ++i) {
+    const std::uint64_t bits = rng();
+    double x;
+    std::memcpy(&x, &bits, sizeof x);
+    if (!std::isnan(x)) xs.push_back(x);
+  }
+  auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  for (double x : xs) {
+    EXPECT_TRUE(same(next_up(x), std::nextafter(x, INFINITY))) << std::hexfloat << x;
+    EXPECT_TRUE(same(next_down(x), std::nextafter(x, -INFINITY))) << std::hexfloat << x;
+  }
+  EXPECT_TRUE(std::isnan(next_up(NAN)) && std::isnan(next_down(NAN)));
 }
 
 TEST(OracleExtremes, SubnormalsAndOverflowingProducts) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <utility>
 #include <set>
@@ -208,14 +209,32 @@ LineContact line_contact(const ExactVec& o, const ExactVec& d, const std::array<
 // The same in expansions: a dyadic rational as the exact sum of at most 6 doubles, none below
 // fp.h's safe range (else false: the rationals decide).
 using EVec = TVec<Expansion>;
+// Each part is the rest truncated to 53 bits (the rest keeps x's sign, smaller each time). x is
+// num / 2^k: the parts are num's top 53 bits at a time, in integers (no gcd, unlike mpq's
+// subtraction); a part whose exponent is beyond ±1100 could not be safe or finite anyway.
 bool expansion_of(const Q& x, Expansion& out) {
   out = Expansion();
-  Q rest = x;
+  const mpz_srcptr den = x.get_den_mpz_t();
+  if (mpz_popcount(den) != 1) return false;  // not dyadic: no finite sum of doubles
+  const long k = long(mpz_sizeinbase(den, 2)) - 1;
+  if (mpz_sizeinbase(x.get_num_mpz_t(), 2) <= 53) {  // one double (the judged ray's own numbers)
+    if (k > 1100) return false;
+    const double part = std::ldexp(mpz_get_d(x.get_num_mpz_t()), int(-k));
+    if (part == 0) return true;
+    if (!(std::abs(part) >= kSafeMagnitudeMin) || !std::isfinite(part)) return false;
+    out = Expansion(part);
+    return true;
+  }
+  mpz_class rest = x.get_num();
   for (int i = 0; i < 6 && rest != 0; ++i) {
-    const double part = rest.get_d();  // truncated: the rest keeps x's sign, smaller each time
+    const long bits = long(mpz_sizeinbase(rest.get_mpz_t(), 2)), low = std::max(0L, bits - 53);
+    if (low - k < -1100 || low - k > 1100) return false;
+    mpz_class top;
+    mpz_tdiv_q_2exp(top.get_mpz_t(), rest.get_mpz_t(), low);  // truncated toward zero
+    const double part = std::ldexp(top.get_d(), int(low - k));
     if (!(std::abs(part) >= kSafeMagnitudeMin) || !std::isfinite(part)) return false;
     out = out + Expansion(part);
-    rest -= exact_of(part);
+    mpz_tdiv_r_2exp(rest.get_mpz_t(), rest.get_mpz_t(), low);
   }
   return rest == 0 && out.valid();
 }
@@ -223,10 +242,35 @@ bool expansion_of(const ExactVec& v, EVec& out) {
   return expansion_of(v[0], out[0]) && expansion_of(v[1], out[1]) && expansion_of(v[2], out[2]);
 }
 EVec expansion_of(const Vec3& v) { return {Expansion(v.x()), Expansion(v.y()), Expansion(v.z())}; }
+// The components summed in integers over the least exponent (each is m·2^x, m of 53 bits), then
+// reduced by the powers of two numerator and denominator share: no gcd, no rational additions.
 Q rational_of(const Expansion& e) {
-  Q sum = 0;
-  for (int i = 0; i < e.size(); ++i) sum += exact_of(e.component(i));
-  return sum;
+  if (e.size() == 0) return 0;
+  long least = std::numeric_limits<long>::max();
+  for (int i = 0; i < e.size(); ++i) {
+    int x;
+    std::frexp(e.component(i), &x);
+    least = std::min(least, long(x) - 53);
+  }
+  mpz_class num = 0, term;
+  for (int i = 0; i < e.size(); ++i) {
+    int x;
+    const double m = std::ldexp(std::frexp(e.component(i), &x), 53);  // an integer below 2^53
+    mpz_set_d(term.get_mpz_t(), m);
+    mpz_mul_2exp(term.get_mpz_t(), term.get_mpz_t(), mp_bitcnt_t(long(x) - 53 - least));
+    num += term;
+  }
+  Q out;
+  if (num == 0) return out;
+  if (least >= 0) {
+    mpz_mul_2exp(out.get_num_mpz_t(), num.get_mpz_t(), mp_bitcnt_t(least));
+    return out;
+  }
+  const mp_bitcnt_t shared = std::min<mp_bitcnt_t>(mpz_scan1(num.get_mpz_t(), 0), mp_bitcnt_t(-least));
+  mpz_tdiv_q_2exp(out.get_num_mpz_t(), num.get_mpz_t(), shared);
+  mpz_set_ui(out.get_den_mpz_t(), 1);
+  mpz_mul_2exp(out.get_den_mpz_t(), out.get_den_mpz_t(), mp_bitcnt_t(-least) - shared);
+  return out;
 }
 std::optional<LineContact> line_contact(const EVec& o, const EVec& d, const EVec& moment, const std::array<EVec, 3>& v,
                                         bool inside) {
@@ -241,22 +285,28 @@ std::optional<LineContact> line_contact(const EVec& o, const EVec& d, const EVec
 // stays inside), each rational input enclosed by the doubles on either side of its truncation.
 // It answers only "certainly a miss": an edge function whose whole interval has the sign
 // opposite to n·d's whole interval (line_contact's own miss condition, proved).
+// x itself where it is a double (num / 2^k with a numerator of at most 53 bits, k ≤ 1022 so the
+// value is no subnormal): a witness's unmoved numbers, read without rational arithmetic.
+std::optional<double> exact_double(const Q& x) {
+  const mpz_srcptr num = x.get_num_mpz_t(), den = x.get_den_mpz_t();
+  if (mpz_sizeinbase(num, 2) > 53 || mpz_popcount(den) != 1) return std::nullopt;
+  const std::size_t k = mpz_sizeinbase(den, 2) - 1;
+  if (k > 1022) return std::nullopt;
+  return std::ldexp(mpz_get_d(num), -int(k));
+}
+
 struct Interval {
   double lo, hi;
   static Interval of(const Q& x) {
+    if (const auto d = exact_double(x)) return {*d, *d};
     const double d = x.get_d();  // truncated toward zero: x lies within one ulp of it
-    return {std::nextafter(d, -INFINITY), std::nextafter(d, INFINITY)};
+    return {next_down(d), next_up(d)};
   }
-  friend Interval operator-(Interval a, Interval b) {
-    return {std::nextafter(a.lo - b.hi, -INFINITY), std::nextafter(a.hi - b.lo, INFINITY)};
-  }
-  friend Interval operator+(Interval a, Interval b) {
-    return {std::nextafter(a.lo + b.lo, -INFINITY), std::nextafter(a.hi + b.hi, INFINITY)};
-  }
+  friend Interval operator-(Interval a, Interval b) { return {next_down(a.lo - b.hi), next_up(a.hi - b.lo)}; }
+  friend Interval operator+(Interval a, Interval b) { return {next_down(a.lo + b.lo), next_up(a.hi + b.hi)}; }
   friend Interval operator*(Interval a, Interval b) {
     const double p[] = {a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi};
-    return {std::nextafter(std::min({p[0], p[1], p[2], p[3]}), -INFINITY),
-            std::nextafter(std::max({p[0], p[1], p[2], p[3]}), INFINITY)};
+    return {next_down(std::min({p[0], p[1], p[2], p[3]})), next_up(std::max({p[0], p[1], p[2], p[3]}))};
   }
   int sign() const { return lo > 0 ? 1 : hi < 0 ? -1 : 0; }  // 0: not certain (or NaN)
 };
@@ -328,10 +378,13 @@ struct MovedInput {
       const auto c = mesh.corners(t);
       bool converts = true;
       for (int k = 0; k < 3 && converts; ++k) {
-        if (const auto it = w.vertices.find(c[k]); it != w.vertices.end())
-          converts = expansion_of(it->second, corners[k]);
-        else
+        if (const auto it = w.vertices.find(c[k]); it != w.vertices.end()) {
+          const std::optional<EVec>& moved = moved_expansion(c[k], it->second);
+          converts = moved.has_value();
+          if (converts) corners[k] = *moved;
+        } else {
           corners[k] = expansion_of(mesh.vertex(c[k]));
+        }
       }
       if (converts)
         if (auto fast = line_contact(ray_expansions->origin, ray_expansions->direction, ray_expansions->moment, corners,
@@ -345,6 +398,23 @@ struct MovedInput {
   };
   mutable std::optional<RayExpansions> ray_expansions;  // the witness's ray, converted once
   mutable bool ray_converts = false;
+  // A moved vertex converted once (nullopt: beyond the expansions), as expansions and as intervals:
+  // it is a corner of several of the triangles a truth looks at.
+  mutable std::vector<std::pair<std::uint32_t, std::optional<EVec>>> moved_expansions;
+  mutable std::vector<std::pair<std::uint32_t, IVec>> moved_intervals;
+  const std::optional<EVec>& moved_expansion(std::uint32_t i, const ExactVec& v) const {
+    for (const auto& [index, e] : moved_expansions)
+      if (index == i) return e;
+    EVec e;
+    moved_expansions.emplace_back(i, expansion_of(v, e) ? std::optional<EVec>(e) : std::nullopt);
+    return moved_expansions.back().second;
+  }
+  const IVec& moved_interval(std::uint32_t i, const ExactVec& v) const {
+    for (const auto& [index, iv] : moved_intervals)
+      if (index == i) return iv;
+    moved_intervals.emplace_back(i, interval_vec(v));
+    return moved_intervals.back().second;
+  }
   // Whether the witness's ray crosses triangle t (no t computed where the intervals decide).
   bool crosses(std::uint32_t t) const {
     const Certain filtered = certain_contact(interval_vec(w.origin), interval_vec(w.direction), triangle_intervals(t));
@@ -357,7 +427,7 @@ struct MovedInput {
     std::array<IVec, 3> out;
     for (int k = 0; k < 3; ++k) {
       if (const auto it = w.vertices.find(c[k]); it != w.vertices.end()) {
-        out[k] = interval_vec(it->second);
+        out[k] = moved_interval(c[k], it->second);
       } else {
         out[k] = point_interval(mesh.vertex(c[k]));
       }
@@ -400,15 +470,23 @@ ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witne
   // of the original box, and |p| ≤ M + dv; the axis k of the largest |d| then bounds
   // t ≤ T = (M + dv + |o'_k|) / |d'_k|, and the double ray r0 at that t lies within
   // dev_o + T·dev_d of p. Margin: twice dv + dev_o + T·dev_d (each computed upward to within a few
-  // roundings, which the factor 2 covers).
+  // roundings, which the factor 2 covers). Only contacts at t ≤ tmax are in range: r0 at the same
+  // t lies in the grown box, so the traversal stops at tmax.
+  // The moves are bounded from above by intervals (the truth's filter encloses the moved numbers
+  // anyway): a bound a few roundings loose only adds candidates.
   const Ray& r0 = r.ray;  // the ray as judged: the witness lies within its move of it
-  double dev_o = 0, dev_d = 0, dv = 0;
-  for (int k = 0; k < 3; ++k) {
-    dev_o = std::max(dev_o, round_up(abs(w.origin[k] - exact_of(r0.origin[k]))));
-    dev_d = std::max(dev_d, round_up(abs(w.direction[k] - exact_of(r0.direction[k]))));
-  }
-  for (const auto& [i, v] : w.vertices)
-    for (int k = 0; k < 3; ++k) dv = std::max(dv, round_up(abs(v[k] - exact_of(mesh.vertex(i)[k]))));
+  const IVec io = interval_vec(w.origin), id = interval_vec(w.direction);
+  auto most_moved = [](const IVec& moved, const Vec3& given) {
+    double most = 0;
+    for (int k = 0; k < 3; ++k) {
+      const Interval m = moved[k] - Interval{given[k], given[k]};
+      most = std::max({most, -m.lo, m.hi});
+    }
+    return most;
+  };
+  const double dev_o = most_moved(io, r0.origin), dev_d = most_moved(id, r0.direction);
+  double dv = 0;
+  for (const auto& [i, v] : w.vertices) dv = std::max(dv, most_moved(in.moved_interval(i, v), mesh.vertex(i)));
   const double dmax = max_abs(r0.direction) - dev_d;
   const double far = dmax > 0 ? (oracle.magnitude() + dv + max_abs(r0.origin) + dev_o) / dmax
                               : std::numeric_limits<double>::infinity();
@@ -418,12 +496,12 @@ ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witne
     if (i < mesh.vertex_count())
       for (std::uint32_t t : oracle.triangles_around(i)) candidates.insert(t);
   if (std::isfinite(margin) && std::isfinite(far))
-    oracle.triangles_near(r0, margin, [&](std::uint32_t t) { candidates.insert(t); });
+    oracle.triangles_near(
+        r0, margin, [&](std::uint32_t t) { candidates.insert(t); }, r.tmax);
   else
     for (std::uint32_t t = 0; t < mesh.triangle_count(); ++t) candidates.insert(t);
 
   ExactTruth truth;
-  const IVec io = interval_vec(w.origin), id = interval_vec(w.direction);
   const Q tmin = exact_of(r.tmin), tmax = std::isinf(r.tmax) ? Q(0) : exact_of(r.tmax);
   for (std::uint32_t t : candidates) {
     if (t >= mesh.triangle_count()) continue;
@@ -510,15 +588,43 @@ struct ExactRay {
 };
 
 // ε of a witness: the largest move over what it may move, exactly, rounded up.
-double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const ExactRay& given, const Witness& w, double u) {
+// The largest of |moved − given| over the pairs, exactly: intervals bound each move first, and only
+// the moves whose upper bound reaches the largest lower bound are computed in rationals.
+class LargestMove {
+ public:
+  void add(const Q& moved, double given) {
+    if (exact_double(moved) == given) return;  // not moved
+    const Interval m = Interval::of(moved) - Interval{given, given};
+    const double least = m.lo > 0 ? m.lo : m.hi < 0 ? -m.hi : 0;
+    floor_ = std::max(floor_, least);
+    moves_.push_back({&moved, given, std::max(-m.lo, m.hi)});
+  }
+  Q exact() const {
+    Q most = 0;
+    for (const Move& m : moves_)
+      if (!(m.most < floor_)) most = std::max(most, Q(abs(*m.moved - exact_of(m.given))));
+    return most;
+  }
+
+ private:
+  struct Move {
+    const Q* moved;
+    double given, most;
+  };
+  std::vector<Move> moves_;
+  double floor_ = 0;
+};
+
+double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const Witness& w, double u) {
   // The largest coordinate move and the largest direction move first, then one division each.
-  Q point = 0, direction = 0;
+  LargestMove points, directions;
   for (int k = 0; k < 3; ++k) {
-    point = std::max(point, Q(abs(w.origin[k] - given.o[k])));
-    direction = std::max(direction, Q(abs(w.direction[k] - given.d[k])));
+    points.add(w.origin[k], r.ray.origin[k]);
+    directions.add(w.direction[k], r.ray.direction[k]);
   }
   for (const auto& [i, v] : w.vertices)
-    for (int k = 0; k < 3; ++k) point = std::max(point, Q(abs(v[k] - exact_of(oracle.mesh().vertex(i)[k]))));
+    for (int k = 0; k < 3; ++k) points.add(v[k], oracle.mesh().vertex(i)[k]);
+  const Q point = points.exact(), direction = directions.exact();
   const Q uS = exact_of(u) * exact_of(w.scale), ud = exact_of(u) * exact_of(max_abs(r.ray.direction));
   return round_up(std::max(Q(point / uS), Q(direction / ud)));
 }
@@ -791,7 +897,7 @@ std::optional<bool> witness_holds(const MeshOracle& oracle, const TracerRay& r, 
                                   const MeshAnswer& a, Precision p) {
   if (!(w.scale > 0) || !(w.ulps >= 0)) return false;
   // A witness that moves more than it claims is refused.
-  if (witness_ulps(oracle, r, ExactRay(r.ray), w, unit_roundoff(p)) > w.ulps) return false;
+  if (witness_ulps(oracle, r, w, unit_roundoff(p)) > w.ulps) return false;
   return answer_right_on(oracle, r, w, range, a);
 }
 
@@ -911,7 +1017,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject)) {
       first_try.emplace();
       if (move_into_place(oracle, r, first, to_place, range, u, !a.all)) {
-        first.ulps = witness_ulps(oracle, r, given, first, u);
+        first.ulps = witness_ulps(oracle, r, first, u);
         if (first.ulps <= lowest && first.ulps <= check_up_to) {
           if (answer_right_on(oracle, r, first, range, a) == true) {
             out.beta = first.ulps;
@@ -937,7 +1043,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // surface there, none — unless a try slips past a silhouette (a fold grazed) after all.
   const bool closed_around = only_open && !any_open;
   if (candidates.empty()) return closed_around ? out : (out.refused = true, out);
-  for (Try& c : candidates) c.w.ulps = witness_ulps(oracle, r, given, c.w, u);
+  for (Try& c : candidates) c.w.ulps = witness_ulps(oracle, r, c.w, u);
   std::sort(candidates.begin(), candidates.end(), [](const Try& x, const Try& y) { return x.w.ulps < y.w.ulps; });
   // The few smallest tries go on (each check is a rational truth over the triangles near the
   // ray); a reported triangle that the moved ray meets beyond the first required crossing, or out
@@ -993,7 +1099,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       if (known)
         t.w = *first_try->placed;
       else
-        t.w.ulps = witness_ulps(oracle, r, given, t.w, u);
+        t.w.ulps = witness_ulps(oracle, r, t.w, u);
       t.placed = true;
       continue;
     }

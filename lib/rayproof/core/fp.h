@@ -90,24 +90,20 @@ inline int binary_exponent(double x) {
   return static_cast<int>((bits >> 52) & 0x7ff) - 1023;
 }
 
-// The neighbouring doubles of x: by the bits for positive finite x (the oracle's fast paths, where
-// a libm call would cost more than the arithmetic it brackets), else nextafter.
-[[gnu::always_inline]] inline double next_down(double x) {
-  if (!(x > 0) || std::isinf(x)) return std::nextafter(x, -INFINITY);
+// The neighbouring doubles of x: by the bits for nonzero finite x (the oracle's fast paths, where
+// a libm call would cost more than the arithmetic it brackets: away from zero the bits grow, towards
+// it they shrink, as nextafter's do, to ±inf past the largest and to a signed 0 past the least),
+// else nextafter (zeros, infinities, NaN).
+[[gnu::always_inline]] inline double next_double(double x, bool up) {
+  if (x == 0 || !std::isfinite(x)) return std::nextafter(x, up ? INFINITY : -INFINITY);
   std::uint64_t bits;
   std::memcpy(&bits, &x, sizeof bits);
-  --bits;
+  bits = (x > 0) == up ? bits + 1 : bits - 1;
   std::memcpy(&x, &bits, sizeof bits);
   return x;
 }
-[[gnu::always_inline]] inline double next_up(double x) {
-  if (!(x > 0) || std::isinf(x)) return std::nextafter(x, INFINITY);
-  std::uint64_t bits;
-  std::memcpy(&bits, &x, sizeof bits);
-  ++bits;
-  std::memcpy(&x, &bits, sizeof bits);
-  return x;
-}
+[[gnu::always_inline]] inline double next_down(double x) { return next_double(x, false); }
+[[gnu::always_inline]] inline double next_up(double x) { return next_double(x, true); }
 
 // x moved by `ulps` representable doubles (negative: downwards).
 inline double nudge(double x, int ulps) {

@@ -155,10 +155,11 @@ class MeshOracle {
   // The largest |coordinate| of the mesh.
   double magnitude() const { return magnitude_; }
   // Calls visit(triangle) for every triangle whose box, grown by `margin` on each side, the ray
-  // may meet (conservative: Bvh::traverse).
+  // may meet at some 0 ≤ t ≤ t_limit (conservative: Bvh::traverse).
   template <class Visit>
-  void triangles_near(const Ray& ray, double margin, Visit&& visit) const {
-    double limit = std::numeric_limits<double>::infinity();
+  void triangles_near(const Ray& ray, double margin, Visit&& visit,
+                      double t_limit = std::numeric_limits<double>::infinity()) const {
+    double limit = t_limit;
     const double scale = std::max(magnitude_, ray.origin.cwiseAbs().maxCoeff());
     const double reach = scale > 0 ? margin / scale * (1 + 0x1p-20) : kEveryPrimitive;
     bvh_.traverse(
