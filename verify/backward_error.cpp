@@ -123,6 +123,77 @@ std::string beta_bucket(const BackwardError& b) {
 namespace {
 using Q = mpq_class;
 
+// An exact dyadic number m·2^e in integers. A witness's numbers are all dyadic (doubles, their
+// sums and products), and a rational pays a gcd on every operation: sums, differences and
+// products here pay shifts, and the rational is made once, reduced by the shared powers of two.
+struct Dyadic {
+  mpz_class m;
+  long e = 0;
+  static Dyadic of(double x) {  // x finite: m·2^e with m an integer below 2^53
+    int ex;
+    Dyadic d;
+    mpz_set_d(d.m.get_mpz_t(), std::ldexp(std::frexp(x, &ex), 53));
+    d.e = long(ex) - 53;
+    return d;
+  }
+  static std::optional<Dyadic> of(const Q& x) {
+    if (mpz_popcount(x.get_den_mpz_t()) != 1) return std::nullopt;
+    return Dyadic{x.get_num(), -(long(mpz_sizeinbase(x.get_den_mpz_t(), 2)) - 1)};
+  }
+  Q rational() const {
+    Q out;
+    if (m == 0) return out;
+    if (e >= 0) {
+      mpz_mul_2exp(out.get_num_mpz_t(), m.get_mpz_t(), mp_bitcnt_t(e));
+      return out;
+    }
+    const mp_bitcnt_t shared = std::min<mp_bitcnt_t>(mpz_scan1(m.get_mpz_t(), 0), mp_bitcnt_t(-e));
+    mpz_tdiv_q_2exp(out.get_num_mpz_t(), m.get_mpz_t(), shared);
+    mpz_set_ui(out.get_den_mpz_t(), 1);
+    mpz_mul_2exp(out.get_den_mpz_t(), out.get_den_mpz_t(), mp_bitcnt_t(-e) - shared);
+    return out;
+  }
+  // Truncated toward zero, as mpq_class::get_d (which decides where the value is no normal double).
+  double truncated() const {
+    long ex;
+    const double f = mpz_get_d_2exp(&ex, m.get_mpz_t());
+    const long x = ex + e;
+    if (f == 0) return 0;
+    if (x < -1020 || x > 1020) return rational().get_d();
+    return std::ldexp(f, int(x));
+  }
+  int sign() const { return sgn(m); }
+  friend Dyadic operator+(const Dyadic& a, const Dyadic& b) { return sum(a, b, false); }
+  friend Dyadic operator-(const Dyadic& a, const Dyadic& b) { return sum(a, b, true); }
+  friend Dyadic operator*(const Dyadic& a, const Dyadic& b) { return {a.m * b.m, a.e + b.e}; }
+  // sign(|a| − |b|)
+  friend int compare_magnitudes(const Dyadic& a, const Dyadic& b) {
+    Dyadic x{abs(a.m), a.e}, y{abs(b.m), b.e};
+    return (x - y).sign();
+  }
+
+ private:
+  static Dyadic sum(const Dyadic& a, const Dyadic& b, bool negate_b) {
+    Dyadic r;
+    if (a.e <= b.e) {
+      mpz_mul_2exp(r.m.get_mpz_t(), b.m.get_mpz_t(), mp_bitcnt_t(b.e - a.e));
+      if (negate_b)
+        r.m = a.m - r.m;
+      else
+        r.m += a.m;
+      r.e = a.e;
+    } else {
+      mpz_mul_2exp(r.m.get_mpz_t(), a.m.get_mpz_t(), mp_bitcnt_t(a.e - b.e));
+      if (negate_b)
+        r.m -= b.m;
+      else
+        r.m += b.m;
+      r.e = b.e;
+    }
+    return r;
+  }
+};
+
 // Vector terms in one exact number type T: rationals (ExactVec), or floating-point expansions.
 template <class T>
 using TVec = std::array<T, 3>;
@@ -242,35 +313,11 @@ bool expansion_of(const ExactVec& v, EVec& out) {
   return expansion_of(v[0], out[0]) && expansion_of(v[1], out[1]) && expansion_of(v[2], out[2]);
 }
 EVec expansion_of(const Vec3& v) { return {Expansion(v.x()), Expansion(v.y()), Expansion(v.z())}; }
-// The components summed in integers over the least exponent (each is m·2^x, m of 53 bits), then
-// reduced by the powers of two numerator and denominator share: no gcd, no rational additions.
+// The components summed exactly (Dyadic: no rational additions).
 Q rational_of(const Expansion& e) {
-  if (e.size() == 0) return 0;
-  long least = std::numeric_limits<long>::max();
-  for (int i = 0; i < e.size(); ++i) {
-    int x;
-    std::frexp(e.component(i), &x);
-    least = std::min(least, long(x) - 53);
-  }
-  mpz_class num = 0, term;
-  for (int i = 0; i < e.size(); ++i) {
-    int x;
-    const double m = std::ldexp(std::frexp(e.component(i), &x), 53);  // an integer below 2^53
-    mpz_set_d(term.get_mpz_t(), m);
-    mpz_mul_2exp(term.get_mpz_t(), term.get_mpz_t(), mp_bitcnt_t(long(x) - 53 - least));
-    num += term;
-  }
-  Q out;
-  if (num == 0) return out;
-  if (least >= 0) {
-    mpz_mul_2exp(out.get_num_mpz_t(), num.get_mpz_t(), mp_bitcnt_t(least));
-    return out;
-  }
-  const mp_bitcnt_t shared = std::min<mp_bitcnt_t>(mpz_scan1(num.get_mpz_t(), 0), mp_bitcnt_t(-least));
-  mpz_tdiv_q_2exp(out.get_num_mpz_t(), num.get_mpz_t(), shared);
-  mpz_set_ui(out.get_den_mpz_t(), 1);
-  mpz_mul_2exp(out.get_den_mpz_t(), out.get_den_mpz_t(), mp_bitcnt_t(-least) - shared);
-  return out;
+  Dyadic sum = Dyadic::of(0.0);
+  for (int i = 0; i < e.size(); ++i) sum = sum + Dyadic::of(e.component(i));
+  return sum.rational();
 }
 std::optional<LineContact> line_contact(const EVec& o, const EVec& d, const EVec& moment, const std::array<EVec, 3>& v,
                                         bool inside) {
@@ -588,35 +635,36 @@ struct ExactRay {
 };
 
 // ε of a witness: the largest move over what it may move, exactly, rounded up.
-// The largest of |moved − given| over the pairs, exactly: intervals bound each move first, and only
-// the moves whose upper bound reaches the largest lower bound are computed in rationals.
+// The largest of |moved − given| over the pairs, exactly: in dyadic numbers (a rational where a
+// witness read from a file is not dyadic), unmoved numbers skipped.
 class LargestMove {
  public:
   void add(const Q& moved, double given) {
-    if (exact_double(moved) == given) return;  // not moved
-    const Interval m = Interval::of(moved) - Interval{given, given};
-    const double least = m.lo > 0 ? m.lo : m.hi < 0 ? -m.hi : 0;
-    floor_ = std::max(floor_, least);
-    moves_.push_back({&moved, given, std::max(-m.lo, m.hi)});
+    if (exact_double(moved) == given) return;
+    if (const auto d = Dyadic::of(moved)) {
+      add_move(*d - Dyadic::of(given));
+    } else {
+      other_ = std::max(other_, Q(abs(moved - exact_of(given))));
+    }
   }
-  Q exact() const {
-    Q most = 0;
-    for (const Move& m : moves_)
-      if (!(m.most < floor_)) most = std::max(most, Q(abs(*m.moved - exact_of(m.given))));
-    return most;
+  void add_move(Dyadic move) {
+    if (!most_ || compare_magnitudes(move, *most_) > 0) most_ = std::move(move);
   }
+  Q exact() const { return most_ ? std::max(other_, Q(abs(most_->rational()))) : other_; }
 
  private:
-  struct Move {
-    const Q* moved;
-    double given, most;
-  };
-  std::vector<Move> moves_;
-  double floor_ = 0;
+  std::optional<Dyadic> most_;
+  Q other_ = 0;
 };
 
+// ε of the moves: the largest coordinate move over u·S, the largest direction move over u·‖d‖∞,
+// exactly, rounded up.
+double ulps_of_moves(const LargestMove& points, const LargestMove& directions, double scale, const Ray& ray, double u) {
+  const Q uS = exact_of(u) * exact_of(scale), ud = exact_of(u) * exact_of(max_abs(ray.direction));
+  return round_up(std::max(Q(points.exact() / uS), Q(directions.exact() / ud)));
+}
+
 double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const Witness& w, double u) {
-  // The largest coordinate move and the largest direction move first, then one division each.
   LargestMove points, directions;
   for (int k = 0; k < 3; ++k) {
     points.add(w.origin[k], r.ray.origin[k]);
@@ -624,9 +672,7 @@ double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const Witness&
   }
   for (const auto& [i, v] : w.vertices)
     for (int k = 0; k < 3; ++k) points.add(v[k], oracle.mesh().vertex(i)[k]);
-  const Q point = points.exact(), direction = directions.exact();
-  const Q uS = exact_of(u) * exact_of(w.scale), ud = exact_of(u) * exact_of(max_abs(r.ray.direction));
-  return round_up(std::max(Q(point / uS), Q(direction / ud)));
+  return ulps_of_moves(points, directions, w.scale, r.ray, u);
 }
 
 Witness unmoved(const ExactRay& given, double scale) {
@@ -638,17 +684,21 @@ Witness unmoved(const ExactRay& given, double scale) {
 
 // The ray moved so that at parameter tp it passes exactly through q: the move w = q − (o + tp·d)
 // is split as Δd = w·‖d‖∞ / (S + tp·‖d‖∞) (rounded: any double will do) and Δo = w − tp·Δd
-// (exact), so both use the same share of what they may move.
-void move_ray_through(Witness& w, const TracerRay& r, const ExactRay& given, const ExactVec& q, double tp) {
-  const ExactVec &o = given.o, &d = given.d;
-  const Q tq = exact_of(tp);
+// (exact), so both use the same share of what they may move. Its ε (witness_ulps' number) from
+// the moves themselves.
+void move_ray_through(Witness& w, const TracerRay& r, const std::array<Dyadic, 3>& q, double tp, double u) {
+  const Vec3 &o = r.ray.origin, &d = r.ray.direction;
+  const Dyadic tq = Dyadic::of(tp);
   const double dn = max_abs(r.ray.direction), share = dn / (w.scale + tp * dn);
+  LargestMove points, directions;
   for (int k = 0; k < 3; ++k) {
-    const Q move = q[k] - (o[k] + tq * d[k]);
-    const Q dd = exact_of(move.get_d() * share);
-    w.direction[k] = d[k] + dd;
-    w.origin[k] = o[k] + move - tq * dd;
+    const Dyadic ok = Dyadic::of(o[k]), move = q[k] - (ok + tq * Dyadic::of(d[k]));
+    Dyadic dd = Dyadic::of(move.truncated() * share), shift = move - tq * dd;
+    w.direction[k] = (Dyadic::of(d[k]) + dd).rational();
+    w.origin[k] = (ok + shift).rational();
+    points.add_move(std::move(shift)), directions.add_move(std::move(dd));
   }
+  w.ulps = ulps_of_moves(points, directions, w.scale, r.ray, u);
 }
 
 // The point of segment [a, b] nearest the ray's line (Euclidean, in double: only its size
@@ -669,11 +719,13 @@ struct ThroughPoint {
   Vec3 a, b;
   double s, tp;
   bool of_subject;
-  ExactVec exact() const {
-    ExactVec q;
-    const ExactVec ea = exact_vec(a), eb = exact_vec(b);
-    const Q sq = exact_of(s);
-    for (int k = 0; k < 3; ++k) q[k] = ea[k] + sq * (eb[k] - ea[k]);
+  std::array<Dyadic, 3> exact() const {
+    std::array<Dyadic, 3> q;
+    const Dyadic sq = Dyadic::of(s);
+    for (int k = 0; k < 3; ++k) {
+      const Dyadic ak = Dyadic::of(a[k]);
+      q[k] = ak + sq * (Dyadic::of(b[k]) - ak);
+    }
     return q;
   }
   // A lower bound of the try's ε before any vertex moves, in double: its move m = q − (o + tp·d)
@@ -698,11 +750,12 @@ struct ThroughPoint {
 // Moves the triangles' vertices (each once, all by the same shift along d: a shared edge moves
 // whole) so that the first of them out of place comes into range and, in nearest mode, to at or
 // before the first required crossing; false where that triangle has no contact with the line.
+// `in_place`: the truth it computed, where nothing had to move (the truth of w as it stays).
 bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, const std::set<std::uint32_t>& tris,
-                     RangeRule range, double u, bool nearest) {
+                     RangeRule range, double u, bool nearest, std::optional<ExactTruth>* in_place = nullptr) {
   const MovedInput in{oracle.mesh(), w};
   const std::vector<std::uint32_t> also(tris.begin(), tris.end());
-  const ExactTruth truth = exact_truth(oracle, r, w, range, also);
+  ExactTruth truth = exact_truth(oracle, r, w, range, also);
   const auto req = truth.first_required();
   const Q lo = exact_of(r.tmin);
   std::optional<Q> hi;  // the latest t a contact may take
@@ -724,7 +777,10 @@ bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, c
       shift = Q(c.t - (*hi - room)).get_d();
     if (shift) break;
   }
-  if (!shift) return true;  // in place already
+  if (!shift) {  // in place already
+    if (in_place) *in_place = std::move(truth);
+    return true;
+  }
   const Q sq = exact_of(*shift);
   std::set<std::uint32_t> vertices;
   for (std::uint32_t tri : tris)
@@ -883,11 +939,14 @@ double involved_scale(const MeshOracle& oracle, const TracerRay& r, const MeshTr
 
 namespace {
 // The answer right on the witness's input, exactly (its ε not checked).
+// `known`: the truth of this very input, computed with every reported triangle among its candidates
+// (move_into_place's, where nothing moved): the same contacts, and each reported triangle's kind.
 std::optional<bool> answer_right_on(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
-                                    const MeshAnswer& a) {
+                                    const MeshAnswer& a, const ExactTruth* known = nullptr) {
   for (const auto& [i, v] : w.vertices)
     if (i >= oracle.mesh().vertex_count()) return false;
   if (w.direction[0] == 0 && w.direction[1] == 0 && w.direction[2] == 0) return false;
+  if (known) return exact_answer_right(*known, a);
   const ExactTruth truth = exact_truth(oracle, r, w, range, reported_of(a, oracle.mesh().triangle_count()));
   return exact_answer_right(truth, a);
 }
@@ -971,10 +1030,16 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   const ExactRay given(r.ray);
   struct Try {
     Witness w;
-    bool through_subject = false;  // through a point of the subject's own boundary
-    bool placed = false;           // the subject moved into place (or no subject to place)
-    bool unmoved = false;          // the subject moved along d alone
+    bool through_subject = false;     // through a point of the subject's own boundary
+    bool placed = false;              // the subject moved into place (or no subject to place)
+    bool unmoved = false;             // the subject moved along d alone
+    std::optional<ExactTruth> truth;  // of w, where placing it moved nothing
   };
+  // A truth computed while placing serves the check when it had every reported triangle among its
+  // candidates (the placed ones are).
+  const std::vector<std::uint32_t> reported_triangles = reported_of(a, mesh.triangle_count());
+  const bool placing_sees_reported =
+      std::ranges::all_of(reported_triangles, [&](std::uint32_t t) { return to_place.contains(t); });
   // The ray onto the nearest point of each edge, and onto each vertex: where a crossing stops
   // being required (an open edge, a vertex that is no closed fan's centre: either answer is right
   // there), joins a reported neighbour's (a shared edge or fan centre: the one-hit rule), or
@@ -1016,10 +1081,12 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     Witness first = unmoved(given, scale);
     if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject)) {
       first_try.emplace();
-      if (move_into_place(oracle, r, first, to_place, range, u, !a.all)) {
+      std::optional<ExactTruth> in_place;
+      if (move_into_place(oracle, r, first, to_place, range, u, !a.all, &in_place)) {
         first.ulps = witness_ulps(oracle, r, first, u);
         if (first.ulps <= lowest && first.ulps <= check_up_to) {
-          if (answer_right_on(oracle, r, first, range, a) == true) {
+          const ExactTruth* known = placing_sees_reported && in_place ? &*in_place : nullptr;
+          if (answer_right_on(oracle, r, first, range, a, known) == true) {
             out.beta = first.ulps;
             out.witness = std::move(first);
             out.checked = true;
@@ -1035,15 +1102,16 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   candidates.reserve(points.size() + 1);
   if (place_subject) candidates.push_back({unmoved(given, scale), false, false, true});  // moved along d below
   for (const ThroughPoint& q : points) {
-    Witness w = unmoved(given, scale);
-    move_ray_through(w, r, given, q.exact(), q.tp);
+    Witness w;
+    w.scale = scale;
+    move_ray_through(w, r, q.exact(), q.tp, u);  // sets the whole ray, and ε
     candidates.push_back({std::move(w), q.of_subject});
   }
   // Nothing reported, no open edge or vertex at the crossing: a closed, consistently wound
   // surface there, none — unless a try slips past a silhouette (a fold grazed) after all.
   const bool closed_around = only_open && !any_open;
   if (candidates.empty()) return closed_around ? out : (out.refused = true, out);
-  for (Try& c : candidates) c.w.ulps = witness_ulps(oracle, r, c.w, u);
+  // Each try's ε is set: 0 unmoved, move_ray_through's own otherwise.
   std::sort(candidates.begin(), candidates.end(), [](const Try& x, const Try& y) { return x.w.ulps < y.w.ulps; });
   // The few smallest tries go on (each check is a rational truth over the triangles near the
   // ray); a reported triangle that the moved ray meets beyond the first required crossing, or out
@@ -1092,7 +1160,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     Try& t = *next;
     const bool known = t.unmoved && first_try;  // placed (and maybe checked) above already
     if (!t.placed) {
-      if (known ? !first_try->placed : !move_into_place(oracle, r, t.w, to_place, range, u, !a.all)) {
+      if (known ? !first_try->placed : !move_into_place(oracle, r, t.w, to_place, range, u, !a.all, &t.truth)) {
         tries.erase(next);
         continue;
       }
@@ -1110,7 +1178,8 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       break;
     }
     // Its ε is witness_ulps' own (above): what witness_holds would recompute first.
-    if (!(known && first_try->refused) && answer_right_on(oracle, r, t.w, range, a) == true) {
+    const ExactTruth* truth_of_w = placing_sees_reported && t.truth ? &*t.truth : nullptr;
+    if (!(known && first_try->refused) && answer_right_on(oracle, r, t.w, range, a, truth_of_w) == true) {
       out.beta = t.w.ulps;
       out.witness = std::move(t.w);
       out.checked = true;
