@@ -3,9 +3,12 @@
 #include "rayproof/core/fp.h"
 #include "rayproof/verify/expansion.h"
 
+#include <mpfr.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <optional>
 #include <utility>
 #include <set>
@@ -651,6 +654,22 @@ class LargestMove {
     if (!most_ || compare_magnitudes(move, *most_) > 0) most_ = std::move(move);
   }
   Q exact() const { return most_ ? std::max(other_, Q(abs(most_->rational()))) : other_; }
+  // The largest move over u·by, rounded up to a double: one division in MPFR, correctly rounded
+  // upwards from exact operands (u a power of two), where the moves are dyadic.
+  double over_rounded_up(double by, double u) const {
+    if (other_ != 0) return round_up(Q(exact() / (exact_of(u) * exact_of(by))));
+    if (!most_ || most_->sign() == 0) return 0;
+    const mpz_class magnitude = abs(most_->m);
+    mpfr_t x, y;
+    mpfr_init2(x, std::max<mpfr_prec_t>(MPFR_PREC_MIN, mpfr_prec_t(mpz_sizeinbase(magnitude.get_mpz_t(), 2))));
+    mpfr_init2(y, 53);
+    mpfr_set_z_2exp(x, magnitude.get_mpz_t(), most_->e, MPFR_RNDN);  // exact: x has the bits
+    mpfr_div_d(y, x, by, MPFR_RNDU);
+    mpfr_mul_2si(y, y, -std::ilogb(u), MPFR_RNDU);  // exact: a power of two
+    const double out = mpfr_get_d(y, MPFR_RNDU);    // a double is a 53-bit number: no second rounding
+    mpfr_clear(x), mpfr_clear(y);
+    return out;
+  }
 
  private:
   std::optional<Dyadic> most_;
@@ -660,8 +679,8 @@ class LargestMove {
 // ε of the moves: the largest coordinate move over u·S, the largest direction move over u·‖d‖∞,
 // exactly, rounded up.
 double ulps_of_moves(const LargestMove& points, const LargestMove& directions, double scale, const Ray& ray, double u) {
-  const Q uS = exact_of(u) * exact_of(scale), ud = exact_of(u) * exact_of(max_abs(ray.direction));
-  return round_up(std::max(Q(points.exact() / uS), Q(directions.exact() / ud)));
+  // Rounding up commutes with the maximum.
+  return std::max(points.over_rounded_up(scale, u), directions.over_rounded_up(max_abs(ray.direction), u));
 }
 
 double witness_ulps(const MeshOracle& oracle, const TracerRay& r, const Witness& w, double u) {
@@ -1111,8 +1130,12 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // surface there, none — unless a try slips past a silhouette (a fold grazed) after all.
   const bool closed_around = only_open && !any_open;
   if (candidates.empty()) return closed_around ? out : (out.refused = true, out);
-  // Each try's ε is set: 0 unmoved, move_ray_through's own otherwise.
-  std::sort(candidates.begin(), candidates.end(), [](const Try& x, const Try& y) { return x.w.ulps < y.w.ulps; });
+  // Each try's ε is set: 0 unmoved, move_ray_through's own otherwise. The tries stay where they
+  // are; their order is a list of positions (a try holds rationals, costly to move).
+  std::vector<std::size_t> order(candidates.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t x, std::size_t y) { return candidates[x].w.ulps < candidates[y].w.ulps; });
   // The few smallest tries go on (each check is a rational truth over the triangles near the
   // ray); a reported triangle that the moved ray meets beyond the first required crossing, or out
   // of range, is then moved along d into place as well, which only adds to the try's ε.
@@ -1135,29 +1158,29 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       return sgn(dot(cross(sub(exact_vec(sv[1]), a), sub(exact_vec(sv[2]), a)), c.w.direction)) != 0;
     };
     // As a stable partition followed by keeping kTries, testing only as far as it needs.
-    std::vector<Try> meeting, other;
-    meeting.reserve(candidates.size()), other.reserve(candidates.size());
-    for (Try& c : candidates) {
+    std::vector<std::size_t> meeting, other;
+    for (std::size_t i : order) {
       if (meeting.size() == kTries) break;
-      (meets(c) ? meeting : other).push_back(std::move(c));
+      (meets(candidates[i]) ? meeting : other).push_back(i);
     }
-    for (Try& c : other) meeting.push_back(std::move(c));
-    candidates = std::move(meeting);
+    meeting.insert(meeting.end(), other.begin(), other.end());
+    order = std::move(meeting);
   }
-  if (candidates.size() > kTries) candidates.resize(kTries);
+  if (order.size() > kTries) order.resize(kTries);
   // Best first: a try's ε before it is moved into place bounds its ε after from below (a move only
   // adds), so the tries are taken by what they may still reach, each moved into place (a rational
   // truth) only when it comes first and checked only when, placed, it is still the smallest: the
   // same β as moving and checking every try, with far fewer rational truths.
-  std::vector<Try> tries = std::move(candidates);
-  for (Try& t : tries) t.placed = !place_subject;
-  const double smallest = tries.front().w.ulps;  // sorted above
-  std::optional<double> least_placed;            // the smallest ε of a try in place: β where every check fails
+  std::vector<std::size_t> tries = std::move(order);
+  for (std::size_t i : tries) candidates[i].placed = !place_subject;
+  const double smallest = candidates[tries.front()].w.ulps;  // sorted above
+  std::optional<double> least_placed;  // the smallest ε of a try in place: β where every check fails
   while (!tries.empty()) {
-    const auto next = std::min_element(tries.begin(), tries.end(), [](const Try& x, const Try& y) {
+    const auto next = std::min_element(tries.begin(), tries.end(), [&](std::size_t i, std::size_t j) {
+      const Try &x = candidates[i], &y = candidates[j];
       return x.w.ulps != y.w.ulps ? x.w.ulps < y.w.ulps : x.placed > y.placed;
     });
-    Try& t = *next;
+    Try& t = candidates[*next];
     const bool known = t.unmoved && first_try;  // placed (and maybe checked) above already
     if (!t.placed) {
       if (known ? !first_try->placed : !move_into_place(oracle, r, t.w, to_place, range, u, !a.all, &t.truth)) {
@@ -1166,7 +1189,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       }
       if (known)
         t.w = *first_try->placed;
-      else
+      else if (!t.truth)  // moved: its ε grew (in place, it is move_ray_through's still)
         t.w.ulps = witness_ulps(oracle, r, t.w, u);
       t.placed = true;
       continue;
