@@ -800,13 +800,20 @@ bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, c
     if (in_place) *in_place = std::move(truth);
     return true;
   }
-  const Q sq = exact_of(*shift);
   std::set<std::uint32_t> vertices;
   for (std::uint32_t tri : tris)
     for (std::uint32_t v : oracle.mesh().corners(tri)) vertices.insert(v);
+  // In dyadic integers where the numbers are dyadic (a witness's always are), else in rationals.
+  const Dyadic sq = Dyadic::of(*shift);
+  std::array<std::optional<Dyadic>, 3> step;
+  for (int k = 0; k < 3; ++k)
+    if (const auto dk = Dyadic::of(w.direction[k])) step[k] = sq * *dk;
   for (std::uint32_t v : vertices) {
     ExactVec p = in.vertex(v);
-    for (int k = 0; k < 3; ++k) p[k] -= sq * w.direction[k];
+    for (int k = 0; k < 3; ++k) {
+      const auto pk = Dyadic::of(p[k]);
+      p[k] = pk && step[k] ? (*pk - *step[k]).rational() : Q(p[k] - exact_of(*shift) * w.direction[k]);
+    }
     w.vertices[v] = p;
   }
   return true;

@@ -92,10 +92,11 @@ inline int binary_exponent(double x) {
 
 // The neighbouring doubles of x: by the bits for nonzero finite x (the oracle's fast paths, where
 // a libm call would cost more than the arithmetic it brackets: away from zero the bits grow, towards
-// it they shrink, as nextafter's do, to ±inf past the largest and to a signed 0 past the least),
-// else nextafter (zeros, infinities, NaN).
+// it they shrink, as nextafter's do, to ±inf past the largest and to a signed 0 past the least;
+// from a zero, the least subnormal), else nextafter (infinities, NaN).
 [[gnu::always_inline]] inline double next_double(double x, bool up) {
-  if (x == 0 || !std::isfinite(x)) return std::nextafter(x, up ? INFINITY : -INFINITY);
+  if (x == 0) return up ? 0x1p-1074 : -0x1p-1074;  // from either zero, the least subnormal
+  if (!std::isfinite(x)) return std::nextafter(x, up ? INFINITY : -INFINITY);
   std::uint64_t bits;
   std::memcpy(&bits, &x, sizeof bits);
   bits = (x > 0) == up ? bits + 1 : bits - 1;
