@@ -541,15 +541,17 @@ ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witne
   const double far = dmax > 0 ? (oracle.magnitude() + dv + max_abs(r0.origin) + dev_o) / dmax
                               : std::numeric_limits<double>::infinity();
   const double margin = 2 * (dv + dev_o + far * dev_d) + 0x1p-1000;
-  std::set<std::uint32_t> candidates(also.begin(), also.end());
+  std::vector<std::uint32_t> candidates(also.begin(), also.end());  // sorted and unique below
   for (const auto& [i, v] : w.vertices)
     if (i < mesh.vertex_count())
-      for (std::uint32_t t : oracle.triangles_around(i)) candidates.insert(t);
+      for (std::uint32_t t : oracle.triangles_around(i)) candidates.push_back(t);
   if (std::isfinite(margin) && std::isfinite(far))
     oracle.triangles_near(
-        r0, margin, [&](std::uint32_t t) { candidates.insert(t); }, r.tmax);
+        r0, margin, [&](std::uint32_t t) { candidates.push_back(t); }, r.tmax);
   else
-    for (std::uint32_t t = 0; t < mesh.triangle_count(); ++t) candidates.insert(t);
+    for (std::uint32_t t = 0; t < mesh.triangle_count(); ++t) candidates.push_back(t);
+  std::sort(candidates.begin(), candidates.end());
+  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
 
   ExactTruth truth;
   const Q tmin = exact_of(r.tmin), tmax = std::isinf(r.tmax) ? Q(0) : exact_of(r.tmax);
