@@ -330,11 +330,6 @@ std::optional<LineContact> line_contact(const EVec& o, const EVec& d, const EVec
   return c;
 }
 
-// A filter in front of line_contact: interval arithmetic in double, each operation's result
-// widened outward by one ulp (round to nearest errs by at most half an ulp, so the exact value
-// stays inside), each rational input enclosed by the doubles on either side of its truncation.
-// It answers only "certainly a miss": an edge function whose whole interval has the sign
-// opposite to n·d's whole interval (line_contact's own miss condition, proved).
 // x itself where it is a double (num / 2^k with a numerator of at most 53 bits, k ≤ 1022 so the
 // value is no subnormal): a witness's unmoved numbers, read without rational arithmetic.
 std::optional<double> exact_double(const Q& x) {
@@ -345,6 +340,12 @@ std::optional<double> exact_double(const Q& x) {
   return std::ldexp(mpz_get_d(num), -int(k));
 }
 
+// A filter in front of line_contact: interval arithmetic in double, each operation's result
+// widened outward by one ulp (round to nearest errs by at most half an ulp, so the exact value
+// stays inside), each rational input enclosed by the doubles on either side of its truncation
+// (an input that is a double by itself).
+// It answers only "certainly a miss": an edge function whose whole interval has the sign
+// opposite to n·d's whole interval (line_contact's own miss condition, proved).
 struct Interval {
   double lo, hi;
   static Interval of(const Q& x) {
