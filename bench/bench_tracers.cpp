@@ -10,10 +10,12 @@
 #include <benchmark/benchmark.h>
 #include <dlfcn.h>
 
-#include <ctime>
+#include <cerrno>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "rayproof/core/mesh.h"
@@ -177,14 +179,23 @@ void BM_VerdictCost(benchmark::State& state) {
   const auto family = fuzz::kAllTracerFamilies[state.range(0)];
   state.SetLabel(std::string(fuzz::to_string(family)));
   const std::filesystem::path out = std::filesystem::temp_directory_path() / "rayproof-bench-verdict-cost.jsonl";
+  // RAYPROOF_VERDICT_COST_RAYS=N: every family at N rays (issue 39's figure is at 10^5, where the
+  // findings written, capped, no longer weigh).
+  std::optional<std::uint64_t> rays;
+  if (const char* n = std::getenv("RAYPROOF_VERDICT_COST_RAYS")) {
+    char* end = nullptr;
+    errno = 0;
+    const unsigned long long parsed = std::strtoull(n, &end, 10);
+    if (end == n || *end != '\0' || errno != 0 || parsed == 0 || n[0] == '-')
+      return state.SkipWithError("RAYPROOF_VERDICT_COST_RAYS: expected a whole number of rays above 0");
+    rays = parsed;
+  }
   auto seconds = [&](bool beta) {
     fuzz::TracerCampaignOptions o;
     o.families = {family};
     o.tracers = all_tracers();
     o.count = family == fuzz::TracerFamily::far ? 500 : 4000;
-    // RAYPROOF_VERDICT_COST_RAYS=N: every family at N rays (issue 39's figure is at 10^5, where
-    // the findings written, capped, no longer weigh).
-    if (const char* n = std::getenv("RAYPROOF_VERDICT_COST_RAYS")) o.count = std::strtoull(n, nullptr, 10);
+    if (rays) o.count = *rays;
     o.output = out.string();
     o.shrink = false;
     o.verdicts.backward_error = beta;
