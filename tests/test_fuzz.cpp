@@ -18,6 +18,7 @@
 #include <sstream>
 
 #include "rayproof/fuzz/campaign.h"
+#include "rayproof/fuzz/findings_file.h"
 #include "rayproof/fuzz/generators.h"
 #include "rayproof/verify/oracle.h"
 #include "rayproof/fuzz/shrink.h"
@@ -395,6 +396,45 @@ TEST(Campaign, ResumeMatrixLosesNoFindingAndDuplicatesNone) {
   EXPECT_EQ(run("fuzz" + args + " -o " + dir + "/d.jsonl --resume"), 0);
   EXPECT_NE(run("fuzz --families nonsense -o " + dir + "/x.jsonl"), 0);
   EXPECT_NE(run("fuzz --shard 3/2 -o " + dir + "/x.jsonl"), 0);
+}
+
+// The bugs-first rewrite reads only found.level, and only that key: a "level" anywhere else (at the
+// top, inside found's nested objects) is not the finding's level, and a line that is not JSON is
+// no rounding finding.
+TEST(FindingsFile, OnlyFoundsOwnLevelMakesARoundingFinding) {
+  EXPECT_TRUE(is_rounding_finding(R"({"all":true,"found":{"beta":{"x":[1,{"level":"bug"}]},"level":"rounding"}})"));
+  EXPECT_TRUE(is_rounding_finding(R"({"found":{"level":"rounding","witness":{"level":"bug"}},"mesh":[)"));
+  EXPECT_FALSE(is_rounding_finding(R"({"found":{"level":"bug"},"x":{"level":"rounding"}})"));
+  EXPECT_FALSE(is_rounding_finding(R"({"level":"rounding","found":{"kind":"hole"}})"));
+  EXPECT_FALSE(is_rounding_finding(R"({"found":{"reported":{"level":"rounding"},"level":"bug"}})"));
+  EXPECT_FALSE(is_rounding_finding(R"({"x":{"found":{"level":"rounding"}}})"));
+  EXPECT_FALSE(is_rounding_finding(R"({"found":{"levels":["rounding"]},"level":"rounding"})"));
+  EXPECT_FALSE(is_rounding_finding(R"(["found",{"level":"rounding"}])"));
+  EXPECT_FALSE(is_rounding_finding("not json"));
+  EXPECT_FALSE(is_rounding_finding(""));
+  const std::string dir = rayproof::testing_support::test_dir();
+  const std::string path = dir + "/f.jsonl";
+  std::ofstream(path) << R"({"found":{"level":"rounding","n":1}})"
+                      << "\n"
+                      << R"({"found":{"level":"bug","n":2}})"
+                      << "\n"
+                      << "garbage\n"
+                      << R"({"found":{"level":"rounding","n":3}})"
+                      << "\n"
+                      << R"({"found":{"level":"bug","n":4}})"
+                      << "\n";
+  rewrite_bugs_first(path);
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), R"({"found":{"level":"bug","n":2}})"
+                        "\ngarbage\n"
+                        R"({"found":{"level":"bug","n":4}})"
+                        "\n"
+                        R"({"found":{"level":"rounding","n":1}})"
+                        "\n"
+                        R"({"found":{"level":"rounding","n":3}})"
+                        "\n");
 }
 
 TEST(UlpHistogram, QuantilesAreExactBelow128AndWithinAnEighthAbove) {

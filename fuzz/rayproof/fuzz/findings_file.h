@@ -66,6 +66,49 @@ class FindingsLock {
   int fd_ = -1;
 };
 
+// Whether a findings line is a rounding-level finding (found.level is "rounding"). Read by a SAX
+// parser that stops at that key: found's keys come before the mesh, which is most of a line's
+// bytes, so a line is not parsed whole (a full parse of every line cost as much as judging).
+// A line that is not a JSON object, or has no found.level before its first error, is no rounding
+// finding.
+inline bool is_rounding_finding(const std::string& line) {
+  struct LevelReader : nlohmann::json_sax<json> {
+    int depth = 0;
+    bool in_found = false, at_found = false, at_level = false, rounding = false;
+    bool value() { return at_level = at_found = false, true; }
+    bool null() override { return value(); }
+    bool boolean(bool) override { return value(); }
+    bool number_integer(number_integer_t) override { return value(); }
+    bool number_unsigned(number_unsigned_t) override { return value(); }
+    bool number_float(number_float_t, const string_t&) override { return value(); }
+    bool binary(binary_t&) override { return value(); }
+    bool string(string_t& s) override {
+      if (!at_level) return value();
+      rounding = s == "rounding";
+      return false;  // found.level read: stop
+    }
+    bool start_object(std::size_t) override {
+      if (depth == 1) in_found = at_found;
+      at_found = at_level = false;
+      return ++depth, true;
+    }
+    bool end_object() override {
+      if (--depth == 1) in_found = false;
+      return true;
+    }
+    bool start_array(std::size_t) override { return at_found = at_level = false, ++depth, true; }
+    bool end_array() override { return --depth, true; }
+    bool key(string_t& k) override {
+      at_found = depth == 1 && k == "found";
+      at_level = in_found && depth == 2 && k == "level";
+      return true;
+    }
+    bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override { return false; }
+  } reader;
+  json::sax_parse(line, &reader, nlohmann::detail::input_format_t::json, false);
+  return reader.rounding;
+}
+
 // The findings file rewritten (atomically) with bug-level findings before rounding-level ones
 // (found.level), each group in the order found (verdicts.md §4). A line that is not a finding
 // stays with the bugs.
@@ -74,12 +117,7 @@ inline void rewrite_bugs_first(const std::string& path) {
   if (!std::filesystem::is_regular_file(path, ec)) return;  // a device or FIFO: written as it came
   std::ifstream in(path);
   std::string line, bugs, rounding;
-  while (std::getline(in, line)) {
-    const json j = json::parse(line, nullptr, false);
-    const bool is_rounding = j.is_object() && j.contains("found") && j["found"].is_object() &&
-                             j["found"].value("level", std::string()) == "rounding";
-    (is_rounding ? rounding : bugs) += line + "\n";
-  }
+  while (std::getline(in, line)) (is_rounding_finding(line) ? rounding : bugs) += line + "\n";
   if (rounding.empty()) return;
   AtomicFile file(path);
   file.stream() << bugs << rounding;
