@@ -511,8 +511,55 @@ struct ExactTruth {
   }
 };
 
+// Contacts of the input a truth is computed for, already known to its caller (in.contact's).
+using KnownContacts = std::vector<std::pair<std::uint32_t, LineContact>>;
+
+// Triangle t's contact with the moved input, added to the truth: a crossing in range, or an
+// unknown (collinear as given and not moved, in the line's plane, or degenerate after the move).
+void add_exact_contact(ExactTruth& truth, const MeshOracle& oracle, const TracerRay& r, const MovedInput& in,
+                       const IVec& io, const IVec& id, std::uint32_t t, RangeRule range, const KnownContacts& known) {
+  const TriangleMesh& mesh = oracle.mesh();
+  if (t >= mesh.triangle_count()) return;
+  const auto c0 = mesh.corners(t);
+  if (oracle.degenerate(t) && !in.w.vertices.contains(c0[0]) && !in.w.vertices.contains(c0[1]) &&
+      !in.w.vertices.contains(c0[2])) {  // collinear as given and not moved: optional, t unknown
+    truth.unknown.insert(t);
+    return;
+  }
+  const auto k = std::ranges::find(known, t, &KnownContacts::value_type::first);
+  const LineContact c = k != known.end() ? k->second : in.contact(io, id, t);
+  if (c.kind == LineContact::in_plane || c.kind == LineContact::degenerate) {
+    truth.unknown.insert(t);
+    return;
+  }
+  if (c.kind != LineContact::crossing || !in_range(c.t, r, range)) return;
+  const bool at_end =
+      range == RangeRule::closed && (c.t == exact_of(r.tmin) || (!std::isinf(r.tmax) && c.t == exact_of(r.tmax)));
+  truth.contacts.push_back({t, c.t, at_end, {t, c.boundary, c.front, c.zero_edge}});
+}
+
+// The contacts sorted by t, the crossings (not optional) grouped by equal t, each group's
+// requirement (an interior crossing, or the one-hit rule at a shared edge or fan centre).
+void group_by_t(ExactTruth& truth, const MeshOracle& oracle) {
+  std::sort(truth.contacts.begin(), truth.contacts.end(), [](const ExactContact& a, const ExactContact& b) {
+    return a.t != b.t ? a.t < b.t : a.triangle < b.triangle;
+  });
+  for (std::size_t i = 0; i < truth.contacts.size(); ++i) {
+    const ExactContact& c = truth.contacts[i];
+    if (c.optional) continue;
+    if (truth.points.empty() || truth.contacts[truth.points.back().front()].t != c.t) truth.points.push_back({});
+    truth.points.back().push_back(i);
+  }
+  for (const auto& p : truth.points) {
+    std::vector<MeshOracle::PointContact> at;
+    bool interior = false;
+    for (std::size_t i : p) at.push_back(truth.contacts[i].at), interior = interior || !truth.contacts[i].at.boundary;
+    truth.required.push_back(interior || oracle.one_hit_rule_applies(at));
+  }
+}
+
 ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
-                       const std::vector<std::uint32_t>& also) {
+                       const std::vector<std::uint32_t>& also, const KnownContacts& known = {}) {
   const TriangleMesh& mesh = oracle.mesh();
   const MovedInput in{mesh, w};
   // The candidates: triangles whose box, grown by the margin below, the double ray nearest the
@@ -555,40 +602,32 @@ ExactTruth exact_truth(const MeshOracle& oracle, const TracerRay& r, const Witne
   candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
 
   ExactTruth truth;
-  const Q tmin = exact_of(r.tmin), tmax = std::isinf(r.tmax) ? Q(0) : exact_of(r.tmax);
-  for (std::uint32_t t : candidates) {
-    if (t >= mesh.triangle_count()) continue;
-    const auto c0 = mesh.corners(t);
-    if (oracle.degenerate(t) && !w.vertices.contains(c0[0]) && !w.vertices.contains(c0[1]) &&
-        !w.vertices.contains(c0[2])) {  // collinear as given and not moved: optional, t unknown
-      truth.unknown.insert(t);
-      continue;
-    }
-    const LineContact c = in.contact(io, id, t);
-    if (c.kind == LineContact::in_plane || c.kind == LineContact::degenerate) {
-      truth.unknown.insert(t);
-      continue;
-    }
-    if (c.kind != LineContact::crossing || !in_range(c.t, r, range)) continue;
-    const bool at_end = range == RangeRule::closed && (c.t == tmin || (!std::isinf(r.tmax) && c.t == tmax));
-    truth.contacts.push_back({t, c.t, at_end, {t, c.boundary, c.front, c.zero_edge}});
-  }
-  std::sort(truth.contacts.begin(), truth.contacts.end(), [](const ExactContact& a, const ExactContact& b) {
-    return a.t != b.t ? a.t < b.t : a.triangle < b.triangle;
-  });
-  for (std::size_t i = 0; i < truth.contacts.size(); ++i) {
-    const ExactContact& c = truth.contacts[i];
-    if (c.optional) continue;
-    if (truth.points.empty() || truth.contacts[truth.points.back().front()].t != c.t) truth.points.push_back({});
-    truth.points.back().push_back(i);
-  }
-  for (const auto& p : truth.points) {
-    std::vector<MeshOracle::PointContact> at;
-    bool interior = false;
-    for (std::size_t i : p) at.push_back(truth.contacts[i].at), interior = interior || !truth.contacts[i].at.boundary;
-    truth.required.push_back(interior || oracle.one_hit_rule_applies(at));
-  }
+  for (std::uint32_t t : candidates) add_exact_contact(truth, oracle, r, in, io, id, t, range, known);
+  group_by_t(truth, oracle);
   return truth;
+}
+
+// The truth of w after the vertices `moved` moved (w holds their new places; `truth` was w's
+// before): only the triangles around them changed, and each is judged again; every other
+// triangle's contact is the same, and the candidates that found it stay complete for it (its
+// box did not move, the ray did not either). The candidates still include every triangle the
+// first truth was given (`also`): those around the moved vertices are judged again, the others
+// keep their place. `known`: contacts after the move known to the caller.
+void update_after_move(ExactTruth& truth, const MeshOracle& oracle, const TracerRay& r, const Witness& w,
+                       RangeRule range, const std::set<std::uint32_t>& moved, const KnownContacts& known) {
+  std::vector<std::uint32_t> changed;
+  for (std::uint32_t v : moved)
+    for (std::uint32_t t : oracle.triangles_around(v)) changed.push_back(t);
+  std::sort(changed.begin(), changed.end());
+  changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
+  auto is_changed = [&](std::uint32_t t) { return std::binary_search(changed.begin(), changed.end(), t); };
+  std::erase_if(truth.contacts, [&](const ExactContact& c) { return is_changed(c.triangle); });
+  std::erase_if(truth.unknown, is_changed);
+  const MovedInput in{oracle.mesh(), w};
+  const IVec io = interval_vec(w.origin), id = interval_vec(w.direction);
+  for (std::uint32_t t : changed) add_exact_contact(truth, oracle, r, in, io, id, t, range, known);
+  truth.points.clear(), truth.required.clear();
+  group_by_t(truth, oracle);
 }
 
 // The answer judged on the exact truth, as MeshOracle judges it (no ties): nullopt where a
@@ -767,17 +806,18 @@ struct ThroughPoint {
   }
 };
 
-// Moves triangle t's vertices along d so that its contact with the witness's ray comes to lie
-// in range and at or before the first required crossing; false where it has no such contact.
 // Moves the triangles' vertices (each once, all by the same shift along d: a shared edge moves
 // whole) so that the first of them out of place comes into range and, in nearest mode, to at or
-// before the first required crossing; false where that triangle has no contact with the line.
-// `in_place`: the truth it computed, where nothing had to move (the truth of w as it stays).
-bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, const std::set<std::uint32_t>& tris,
-                     RangeRule range, double u, bool nearest, std::optional<ExactTruth>* in_place = nullptr) {
+// before the first required crossing; `no` where that triangle has no contact with the line.
+// `truth_out`: the exact truth of w as it ends (computed before the move, brought up to date after).
+enum class Placed { no, in_place, moved };
+Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, const std::set<std::uint32_t>& tris,
+                       RangeRule range, double u, bool nearest, std::optional<ExactTruth>* truth_out = nullptr) {
   const MovedInput in{oracle.mesh(), w};
   const std::vector<std::uint32_t> also(tris.begin(), tris.end());
-  ExactTruth truth = exact_truth(oracle, r, w, range, also);
+  KnownContacts contacts;  // of the triangles to place, for the truth and the shift
+  for (std::uint32_t tri : tris) contacts.emplace_back(tri, in.contact(tri));
+  ExactTruth truth = exact_truth(oracle, r, w, range, also, contacts);
   const auto req = truth.first_required();
   const Q lo = exact_of(r.tmin);
   std::optional<Q> hi;  // the latest t a contact may take
@@ -788,11 +828,10 @@ bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, c
   const double dn = max_abs(r.ray.direction);
   Q room = exact_of(0x1p-12 * u * w.scale / dn);
   if (hi && (*hi - lo) / 2 < room) room = (*hi - lo) / 2;
-  if (room <= 0) return false;
+  if (room <= 0) return Placed::no;
   std::optional<double> shift;  // contact at t − shift: vertices move by −shift·d
-  for (std::uint32_t tri : tris) {
-    const LineContact c = in.contact(tri);
-    if (c.kind != LineContact::crossing) return false;
+  for (const auto& [tri, c] : contacts) {
+    if (c.kind != LineContact::crossing) return Placed::no;
     if (range == RangeRule::closed ? c.t < lo : c.t <= lo)
       shift = Q(c.t - (lo + room)).get_d();
     else if (hi && (c.t > *hi || (c.t == *hi && !hi_included)))
@@ -800,8 +839,8 @@ bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, c
     if (shift) break;
   }
   if (!shift) {  // in place already
-    if (in_place) *in_place = std::move(truth);
-    return true;
+    if (truth_out) *truth_out = std::move(truth);
+    return Placed::in_place;
   }
   std::set<std::uint32_t> vertices;
   for (std::uint32_t tri : tris)
@@ -819,7 +858,16 @@ bool move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, c
     }
     w.vertices[v] = p;
   }
-  return true;
+  if (truth_out) {
+    // Every corner of a triangle to place moved by the same −shift·d: the triangle moved along
+    // the line, which meets it at t − shift with the same edge signs (a triple product with d is
+    // unchanged by adding multiples of d) — no need to judge it again.
+    const Q moved_by = exact_of(*shift);
+    for (auto& [tri, c] : contacts) c.t -= moved_by;
+    update_after_move(truth, oracle, r, w, range, vertices, contacts);
+    *truth_out = std::move(truth);
+  }
+  return Placed::moved;
 }
 
 }  // namespace
@@ -969,7 +1017,7 @@ double involved_scale(const MeshOracle& oracle, const TracerRay& r, const MeshTr
 namespace {
 // The answer right on the witness's input, exactly (its ε not checked).
 // `known`: the truth of this very input, computed with every reported triangle among its candidates
-// (move_into_place's, where nothing moved): the same contacts, and each reported triangle's kind.
+// (move_into_place's): the same contacts, and each reported triangle's kind.
 std::optional<bool> answer_right_on(const MeshOracle& oracle, const TracerRay& r, const Witness& w, RangeRule range,
                                     const MeshAnswer& a, const ExactTruth* known = nullptr) {
   for (const auto& [i, v] : w.vertices)
@@ -1062,7 +1110,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     bool through_subject = false;     // through a point of the subject's own boundary
     bool placed = false;              // the subject moved into place (or no subject to place)
     bool unmoved = false;             // the subject moved along d alone
-    std::optional<ExactTruth> truth;  // of w, where placing it moved nothing
+    std::optional<ExactTruth> truth;  // of w, once placed
   };
   // A truth computed while placing serves the check when it had every reported triangle among its
   // candidates (the placed ones are).
@@ -1100,8 +1148,9 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   // β, as the search below would find, without building the other tries in rationals.
   // Where it is not, the search below reuses what was learnt of it.
   struct FirstTry {
-    std::optional<Witness> placed;  // nullopt: it could not be moved into place
-    bool refused = false;           // checked, and the answer is not right on it
+    std::optional<Witness> placed;    // nullopt: it could not be moved into place
+    std::optional<ExactTruth> truth;  // of placed
+    bool refused = false;             // checked, and the answer is not right on it
   };
   std::optional<FirstTry> first_try;
   if (place_subject) {
@@ -1110,11 +1159,11 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     Witness first = unmoved(given, scale);
     if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject)) {
       first_try.emplace();
-      std::optional<ExactTruth> in_place;
-      if (move_into_place(oracle, r, first, to_place, range, u, !a.all, &in_place)) {
+      std::optional<ExactTruth> truth_of_first;
+      if (move_into_place(oracle, r, first, to_place, range, u, !a.all, &truth_of_first) != Placed::no) {
         first.ulps = witness_ulps(oracle, r, first, u);
         if (first.ulps <= lowest && first.ulps <= check_up_to) {
-          const ExactTruth* known = placing_sees_reported && in_place ? &*in_place : nullptr;
+          const ExactTruth* known = placing_sees_reported ? &*truth_of_first : nullptr;
           if (answer_right_on(oracle, r, first, range, a, known) == true) {
             out.beta = first.ulps;
             out.witness = std::move(first);
@@ -1124,6 +1173,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
           first_try->refused = true;
         }
         first_try->placed = std::move(first);
+        first_try->truth = std::move(truth_of_first);
       }
     }
   }
@@ -1193,13 +1243,15 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     Try& t = candidates[*next];
     const bool known = t.unmoved && first_try;  // placed (and maybe checked) above already
     if (!t.placed) {
-      if (known ? !first_try->placed : !move_into_place(oracle, r, t.w, to_place, range, u, !a.all, &t.truth)) {
+      const Placed placed = known ? (first_try->placed ? Placed::moved : Placed::no)
+                                  : move_into_place(oracle, r, t.w, to_place, range, u, !a.all, &t.truth);
+      if (placed == Placed::no) {
         tries.erase(next);
         continue;
       }
       if (known)
-        t.w = *first_try->placed;
-      else if (!t.truth)  // moved: its ε grew (in place, it is move_ray_through's still)
+        t.w = *first_try->placed, t.truth = std::move(first_try->truth);
+      else if (placed == Placed::moved)  // its ε grew (in place, it is move_ray_through's still)
         t.w.ulps = witness_ulps(oracle, r, t.w, u);
       t.placed = true;
       continue;
