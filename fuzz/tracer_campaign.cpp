@@ -578,6 +578,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
     std::vector<std::optional<TracerRay>> rays;
     std::unique_ptr<MeshOracle> oracle;
     std::vector<std::optional<MeshTruth>> nearest, complete;
+    std::vector<BackwardErrorMemo> nearest_beta, complete_beta;  // per ray: shared by the tracers
   };
   Seen seen[2];  // f64, f32
   auto view = [&](Precision p) -> Seen& {
@@ -596,6 +597,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
     }
     if (s.mesh) s.oracle = std::make_unique<MeshOracle>(s.mesh);
     s.nearest.resize(work.rays.size()), s.complete.resize(work.rays.size());
+    s.nearest_beta.resize(work.rays.size()), s.complete_beta.resize(work.rays.size());
     return s;
   };
   for (std::size_t ti = 0; ti < o.tracers.size(); ++ti) {
@@ -671,7 +673,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       if (!s.nearest[i]) s.nearest[i] = s.oracle->truth(rays[k], false);
       out.judgement = s.oracle->judge_nearest(rays[k], *s.nearest[i], out.answer, t.precision, rules);
       out.kind = out.judgement.kind, out.reason = out.judgement.detail, out.range = range;
-      add_backward_error(out, *s.oracle, rays[k], *s.nearest[i], t.precision, o.verdicts, false);
+      add_backward_error(out, *s.oracle, rays[k], *s.nearest[i], t.precision, o.verdicts, false, &s.nearest_beta[i]);
       count_outcome(near, out);
       note_evidence(near, out, *s.mesh, rays[k], *s.nearest[i]);
       count_zero_direction_edge_hole(near, out, rays[k]);
@@ -710,7 +712,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       if (!s.complete[i]) s.complete[i] = s.oracle->truth(rays[k], true);
       out.judgement = s.oracle->judge_all_hits(rays[k], *s.complete[i], out.all, rules);
       out.kind = out.judgement.kind, out.reason = out.judgement.detail, out.range = range;
-      add_backward_error(out, *s.oracle, rays[k], *s.complete[i], t.precision, o.verdicts, true);
+      add_backward_error(out, *s.oracle, rays[k], *s.complete[i], t.precision, o.verdicts, true, &s.complete_beta[i]);
       count_outcome(any, out);
       count_zero_direction_edge_hole(any, out, rays[k]);
       any.edge_rays += out.judgement.edge_ray, any.edge_holes += out.judgement.edge_hole;

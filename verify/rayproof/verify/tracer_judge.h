@@ -43,9 +43,32 @@ std::optional<MeshCase> as_seen_by(const Tracer& t, const MeshCase& c);
 // ... and judged there: the tracer builds over the mesh and answers the ray in the case's mode.
 TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const VerdictSettings& settings = {},
                                    bool with_backward_error = true);
-// β and level of an outcome already judged (the table's kinds; errors, crashes: bugs, no β).
+// The β of the outcomes judged on one ray and truth (one mode), kept for the tracers after the
+// first: backward_error reads of an outcome only its kind (and edge_double), the triangles it
+// reports, its precision and its range, so tracers that answer a ray alike share one computation
+// (the two watertight built-ins agree on most spawned rays).
+class BackwardErrorMemo {
+ public:
+  struct Entry {
+    TraceKind kind;
+    bool edge_double;
+    Precision precision;
+    RangeRule range;
+    std::uint32_t triangle;
+    std::vector<std::uint32_t> triangles;
+    BackwardError backward;
+    Level level;
+  };
+  const Entry* find(const TracerOutcome& o, Precision p) const;
+  void keep(const TracerOutcome& o, Precision p);
+
+ private:
+  std::vector<Entry> entries_;
+};
+// β and level of an outcome already judged (the table's kinds; errors, crashes: bugs, no β);
+// `memo`: the β of other tracers' outcomes on the same ray and truth, read and added to.
 void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const TracerRay& ray, const MeshTruth& truth,
-                        Precision p, const VerdictSettings& settings, bool all);
+                        Precision p, const VerdictSettings& settings, bool all, BackwardErrorMemo* memo = nullptr);
 // The kind a tracer's failure to answer (or to build) is counted as.
 TraceKind kind_of_failure(AnswerFailure f);
 // The finding's verdict fields: level, beta, range, witness (verdicts.md §4).
