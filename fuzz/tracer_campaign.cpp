@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <set>
 #include <sstream>
 #include <cstring>
@@ -724,7 +725,9 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
 
 std::string family_key(TracerFamily f, bool all) { return std::string(to_string(f)) + (all ? "-any" : ""); }
 
-std::string finding_line(TracerFamily family, const PendingFinding& f, const TracerCampaignOptions& o, bool shrink) {
+// `mesh_text`: the whole mesh's text (mesh_to_json's), shared by the findings on it.
+std::string finding_line(TracerFamily family, const PendingFinding& f, const TracerCampaignOptions& o, bool shrink,
+                         const std::string& mesh_text) {
   const Tracer& t = *o.tracers[f.tracer];
   MeshCase c = f.seen;
   // One finding per ray, mode and tracer: the tracer's name keeps the ids unique.
@@ -765,7 +768,7 @@ std::string finding_line(TracerFamily family, const PendingFinding& f, const Tra
   }
   if (!now.reason.empty()) c.found["reason"] = now.reason;
   if (!f.outcome.reason.empty() && now.reason.empty()) c.found["reason"] = f.outcome.reason;
-  return json_text(mesh_case_to_json(c)) + "\n";
+  return (c.mesh == f.seen.mesh ? mesh_case_text(c, mesh_text) : json_text(mesh_case_to_json(c))) + "\n";
 }
 
 }  // namespace
@@ -827,11 +830,21 @@ TracerCampaignReport run_tracer_campaign(const TracerCampaignOptions& o) {
       }
       for (std::uint64_t m = start; m < end; ++m)
         rays += std::min<std::uint64_t>(kRaysPerMesh, o.count - std::min(o.count, m * kRaysPerMesh));
+      // Each mesh's text once (a few findings' rays, tracers and modes share one mesh).
+      std::map<const TriangleMesh*, std::string> mesh_texts;
+      for (const PendingFinding* f : chosen) mesh_texts.try_emplace(f->seen.mesh.get());
+      std::vector<std::pair<const TriangleMesh* const, std::string>*> to_format;
+      for (auto& entry : mesh_texts) to_format.push_back(&entry);
+      std::atomic<std::size_t> next_mesh{0};
+      run_workers(threads, [&](int) {
+        for (std::size_t k; (k = next_mesh.fetch_add(1)) < to_format.size();)
+          to_format[k]->second = json_text(mesh_to_json(*to_format[k]->first));
+      });
       std::vector<std::string> lines(chosen.size());
       std::atomic<std::size_t> next_finding{0};
       run_workers(threads, [&](int) {
         for (std::size_t k; (k = next_finding.fetch_add(1)) < chosen.size();)
-          lines[k] = finding_line(family, *chosen[k], o, shrink[k]);
+          lines[k] = finding_line(family, *chosen[k], o, shrink[k], mesh_texts.at(chosen[k]->seen.mesh.get()));
       });
       for (const std::string& line : lines) out << line, cp.findings_hash.add(line);
       out.flush();

@@ -1,6 +1,8 @@
 #include "rayproof/core/mesh_case.h"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace rayproof {
 
@@ -84,12 +86,28 @@ json tracer_ray_to_json(const TracerRay& r) {
           {"tmax", std::isinf(r.tmax) ? json("inf") : exact_json_number(r.tmax)}};
 }
 
-json mesh_case_to_json(const MeshCase& c) {
-  json out = {{"id", c.id}, {"mesh", mesh_to_json(*c.mesh)}, {"ray", tracer_ray_to_json(c.ray)}};
+namespace {
+json case_fields(const MeshCase& c, json mesh) {
+  json out = {{"id", c.id}, {"mesh", std::move(mesh)}, {"ray", tracer_ray_to_json(c.ray)}};
   if (c.all) out["all"] = true;
   if (!c.expect.is_null()) out["expect"] = c.expect;
   if (!c.found.is_null()) out["found"] = c.found;
   return out;
+}
+}  // namespace
+
+json mesh_case_to_json(const MeshCase& c) { return case_fields(c, mesh_to_json(*c.mesh)); }
+
+std::string mesh_case_text(const MeshCase& c, const std::string& mesh_text) {
+  // The mesh's place held by a mark. Keys are written sorted (all, expect, found, id, mesh, ray):
+  // only the ray, numbers and "inf", follows the top level's "mesh", so the last "mesh" key with
+  // the mark's value is that one (expect or found may hold the same pair: the test writes them).
+  const std::string mark = "\x01rayproof-mesh\x01";
+  std::string text = json_text(case_fields(c, mark));
+  const std::string written = "\"mesh\":" + json(mark).dump();
+  const std::size_t at = text.rfind(written);
+  if (at == std::string::npos) throw std::logic_error("mesh_case_text: the mesh's place is not in the text");
+  return text.replace(at, written.size(), "\"mesh\":" + mesh_text);
 }
 
 }  // namespace rayproof

@@ -11,6 +11,7 @@
 #include <random>
 
 #include "rayproof/core/casefile.h"
+#include "rayproof/core/mesh_case.h"
 
 namespace rayproof {
 namespace {
@@ -117,6 +118,24 @@ TEST(CaseFile, RandomCasesRoundTripExactly) {
       EXPECT_EQ(bits(std::get<Box>(back.shape).max[k]), bits(std::get<Box>(c.shape).max[k]));
     }
   }
+}
+
+// A finding's line with its mesh formatted once is the line formatted whole, byte for byte, also
+// where the case's other fields hold a "mesh" key, the mark's own text or invalid UTF-8.
+TEST(CaseFile, MeshCaseTextWithTheMeshGivenIsTheWholeCasesText) {
+  MeshCase c;
+  auto mesh = std::make_shared<TriangleMesh>();
+  mesh->vertices = {0, 0, 0, 1, -0.0, 0x1.23456789abcdep-1000, 0, 1e300, DBL_TRUE_MIN};
+  mesh->indices = {0, 1, 2};
+  c.mesh = mesh;
+  c.id = "x/\x01rayproof-mesh\x01/\xff";
+  c.ray = {Ray{Vec3(0.25, 0.25, -1), Vec3(0, 0, 1)}, 0, INFINITY};
+  c.all = true;
+  c.expect = {{"touched", {0}}, {"mesh", "\x01rayproof-mesh\x01"}};
+  c.found = {{"mesh", {{"mesh", nullptr}}}, {"detail", "\"mesh\":\"\\u0001rayproof-mesh\\u0001\""}};
+  const std::string whole = json_text(mesh_case_to_json(c));
+  EXPECT_EQ(mesh_case_text(c, json_text(mesh_to_json(*c.mesh))), whole);
+  EXPECT_EQ(read_mesh_case(parse_json_text(whole)).mesh->vertices, mesh->vertices);
 }
 
 // Each bad line must fail with the named field.

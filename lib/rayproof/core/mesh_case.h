@@ -28,6 +28,10 @@ inline bool is_mesh_case(const json& j) { return j.is_object() && j.contains("me
 MeshCase read_mesh_case(const json& j);
 json mesh_case_to_json(const MeshCase& c);
 json mesh_to_json(const TriangleMesh& mesh);
+// json_text(mesh_case_to_json(c)), the same bytes, with the mesh's part given as
+// json_text(mesh_to_json(*c.mesh)): the findings on one mesh (other rays, tracers, modes) format
+// its thousands of exact numbers once.
+std::string mesh_case_text(const MeshCase& c, const std::string& mesh_text);
 json tracer_ray_to_json(const TracerRay& ray);
 
 }  // namespace rayproof
