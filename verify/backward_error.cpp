@@ -810,9 +810,11 @@ struct ThroughPoint {
 // whole) so that the first of them out of place comes into range and, in nearest mode, to at or
 // before the first required crossing; `no` where that triangle has no contact with the line.
 // `truth_out`: the exact truth of w as it ends (computed before the move, brought up to date after).
+// `step`: where the move was dyadic, each vertex's move along each axis (the same for all).
 enum class Placed { no, in_place, moved };
 Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, const std::set<std::uint32_t>& tris,
-                       RangeRule range, double u, bool nearest, std::optional<ExactTruth>* truth_out = nullptr) {
+                       RangeRule range, double u, bool nearest, std::optional<ExactTruth>* truth_out = nullptr,
+                       std::optional<std::array<Dyadic, 3>>* step_out = nullptr) {
   const MovedInput in{oracle.mesh(), w};
   const std::vector<std::uint32_t> also(tris.begin(), tris.end());
   KnownContacts contacts;  // of the triangles to place, for the truth and the shift
@@ -858,6 +860,7 @@ Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w,
     }
     w.vertices[v] = p;
   }
+  if (step_out && step[0] && step[1] && step[2]) *step_out = {*step[0], *step[1], *step[2]};
   if (truth_out) {
     // Every corner of a triangle to place moved by the same −shift·d: the triangle moved along
     // the line, which meets it at t − shift with the same edge signs (a triple product with d is
@@ -1160,8 +1163,14 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject)) {
       first_try.emplace();
       std::optional<ExactTruth> truth_of_first;
-      if (move_into_place(oracle, r, first, to_place, range, u, !a.all, &truth_of_first) != Placed::no) {
-        first.ulps = witness_ulps(oracle, r, first, u);
+      std::optional<std::array<Dyadic, 3>> step;
+      if (move_into_place(oracle, r, first, to_place, range, u, !a.all, &truth_of_first, &step) != Placed::no) {
+        // Its ε: the ray stayed and every moved vertex moved by `step` (witness_ulps' number).
+        LargestMove points, directions;
+        if (step)
+          for (const Dyadic& move : *step)
+            if (move.sign() != 0) points.add_move(move);
+        first.ulps = step ? ulps_of_moves(points, directions, scale, r.ray, u) : witness_ulps(oracle, r, first, u);
         if (first.ulps <= lowest && first.ulps <= check_up_to) {
           const ExactTruth* known = placing_sees_reported ? &*truth_of_first : nullptr;
           if (answer_right_on(oracle, r, first, range, a, known) == true) {

@@ -251,16 +251,16 @@ bool MeshOracle::closed_fan_centre(std::uint32_t v) const {
   // Around the centre each neighbour is left once (centre → x) and arrived at once (y → centre).
   const auto& around = around_vertex_[v];
   if (around.size() < 3) return false;
-  std::multiset<std::uint32_t> leaving, arriving;
+  // As multisets: sorted vectors (a fan has a handful of triangles; no node allocations).
+  std::vector<std::uint32_t> leaving, arriving;
+  leaving.reserve(around.size()), arriving.reserve(around.size());
   for (std::uint32_t t : around) {
     const auto c = mesh_->corners(t);
     for (int k = 0; k < 3; ++k)
-      if (c[k] == v) leaving.insert(c[(k + 1) % 3]), arriving.insert(c[(k + 2) % 3]);
+      if (c[k] == v) leaving.push_back(c[(k + 1) % 3]), arriving.push_back(c[(k + 2) % 3]);
   }
-  if (leaving != arriving) return false;
-  for (std::uint32_t x : leaving)
-    if (leaving.count(x) != 1) return false;
-  return true;
+  std::sort(leaving.begin(), leaving.end()), std::sort(arriving.begin(), arriving.end());
+  return leaving == arriving && std::adjacent_find(leaving.begin(), leaving.end()) == leaving.end();
 }
 
 MeshTruth MeshOracle::truth(const TracerRay& r, bool complete) {
