@@ -810,7 +810,7 @@ struct ThroughPoint {
 // whole) so that the first of them out of place comes into range and, in nearest mode, to at or
 // before the first required crossing; `no` where that triangle has no contact with the line.
 // `truth_out`: the exact truth of w as it ends (computed before the move, brought up to date after).
-// `step`: where the move was dyadic, each vertex's move along each axis (the same for all).
+// `step_out`: where the move was dyadic, each vertex's move along each axis (the same for all).
 enum class Placed { no, in_place, moved };
 Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, const std::set<std::uint32_t>& tris,
                        RangeRule range, double u, bool nearest, std::optional<ExactTruth>* truth_out = nullptr,
