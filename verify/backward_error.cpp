@@ -809,11 +809,11 @@ struct ThroughPoint {
 // Moves the triangles' vertices (each once, all by the same shift along d: a shared edge moves
 // whole) so that the first of them out of place comes into range and, in nearest mode, to at or
 // before the first required crossing; `no` where that triangle has no contact with the line.
-// `truth_out`: the exact truth of w as it ends (computed before the move, brought up to date after).
+// `truth`: set to the exact truth of w as it ends (computed before the move, brought up to date after).
 // `step_out`: where the move was dyadic, each vertex's move along each axis (the same for all).
 enum class Placed { no, in_place, moved };
 Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, const std::set<std::uint32_t>& tris,
-                       RangeRule range, double u, bool nearest, std::optional<ExactTruth>* truth_out = nullptr,
+                       RangeRule range, double u, bool nearest, std::optional<ExactTruth>& truth_out,
                        std::optional<std::array<Dyadic, 3>>* step_out = nullptr) {
   const MovedInput in{oracle.mesh(), w};
   const std::vector<std::uint32_t> also(tris.begin(), tris.end());
@@ -841,7 +841,7 @@ Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w,
     if (shift) break;
   }
   if (!shift) {  // in place already
-    if (truth_out) *truth_out = std::move(truth);
+    truth_out = std::move(truth);
     return Placed::in_place;
   }
   std::set<std::uint32_t> vertices;
@@ -861,15 +861,13 @@ Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w,
     w.vertices[v] = p;
   }
   if (step_out && step[0] && step[1] && step[2]) *step_out = {*step[0], *step[1], *step[2]};
-  if (truth_out) {
-    // Every corner of a triangle to place moved by the same −shift·d: the triangle moved along
-    // the line, which meets it at t − shift with the same edge signs (a triple product with d is
-    // unchanged by adding multiples of d) — no need to judge it again.
-    const Q moved_by = exact_of(*shift);
-    for (auto& [tri, c] : contacts) c.t -= moved_by;
-    update_after_move(truth, oracle, r, w, range, vertices, contacts);
-    *truth_out = std::move(truth);
-  }
+  // Every corner of a triangle to place moved by the same −shift·d: the triangle moved along the
+  // line, which meets it at t − shift with the same edge signs (a triple product with d is
+  // unchanged by adding multiples of d) — no need to judge it again.
+  const Q moved_by = exact_of(*shift);
+  for (auto& [tri, c] : contacts) c.t -= moved_by;
+  update_after_move(truth, oracle, r, w, range, vertices, contacts);
+  truth_out = std::move(truth);
   return Placed::moved;
 }
 
@@ -1164,7 +1162,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
       first_try.emplace();
       std::optional<ExactTruth> truth_of_first;
       std::optional<std::array<Dyadic, 3>> step;
-      if (move_into_place(oracle, r, first, to_place, range, u, !a.all, &truth_of_first, &step) != Placed::no) {
+      if (move_into_place(oracle, r, first, to_place, range, u, !a.all, truth_of_first, &step) != Placed::no) {
         // Its ε: the ray stayed and every moved vertex moved by `step` (witness_ulps' number).
         LargestMove points, directions;
         if (step)
@@ -1253,7 +1251,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     const bool known = t.unmoved && first_try;  // placed (and maybe checked) above already
     if (!t.placed) {
       const Placed placed = known ? (first_try->placed ? Placed::moved : Placed::no)
-                                  : move_into_place(oracle, r, t.w, to_place, range, u, !a.all, &t.truth);
+                                  : move_into_place(oracle, r, t.w, to_place, range, u, !a.all, t.truth);
       if (placed == Placed::no) {
         tries.erase(next);
         continue;

@@ -25,17 +25,16 @@ TraceKind kind_of_failure(AnswerFailure f) {
                                              : TraceKind::tracer_error;
 }
 
-const BackwardErrorMemo::Entry* BackwardErrorMemo::find(const TracerOutcome& o, Precision p) const {
+const BackwardError* BackwardErrorMemo::find(const TracerOutcome& o, Precision p, const MeshAnswer& a) const {
   for (const Entry& e : entries_)
     if (e.kind == o.kind && e.edge_double == o.judgement.edge_double && e.precision == p && e.range == o.range &&
-        e.triangle == o.answer.triangle && e.triangles == o.all.triangles)
-      return &e;
+        e.answer.all == a.all && e.answer.triangle == a.triangle && e.answer.triangles == a.triangles)
+      return &e.backward;
   return nullptr;
 }
 
-void BackwardErrorMemo::keep(const TracerOutcome& o, Precision p) {
-  entries_.push_back(
-      {o.kind, o.judgement.edge_double, p, o.range, o.answer.triangle, o.all.triangles, o.backward, o.level});
+void BackwardErrorMemo::keep(const TracerOutcome& o, Precision p, const MeshAnswer& a) {
+  entries_.push_back({o.kind, o.judgement.edge_double, p, o.range, a, o.backward});
 }
 
 void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const TracerRay& ray, const MeshTruth& truth,
@@ -43,17 +42,14 @@ void add_backward_error(TracerOutcome& o, const MeshOracle& oracle, const Tracer
   o.level = Level::bug;
   o.backward = {};
   if (!has_backward_error(o.kind) || !settings.backward_error) return;
-  if (const BackwardErrorMemo::Entry* e = memo ? memo->find(o, p) : nullptr) {
-    o.backward = e->backward, o.level = e->level;
-    return;
-  }
   MeshAnswer a;
   a.all = all;
   a.triangle = o.answer.triangle;
   a.triangles = o.all.triangles;
-  o.backward = backward_error(oracle, ray, truth, o.judgement, a, p, o.range, settings.tolerance_ulps);
+  const BackwardError* known = memo ? memo->find(o, p, a) : nullptr;
+  o.backward = known ? *known : backward_error(oracle, ray, truth, o.judgement, a, p, o.range, settings.tolerance_ulps);
   o.level = level_of(o.backward, settings.tolerance_ulps);
-  if (memo) memo->keep(o, p);
+  if (memo && !known) memo->keep(o, p, a);
 }
 
 void add_verdict_fields(json& found, const TracerOutcome& o) {

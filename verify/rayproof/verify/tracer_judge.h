@@ -49,20 +49,18 @@ TracerOutcome judge_tracer_on_case(const Tracer& t, const MeshCase& seen, const 
 // (the two watertight built-ins agree on most spawned rays).
 class BackwardErrorMemo {
  public:
+  const BackwardError* find(const TracerOutcome& o, Precision p, const MeshAnswer& a) const;
+  void keep(const TracerOutcome& o, Precision p, const MeshAnswer& a);
+
+ private:
   struct Entry {
     TraceKind kind;
     bool edge_double;
     Precision precision;
     RangeRule range;
-    std::uint32_t triangle;
-    std::vector<std::uint32_t> triangles;
+    MeshAnswer answer;
     BackwardError backward;
-    Level level;
   };
-  const Entry* find(const TracerOutcome& o, Precision p) const;
-  void keep(const TracerOutcome& o, Precision p);
-
- private:
   std::vector<Entry> entries_;
 };
 // β and level of an outcome already judged (the table's kinds; errors, crashes: bugs, no β);
