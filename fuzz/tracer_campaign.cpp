@@ -10,6 +10,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <type_traits>
 #include <cstring>
 
 #include "rayproof/core/atomic_file.h"
@@ -511,6 +512,9 @@ struct PendingFinding {
   json expect;  // the oracle's expect on the mesh as found (a finding written unshrunk uses it)
 };
 
+// Moved, not copied, as the findings vector grows (an outcome's witness is shared).
+static_assert(std::is_nothrow_move_constructible_v<PendingFinding>);
+
 struct MeshResult {
   std::map<std::pair<std::size_t, bool>, TracerTally> tallies;  // (tracer, any-hit)
   std::vector<PendingFinding> findings;
@@ -619,9 +623,9 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
         count(near, TraceKind::not_representable), count(any, TraceKind::not_representable);
     }
     if (live.empty()) continue;
-    auto finding = [&](std::size_t i, bool all, TraceKind k, const TracerOutcome& outcome) {
+    auto finding = [&](std::size_t i, bool all, TraceKind k, TracerOutcome outcome) {
       PendingFinding f;
-      f.index = m * kRaysPerMesh + i, f.tracer = ti, f.all = all, f.kind = k, f.outcome = outcome;
+      f.index = m * kRaysPerMesh + i, f.tracer = ti, f.all = all, f.kind = k, f.outcome = std::move(outcome);
       f.seen = {"", s.mesh, *s.rays[i], all, nullptr, nullptr};
       f.detail = work.details[i], f.log2_translate = work.log2_translate, f.mesh_triangles = s.mesh->triangle_count();
       // Here, where the mesh's oracle is built (any-hit mode has the complete truth at hand).
@@ -680,7 +684,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       count_zero_direction_edge_hole(near, out, rays[k]);
       near.edge_rays += out.judgement.edge_ray, near.edge_holes += out.judgement.edge_hole;
       if (out.judgement.ulp) near.ulps.add(*out.judgement.ulp);
-      if (is_disagreement(out.kind)) finding(i, false, out.kind, out);
+      if (is_disagreement(out.kind)) finding(i, false, out.kind, std::move(out));
     }
     if (states[ti].stopped.load() || refused) continue;
     // Any-hit mode.
@@ -718,7 +722,7 @@ void judge_mesh(TracerFamily family, std::uint64_t m, std::uint64_t rays_here, c
       count_zero_direction_edge_hole(any, out, rays[k]);
       any.edge_rays += out.judgement.edge_ray, any.edge_holes += out.judgement.edge_hole;
       any.edge_double_hits += out.judgement.edge_double;
-      if (is_disagreement(out.kind)) finding(i, true, out.kind, out);
+      if (is_disagreement(out.kind)) finding(i, true, out.kind, std::move(out));
     }
   }
 }

@@ -1173,7 +1173,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
           const ExactTruth* known = placing_sees_reported ? &*truth_of_first : nullptr;
           if (answer_right_on(oracle, r, first, range, a, known) == true) {
             out.beta = first.ulps;
-            out.witness = std::move(first);
+            out.witness = std::make_shared<const Witness>(std::move(first));
             out.checked = true;
             return out;
           }
@@ -1273,7 +1273,7 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     const ExactTruth* truth_of_w = placing_sees_reported && t.truth ? &*t.truth : nullptr;
     if (!(known && first_try->refused) && answer_right_on(oracle, r, t.w, range, a, truth_of_w) == true) {
       out.beta = t.w.ulps;
-      out.witness = std::move(t.w);
+      out.witness = std::make_shared<const Witness>(std::move(t.w));
       out.checked = true;
       return out;
     }

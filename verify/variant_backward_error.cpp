@@ -684,7 +684,7 @@ BackwardError class_backward_error(const Query& seen, HitRule rule, HitClass rep
     if (out.checked && ulps >= *out.beta) continue;
     out.beta = ulps, out.checked = true;
     out.witness.reset();
-    if (q && keep_witness) out.witness = witness_of(s, *q, ulps);
+    if (q && keep_witness) out.witness = std::make_shared<const Witness>(witness_of(s, *q, ulps));
     if (!keep_witness && ulps <= check_up_to) break;  // a tally's verdict: the first witness will do
   }
   if (out.checked) return out;
@@ -752,7 +752,8 @@ BackwardError t_backward_error(const Query& seen, HitRule rule, HitClass reporte
   for (const ExactQuery& x : tries) {
     if (!t_right(x, rule, reported, t, p)) continue;
     const double ulps = exact_ulps(s, x);
-    if (!out.witness || ulps < *out.beta) out.beta = ulps, out.witness = witness_of(s, x, ulps), out.checked = true;
+    if (out.witness && ulps >= *out.beta) continue;
+    out.beta = ulps, out.witness = std::make_shared<const Witness>(witness_of(s, x, ulps)), out.checked = true;
   }
   if (!out.witness) out.refused = true;
   return out;
