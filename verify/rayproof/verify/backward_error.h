@@ -82,13 +82,13 @@ struct MeshAnswer {
 };
 
 struct BackwardError {
-  std::optional<double> beta;      // ulps (ε of the witness); nullopt: none
+  std::optional<double> beta;  // ulps (ε of the witness); nullopt: none
   // Accepted by the exact judge (where the caller keeps it). Shared, never changed: a memo hands
   // one witness to every tracer that gave the same answer, and findings copy outcomes.
   std::shared_ptr<const Witness> witness;
-  bool checked = false;            // a witness of ε = β passed the exact judge
-  bool refused = false;            // no witness within the checked range passed the exact check
-  bool estimated = false;          // β is the smallest try's ε, not checked (beyond check_up_to)
+  bool checked = false;    // a witness of ε = β passed the exact judge
+  bool refused = false;    // no witness within the checked range passed the exact check
+  bool estimated = false;  // β is the smallest try's ε, not checked (beyond check_up_to)
 };
 
 enum class Level { bug, rounding };
