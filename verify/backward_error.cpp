@@ -871,6 +871,39 @@ Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w,
   return Placed::moved;
 }
 
+// The unmoved witness w with its origin moved along d so that triangle t's contact, past a range
+// end, lies inside it by move_into_place's room: o + s·d meets every point at its t − s. Its ε
+// set (the moves s·d_k, exact); nullopt where t is in range or not crossed, or ε exceeds `most`
+// or `check_up_to`.
+std::optional<Witness> origin_along_d(const MeshOracle& oracle, const TracerRay& r, Witness w, std::uint32_t t,
+                                      RangeRule range, double u, double most, double check_up_to) {
+  const LineContact c = MovedInput{oracle.mesh(), w}.contact(t);
+  if (c.kind != LineContact::crossing) return std::nullopt;
+  const Q lo = exact_of(r.tmin);
+  const bool bounded = !std::isinf(r.tmax);
+  const double dn = max_abs(r.ray.direction);
+  Q room = exact_of(0x1p-12 * u * w.scale / dn);
+  if (bounded && (exact_of(r.tmax) - lo) / 2 < room) room = (exact_of(r.tmax) - lo) / 2;
+  if (room <= 0) return std::nullopt;
+  double shift;
+  if (range == RangeRule::closed ? c.t < lo : c.t <= lo)
+    shift = Q(c.t - (lo + room)).get_d();
+  else if (bounded && c.t >= exact_of(r.tmax))
+    shift = Q(c.t - (exact_of(r.tmax) - room)).get_d();
+  else
+    return std::nullopt;
+  const Dyadic s = Dyadic::of(shift);
+  LargestMove points, directions;
+  for (int k = 0; k < 3; ++k) {
+    const Dyadic move = s * Dyadic::of(r.ray.direction[k]);
+    w.origin[k] = (Dyadic::of(r.ray.origin[k]) + move).rational();
+    if (move.sign() != 0) points.add_move(move);
+  }
+  w.ulps = ulps_of_moves(points, directions, w.scale, r.ray, u);
+  if (!(w.ulps <= most) || w.ulps > check_up_to) return std::nullopt;
+  return w;
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------------------ the witness
@@ -1157,6 +1190,20 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
   if (place_subject) {
     double lowest = INFINITY;
     for (const ThroughPoint& q : points) lowest = std::min(lowest, q.least_ulps(r.ray, u, scale));
+    // A reported contact just past a range end: the ray's origin moved along d instead, by the
+    // very move the try below gives the subject's vertices (the same ε), carries every contact
+    // with it and no vertex; its truth is one search over the moved ray, without judging again
+    // the triangles around moved vertices. Checked as any witness; where it fails, the tries go on.
+    if (to_place.size() == 1 && lowest > 0) {
+      Witness along = unmoved(given, scale);
+      if (auto moved = origin_along_d(oracle, r, along, *subject, range, u, lowest, check_up_to))
+        if (answer_right_on(oracle, r, *moved, range, a) == true) {
+          out.beta = moved->ulps;
+          out.witness = std::make_shared<const Witness>(std::move(*moved));
+          out.checked = true;
+          return out;
+        }
+    }
     Witness first = unmoved(given, scale);
     if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject)) {
       first_try.emplace();
