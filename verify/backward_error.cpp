@@ -872,12 +872,17 @@ Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w,
 }
 
 // The unmoved witness w with its origin moved along d so that triangle t's contact, past a range
-// end, lies inside it by move_into_place's room: o + s·d meets every point at its t − s. Its ε
-// set (the moves s·d_k, exact); nullopt where t is in range or not crossed, or ε exceeds `most`
-// or `check_up_to`.
-std::optional<Witness> origin_along_d(const MeshOracle& oracle, const TracerRay& r, Witness w, std::uint32_t t,
-                                      RangeRule range, double u, double most, double check_up_to) {
-  const LineContact c = MovedInput{oracle.mesh(), w}.contact(t);
+// end, lies inside it by move_into_place's room: o + s·d meets every point at its t − s, with the
+// same edge signs (d·((v − o − s·d) × (v' − o − s·d)) = d·((v − o) × (v' − o))). Its ε set (the
+// moves s·d_k, exact), and t's contact after the move; nullopt where t is in range or not
+// crossed, or ε exceeds `most` or `check_up_to`.
+struct OriginMoved {
+  Witness w;
+  KnownContacts known;
+};
+std::optional<OriginMoved> origin_along_d(const MeshOracle& oracle, const TracerRay& r, Witness w, std::uint32_t t,
+                                          RangeRule range, double u, double most, double check_up_to) {
+  LineContact c = MovedInput{oracle.mesh(), w}.contact(t);
   if (c.kind != LineContact::crossing) return std::nullopt;
   const Q lo = exact_of(r.tmin);
   const bool bounded = !std::isinf(r.tmax);
@@ -901,7 +906,8 @@ std::optional<Witness> origin_along_d(const MeshOracle& oracle, const TracerRay&
   }
   w.ulps = ulps_of_moves(points, directions, w.scale, r.ray, u);
   if (!(w.ulps <= most) || w.ulps > check_up_to) return std::nullopt;
-  return w;
+  c.t -= exact_of(shift);
+  return OriginMoved{std::move(w), {{t, std::move(c)}}};
 }
 
 }  // namespace
@@ -1194,16 +1200,15 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     // very move the try below gives the subject's vertices (the same ε), carries every contact
     // with it and no vertex; its truth is one search over the moved ray, without judging again
     // the triangles around moved vertices. Checked as any witness; where it fails, the tries go on.
-    if (to_place.size() == 1 && lowest > 0) {
-      Witness along = unmoved(given, scale);
-      if (auto moved = origin_along_d(oracle, r, along, *subject, range, u, lowest, check_up_to))
-        if (answer_right_on(oracle, r, *moved, range, a) == true) {
-          out.beta = moved->ulps;
-          out.witness = std::make_shared<const Witness>(std::move(*moved));
+    if (to_place.size() == 1 && lowest > 0)
+      if (auto moved = origin_along_d(oracle, r, unmoved(given, scale), *subject, range, u, lowest, check_up_to))
+        // answer_right_on's own check: no vertex moved, and d (the ray's own) is not zero.
+        if (exact_answer_right(exact_truth(oracle, r, moved->w, range, reported_triangles, moved->known), a) == true) {
+          out.beta = moved->w.ulps;
+          out.witness = std::make_shared<const Witness>(std::move(moved->w));
           out.checked = true;
           return out;
         }
-    }
     Witness first = unmoved(given, scale);
     if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject)) {
       first_try.emplace();
