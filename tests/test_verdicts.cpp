@@ -193,7 +193,9 @@ TEST(Verdicts, ShellsAreTiesOrRounding) {
 }
 
 // A ray leaving a triangle (tmin = 0) that reports it at t = 0: right under `closed`
-// (at_range_end), a false hit under `open` whose witness moves the triangle a sliver forward.
+// (at_range_end), a false hit under `open` whose witness moves the ray's origin a sliver back
+// along d (every contact's t grows alike; no vertex moves), checked exactly. Likewise at tmax,
+// forward. (No brute-force bound here: any move into the range will do, the room is a choice.)
 TEST(Verdicts, RangeEndsUnderEachRange) {
   MeshOracle oracle(mesh_of({0, 0, 0, 4, 0, 0, 0, 4, 0}, {0, 1, 2}));
   const TracerRay r{{Vec3(1, 1, 0), Vec3(0.5, 0.25, 1)}, 0, INFINITY};
@@ -204,12 +206,26 @@ TEST(Verdicts, RangeEndsUnderEachRange) {
   ASSERT_EQ(open.j.kind, TraceKind::false_hit);
   ASSERT_TRUE(open.b.witness);
   EXPECT_LE(*open.b.beta, 0x1p-10);
+  EXPECT_TRUE(open.b.witness->vertices.empty());
+  EXPECT_LT(open.b.witness->origin[2], 0);  // back along d = (0.5, 0.25, 1)
+  EXPECT_EQ(witness_holds(oracle, r, *open.b.witness, RangeRule::open, open.a, Precision::f64), true);
   // tmax exactly on the triangle: a shadow ray to a point on the surface.
   const TracerRay shadow{{Vec3(1, 1, 2), Vec3(0, 0, -1)}, 0, 2};
   const Judged blocked = judge(oracle, shadow, 0, Precision::f64, RangeRule::closed);
   EXPECT_EQ(blocked.j.kind, TraceKind::right);
   EXPECT_EQ(blocked.j.at_range_end, RangeEnd::tmax);
-  EXPECT_EQ(judge(oracle, shadow, 0, Precision::f64, RangeRule::open).j.kind, TraceKind::false_hit);
+  const Judged shadow_open = judge(oracle, shadow, 0, Precision::f64, RangeRule::open);
+  ASSERT_EQ(shadow_open.j.kind, TraceKind::false_hit);
+  ASSERT_TRUE(shadow_open.b.beta && shadow_open.b.witness);
+  EXPECT_LE(*shadow_open.b.beta, 0x1p-10);
+  EXPECT_TRUE(shadow_open.b.witness->vertices.empty());
+  EXPECT_LT(shadow_open.b.witness->origin[2], 2);  // forward along d = (0, 0, −1)
+  EXPECT_EQ(witness_holds(oracle, shadow, *shadow_open.b.witness, RangeRule::open, shadow_open.a, Precision::f64),
+            true);
+  // The same move short of the range end (the origin where it was) is refused.
+  Witness unmoved = *shadow_open.b.witness;
+  unmoved.origin = {exact_of(1), exact_of(1), exact_of(2)};
+  EXPECT_EQ(witness_holds(oracle, shadow, unmoved, RangeRule::open, shadow_open.a, Precision::f64), false);
 }
 
 // A hole at an interior point of a closed, consistently wound surface, and a double hit on a
