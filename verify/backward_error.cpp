@@ -873,28 +873,24 @@ Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w,
 
 // The unmoved witness w with its origin moved along d so that triangle t's contact, past a range
 // end, lies inside it by move_into_place's room: o + s·d meets every point at its t − s, with the
-// same edge signs (d·((v − o − s·d) × (v' − o − s·d)) = d·((v − o) × (v' − o))). Its ε set (the
-// moves s·d_k, exact), and t's contact after the move; nullopt where t is in range or not
-// crossed, or ε exceeds `most` or `check_up_to`.
-struct OriginMoved {
-  Witness w;
-  KnownContacts known;
-};
-std::optional<OriginMoved> origin_along_d(const MeshOracle& oracle, const TracerRay& r, Witness w, std::uint32_t t,
-                                          RangeRule range, double u, double most, double check_up_to) {
+// same edge signs (d·((v − o − s·d) × (v' − o − s·d)) = d·((v − o) × (v' − o))). Sets w's origin
+// and ε (the moves s·d_k, exact) and returns t's contact after the move; nullopt where t is in
+// range or not crossed, or ε exceeds `most` or `check_up_to` (w then is not a witness).
+std::optional<KnownContacts> origin_along_d(const MeshOracle& oracle, const TracerRay& r, Witness& w, std::uint32_t t,
+                                            RangeRule range, double u, double most, double check_up_to) {
   LineContact c = MovedInput{oracle.mesh(), w}.contact(t);
   if (c.kind != LineContact::crossing) return std::nullopt;
   const Q lo = exact_of(r.tmin);
-  const bool bounded = !std::isinf(r.tmax);
+  const std::optional<Q> hi = std::isinf(r.tmax) ? std::nullopt : std::optional(exact_of(r.tmax));
   const double dn = max_abs(r.ray.direction);
   Q room = exact_of(0x1p-12 * u * w.scale / dn);
-  if (bounded && (exact_of(r.tmax) - lo) / 2 < room) room = (exact_of(r.tmax) - lo) / 2;
+  if (hi && (*hi - lo) / 2 < room) room = (*hi - lo) / 2;
   if (room <= 0) return std::nullopt;
   double shift;
   if (range == RangeRule::closed ? c.t < lo : c.t <= lo)
     shift = Q(c.t - (lo + room)).get_d();
-  else if (bounded && c.t >= exact_of(r.tmax))
-    shift = Q(c.t - (exact_of(r.tmax) - room)).get_d();
+  else if (hi && c.t >= *hi)
+    shift = Q(c.t - (*hi - room)).get_d();
   else
     return std::nullopt;
   const Dyadic s = Dyadic::of(shift);
@@ -907,7 +903,7 @@ std::optional<OriginMoved> origin_along_d(const MeshOracle& oracle, const Tracer
   w.ulps = ulps_of_moves(points, directions, w.scale, r.ray, u);
   if (!(w.ulps <= most) || w.ulps > check_up_to) return std::nullopt;
   c.t -= exact_of(shift);
-  return OriginMoved{std::move(w), {{t, std::move(c)}}};
+  return KnownContacts{{t, std::move(c)}};
 }
 
 }  // namespace
@@ -1200,15 +1196,17 @@ BackwardError backward_error(const MeshOracle& oracle, const TracerRay& r, const
     // very move the try below gives the subject's vertices (the same ε), carries every contact
     // with it and no vertex; its truth is one search over the moved ray, without judging again
     // the triangles around moved vertices. Checked as any witness; where it fails, the tries go on.
-    if (to_place.size() == 1 && lowest > 0)
-      if (auto moved = origin_along_d(oracle, r, unmoved(given, scale), *subject, range, u, lowest, check_up_to))
+    if (to_place.size() == 1 && lowest > 0) {
+      Witness along = unmoved(given, scale);
+      if (const auto known = origin_along_d(oracle, r, along, *subject, range, u, lowest, check_up_to))
         // answer_right_on's own check: no vertex moved, and d (the ray's own) is not zero.
-        if (exact_answer_right(exact_truth(oracle, r, moved->w, range, reported_triangles, moved->known), a) == true) {
-          out.beta = moved->w.ulps;
-          out.witness = std::make_shared<const Witness>(std::move(moved->w));
+        if (exact_answer_right(exact_truth(oracle, r, along, range, reported_triangles, *known), a) == true) {
+          out.beta = along.ulps;
+          out.witness = std::make_shared<const Witness>(std::move(along));
           out.checked = true;
           return out;
         }
+    }
     Witness first = unmoved(given, scale);
     if (lowest > 0 && MovedInput{mesh, first}.crosses(*subject)) {
       first_try.emplace();
