@@ -806,10 +806,34 @@ struct ThroughPoint {
   }
 };
 
+// Where a contact moved along the line must land: after lo (tmin; a closed range includes it) and
+// before hi (included or not), inside either end by `room`: a 2^-12-ulp move, or half the span
+// where less.
+struct Landing {
+  Q lo;
+  std::optional<Q> hi;
+  bool hi_included = false;
+  Q room;
+  // The shift s along the line (the contact then at t − s) that lands t; nullopt where it lies
+  // inside already.
+  std::optional<double> shift_for(const Q& t, RangeRule range) const {
+    if (range == RangeRule::closed ? t < lo : t <= lo) return Q(t - (lo + room)).get_d();
+    if (hi && (t > *hi || (t == *hi && !hi_included))) return Q(t - (*hi - room)).get_d();
+    return std::nullopt;
+  }
+};
+// nullopt where there is no room (hi at or before lo).
+std::optional<Landing> landing(const TracerRay& r, std::optional<Q> hi, bool hi_included, double u, double scale) {
+  Landing out{exact_of(r.tmin), std::move(hi), hi_included, exact_of(0x1p-12 * u * scale / max_abs(r.ray.direction))};
+  if (out.hi && (*out.hi - out.lo) / 2 < out.room) out.room = (*out.hi - out.lo) / 2;
+  if (out.room <= 0) return std::nullopt;
+  return out;
+}
+
 // Moves the triangles' vertices (each once, all by the same shift along d: a shared edge moves
 // whole) so that the first of them out of place comes into range and, in nearest mode, to at or
 // before the first required crossing; `no` where that triangle has no contact with the line.
-// `truth`: set to the exact truth of w as it ends (computed before the move, brought up to date after).
+// `truth_out`: set to the exact truth of w as it ends (computed before the move, brought up to date after).
 // `step_out`: where the move was dyadic, each vertex's move along each axis (the same for all).
 enum class Placed { no, in_place, moved };
 Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w, const std::set<std::uint32_t>& tris,
@@ -821,24 +845,16 @@ Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w,
   for (std::uint32_t tri : tris) contacts.emplace_back(tri, in.contact(tri));
   ExactTruth truth = exact_truth(oracle, r, w, range, also, contacts);
   const auto req = truth.first_required();
-  const Q lo = exact_of(r.tmin);
   std::optional<Q> hi;  // the latest t a contact may take
   bool hi_included = false;
   if (req && nearest) hi = truth.contacts[truth.points[*req].front()].t, hi_included = true;  // any-hit: in range
   if (!std::isinf(r.tmax) && (!hi || exact_of(r.tmax) <= *hi)) hi = exact_of(r.tmax), hi_included = false;
-  // A contact strictly inside (lo, hi) by a 2^-12 ulp move, or half the room where less.
-  const double dn = max_abs(r.ray.direction);
-  Q room = exact_of(0x1p-12 * u * w.scale / dn);
-  if (hi && (*hi - lo) / 2 < room) room = (*hi - lo) / 2;
-  if (room <= 0) return Placed::no;
+  const std::optional<Landing> land = landing(r, std::move(hi), hi_included, u, w.scale);
+  if (!land) return Placed::no;
   std::optional<double> shift;  // contact at t − shift: vertices move by −shift·d
   for (const auto& [tri, c] : contacts) {
     if (c.kind != LineContact::crossing) return Placed::no;
-    if (range == RangeRule::closed ? c.t < lo : c.t <= lo)
-      shift = Q(c.t - (lo + room)).get_d();
-    else if (hi && (c.t > *hi || (c.t == *hi && !hi_included)))
-      shift = Q(c.t - (*hi - room)).get_d();
-    if (shift) break;
+    if ((shift = land->shift_for(c.t, range))) break;
   }
   if (!shift) {  // in place already
     truth_out = std::move(truth);
@@ -872,7 +888,7 @@ Placed move_into_place(const MeshOracle& oracle, const TracerRay& r, Witness& w,
 }
 
 // The unmoved witness w with its origin moved along d so that triangle t's contact, past a range
-// end, lies inside it by move_into_place's room: o + s·d meets every point at its t − s, with the
+// end, lands inside it as move_into_place's would (Landing): o + s·d meets every point at its t − s, with the
 // same edge signs (d·((v − o − s·d) × (v' − o − s·d)) = d·((v − o) × (v' − o))). Sets w's origin
 // and ε (the moves s·d_k, exact) and returns t's contact after the move; nullopt where t is in
 // range or not crossed, or ε exceeds `most` or `check_up_to` (w then is not a witness).
@@ -880,20 +896,11 @@ std::optional<KnownContacts> origin_along_d(const MeshOracle& oracle, const Trac
                                             RangeRule range, double u, double most, double check_up_to) {
   LineContact c = MovedInput{oracle.mesh(), w}.contact(t);
   if (c.kind != LineContact::crossing) return std::nullopt;
-  const Q lo = exact_of(r.tmin);
-  const std::optional<Q> hi = std::isinf(r.tmax) ? std::nullopt : std::optional(exact_of(r.tmax));
-  const double dn = max_abs(r.ray.direction);
-  Q room = exact_of(0x1p-12 * u * w.scale / dn);
-  if (hi && (*hi - lo) / 2 < room) room = (*hi - lo) / 2;
-  if (room <= 0) return std::nullopt;
-  double shift;
-  if (range == RangeRule::closed ? c.t < lo : c.t <= lo)
-    shift = Q(c.t - (lo + room)).get_d();
-  else if (hi && c.t >= *hi)
-    shift = Q(c.t - (*hi - room)).get_d();
-  else
-    return std::nullopt;
-  const Dyadic s = Dyadic::of(shift);
+  const std::optional<Landing> land =
+      landing(r, std::isinf(r.tmax) ? std::nullopt : std::optional(exact_of(r.tmax)), false, u, w.scale);
+  const std::optional<double> shift = land ? land->shift_for(c.t, range) : std::nullopt;
+  if (!shift) return std::nullopt;
+  const Dyadic s = Dyadic::of(*shift);
   LargestMove points, directions;
   for (int k = 0; k < 3; ++k) {
     const Dyadic move = s * Dyadic::of(r.ray.direction[k]);
@@ -902,7 +909,7 @@ std::optional<KnownContacts> origin_along_d(const MeshOracle& oracle, const Trac
   }
   w.ulps = ulps_of_moves(points, directions, w.scale, r.ray, u);
   if (!(w.ulps <= most) || w.ulps > check_up_to) return std::nullopt;
-  c.t -= exact_of(shift);
+  c.t -= exact_of(*shift);
   return KnownContacts{{t, std::move(c)}};
 }
 
