@@ -191,6 +191,52 @@ struct RunningBound {
     return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]));
   }
 };
+// Step 1 at one point of a box: the exact values are known as intervals [lo, hi] (each end
+// rounded outward), so a sum's magnitude is |a + b| there, not |a| + |b|. Over a box, a formula
+// linear in the point (N in s, D in t·d) has, in each rounding term, |an affine function| times
+// constants: the error bound is convex in the point, so its largest value is at a corner.
+struct Signed {
+  double lo = 0, hi = 0, err = 0;
+  double mag() const { return std::max(std::abs(lo), std::abs(hi)); }
+};
+using SVec = std::array<Signed, 3>;
+struct SignedBound {
+  double u;
+  Signed rounded(double lo, double hi, double err) const {  // one rounding of the result
+    const Signed r{lo, hi, err};
+    return {lo, hi, up(err + up(u * up(r.mag() + err)))};
+  }
+  Signed add(const Signed& a, const Signed& b) const {
+    return rounded(down(a.lo + b.lo), up(a.hi + b.hi), up(a.err + b.err));
+  }
+  Signed sub(const Signed& a, const Signed& b) const {
+    return rounded(down(a.lo - b.hi), up(a.hi - b.lo), up(a.err + b.err));
+  }
+  Signed mul(const Signed& a, const Signed& b) const {
+    const double c[4] = {a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi};
+    const double lo = down(std::min(std::min(c[0], c[1]), std::min(c[2], c[3])));
+    const double hi = up(std::max(std::max(c[0], c[1]), std::max(c[2], c[3])));
+    return rounded(lo, hi, up(up(up(a.mag() * b.err) + up(b.mag() * a.err)) + up(a.err * b.err)));
+  }
+  SVec cross(const SVec& a, const SVec& b) const {
+    return {sub(mul(a[1], b[2]), mul(a[2], b[1])), sub(mul(a[2], b[0]), mul(a[0], b[2])),
+            sub(mul(a[0], b[1]), mul(a[1], b[0]))};
+  }
+  Signed dot(const SVec& a, const SVec& b) const { return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2])); }
+};
+// An exact value known to 2^-45 (Expansion::estimate), with its computed rounding's error.
+Signed signed_of(const Expansion& e, double err) {
+  const double est = e.estimate(), slack = up(std::abs(est) * 0x1p-45);
+  return {down(est - slack), up(est + slack), err};
+}
+// The corners of a box.
+std::array<Vec3, 8> corners_of(const Bounds& b) {
+  std::array<Vec3, 8> c;
+  for (int k = 0; k < 8; ++k)
+    c[k] = Vec3(k & 1 ? b.hi.x() : b.lo.x(), k & 2 ? b.hi.y() : b.lo.y(), k & 4 ? b.hi.z() : b.lo.z());
+  return c;
+}
+
 BVec inputs(const Vec3& mags) {
   return {RunningBound::input(mags[0]), RunningBound::input(mags[1]), RunningBound::input(mags[2])};
 }
@@ -225,10 +271,17 @@ Vec3 reach_from(const Bounds& box, const Vec3& c) {
   for (int i = 0; i < 3; ++i) r[i] = up(std::max(std::abs(box.lo[i] - c[i]), std::abs(box.hi[i] - c[i])));
   return r;
 }
-// Per axis, the largest |x_i − y_i| for x in a, y in b.
+// Per axis, the largest |t̃·d_i| of a ray from an origin in a whose computed point p̃ lies in b:
+// p̃ = o + t̃·d + r with |r_i| ≤ u|t̃·d_i| + u|p̃_i|/(1 − u) (step 2), so |t̃·d_i| ≤ (|p̃_i − o_i| +
+// 2u|p̃_i|)/(1 − u); float's u, the larger, serves both precisions.
 Vec3 travel(const Bounds& a, const Bounds& b) {
+  constexpr double u = 0x1p-24;
   Vec3 r;
-  for (int i = 0; i < 3; ++i) r[i] = up(std::max(std::abs(a.hi[i] - b.lo[i]), std::abs(b.hi[i] - a.lo[i])));
+  for (int i = 0; i < 3; ++i) {
+    const double apart = up(std::max(std::abs(a.hi[i] - b.lo[i]), std::abs(b.hi[i] - a.lo[i])));
+    const double point = std::max(std::abs(b.lo[i]), std::abs(b.hi[i]));
+    r[i] = up(up(apart + up(2 * u * point)) / down(1 - u));
+  }
   return r;
 }
 Vec3 largest_abs(const Bounds& box) {
@@ -270,6 +323,13 @@ double quotient_rehit(Precision p, int roundings, double err_N, double err_D, co
   return up(up(err_N + up(err_D * up(1 + g))) / nb.length_lo);
 }
 
+// An edge a − b of two vertices as the variant computes it: its rounding is known, not only
+// bounded (often 0: Sterbenz, for a small triangle away from the axes' zeros).
+Bounded computed_difference(Precision p, double a, double b, const Expansion& exact) {
+  const double computed = p == Precision::f32 ? double(float(float(a) - float(b))) : a - b;
+  return {upper_abs(exact), upper_abs(Expansion(computed) - exact)};
+}
+
 // Möller–Trumbore (variants.cpp moller_trumbore): p = d × e2, det = e1·p, q = s × e1,
 // t = (e2·q)·(1/det): two roundings in the quotient.
 // A triangle as a variant of precision p sees it, its edges and its normal, exact.
@@ -302,8 +362,8 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
   const RunningBound A{unit_roundoff(p)};
   BVec e1, e2;
   for (int i = 0; i < 3; ++i) {
-    e1[i] = A.difference(upper_abs(e1x[i]));
-    e2[i] = A.difference(upper_abs(e2x[i]));
+    e1[i] = computed_difference(p, tri.v[1][i], tri.v[0][i], e1x[i]);
+    e2[i] = computed_difference(p, tri.v[2][i], tri.v[0][i], e2x[i]);
   }
   auto N_at = [&](const Vec3& s_mag) {
     BVec s;
@@ -311,15 +371,59 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
     return A.dot(e2, A.cross(s, e1));
   };
   auto D_at = [&](const Vec3& travel_mag) { return A.dot(e1, A.cross(inputs(travel_mag), e2)); };
+  // The same at the corners of a box (convex: the largest there), of s = o − v0 for N, of the
+  // travel t·d for D (whose |value| is then |n·t·d|, the g·mag_D of (1)).
+  const SignedBound S{unit_roundoff(p)};
+  SVec se1, se2;
+  for (int i = 0; i < 3; ++i) {
+    se1[i] = signed_of(e1x[i], e1[i].err);
+    se2[i] = signed_of(e2x[i], e2[i].err);
+  }
+  auto N_over = [&](const Bounds& origins) {
+    Bounded worst;
+    for (const Vec3& c : corners_of(origins)) {
+      SVec sv;
+      for (int i = 0; i < 3; ++i) {
+        const double d = c[i] - tri.v[0][i];  // within an ulp of the exact difference
+        const Signed exact{down(d), up(d), 0};
+        sv[i] = {exact.lo, exact.hi, up(S.u * exact.mag())};  // s = fl(o − v0)
+      }
+      const Signed n = S.dot(se2, S.cross(sv, se1));
+      worst = {std::max(worst.mag, n.mag()), std::max(worst.err, n.err)};
+    }
+    return worst;
+  };
+  // t̃·d = p̃ − o − r: within the box from the origins to the computed points, widened by the
+  // point's rounding r, as `travel` bounds it.
+  auto D_over = [&](const Bounds& origins, const Bounds& points) {
+    Bounds w;
+    const Vec3 reach = travel(origins, points);
+    for (int i = 0; i < 3; ++i) {
+      w.lo[i] = down(points.lo[i] - origins.hi[i]), w.hi[i] = up(points.hi[i] - origins.lo[i]);
+      const double r = std::max(0.0, up(reach[i] - std::max(std::abs(w.lo[i]), std::abs(w.hi[i]))));
+      w.lo[i] = down(w.lo[i] - r), w.hi[i] = up(w.hi[i] + r);
+    }
+    Bounded worst;
+    for (const Vec3& c : corners_of(w)) {
+      const SVec dv = {Signed{c[0], c[0], 0}, Signed{c[1], c[1], 0}, Signed{c[2], c[2], 0}};
+      const Signed d = S.dot(se1, S.cross(dv, se2));
+      worst = {std::max(worst.mag, d.mag()), std::max(worst.err, d.err)};
+    }
+    return worst;
+  };
   Bounds own;
   for (const Vec3& v : tri.v) own.grow(v);
 
   // Pass 1 over the scene's box bounds every hit point; pass 2 over the primitive's box widened
-  // by pass 1's bound (the domain) is the bound reported.
+  // by pass 1's bound (the domain) is the bound reported. Each the smaller of the per-axis
+  // magnitudes' bound and the corners' (both valid; the corners' is smaller where signs cancel).
   const Vec3 s_mag = reach_from(box, tri.v[0]);
+  const Bounded N_box = N_over(box);
   auto bound_for = [&](const Bounds& points) {
     const Vec3 w = travel(box, points);
-    return quotient_point_bound(p, 2, N_at(s_mag), D_at(w), nb, w, largest_abs(points));
+    const Bounded D_box = D_over(box, points);
+    return std::min(quotient_point_bound(p, 2, N_at(s_mag), D_at(w), nb, w, largest_abs(points)),
+                    quotient_point_bound(p, 2, N_box, D_box, nb, w, largest_abs(points)));
   };
   OffsetProof proof;
   const double coarse = bound_for(box);
