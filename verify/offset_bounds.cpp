@@ -284,6 +284,17 @@ Vec3 travel(const Bounds& a, const Bounds& b) {
   }
   return r;
 }
+// The box of t̃·d itself (signed) for the same rays: p̃ − o widened by the rounding `travel` allows.
+Bounds travel_box(const Bounds& origins, const Bounds& points) {
+  Bounds w;
+  const Vec3 reach = travel(origins, points);
+  for (int i = 0; i < 3; ++i) {
+    w.lo[i] = down(points.lo[i] - origins.hi[i]), w.hi[i] = up(points.hi[i] - origins.lo[i]);
+    const double r = std::max(0.0, up(reach[i] - std::max(std::abs(w.lo[i]), std::abs(w.hi[i]))));
+    w.lo[i] = down(w.lo[i] - r), w.hi[i] = up(w.hi[i] + r);
+  }
+  return w;
+}
 Vec3 largest_abs(const Bounds& box) {
   Vec3 r;
   for (int i = 0; i < 3; ++i) r[i] = std::max(std::abs(box.lo[i]), std::abs(box.hi[i]));
@@ -393,18 +404,10 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
     }
     return worst;
   };
-  // t̃·d = p̃ − o − r: within the box from the origins to the computed points, widened by the
-  // point's rounding r, as `travel` bounds it.
+  // t̃·d = p̃ − o − r: within travel_box.
   auto D_over = [&](const Bounds& origins, const Bounds& points) {
-    Bounds w;
-    const Vec3 reach = travel(origins, points);
-    for (int i = 0; i < 3; ++i) {
-      w.lo[i] = down(points.lo[i] - origins.hi[i]), w.hi[i] = up(points.hi[i] - origins.lo[i]);
-      const double r = std::max(0.0, up(reach[i] - std::max(std::abs(w.lo[i]), std::abs(w.hi[i]))));
-      w.lo[i] = down(w.lo[i] - r), w.hi[i] = up(w.hi[i] + r);
-    }
     Bounded worst;
-    for (const Vec3& c : corners_of(w)) {
+    for (const Vec3& c : corners_of(travel_box(origins, points))) {
       const SVec dv = {Signed{c[0], c[0], 0}, Signed{c[1], c[1], 0}, Signed{c[2], c[2], 0}};
       const Signed d = S.dot(se1, S.cross(dv, se2));
       worst = {std::max(worst.mag, d.mag()), std::max(worst.err, d.err)};
@@ -482,6 +485,17 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
   }
   const Vec3 n_abs(upper_abs(nx[0]), upper_abs(nx[1]), upper_abs(nx[2]));
   const double n_1 = up(up(n_abs[0] + n_abs[1]) + n_abs[2]);  // |D| = |n·d|/|d_kz| ≤ |n|₁
+  // |D|·|t̃·d_kz| = |n·t̃d|: largest at a corner of the travel box (the estimate's 2^-45 and the
+  // double dot's rounding covered by 2^-40 of its terms).
+  auto n_dot_travel = [&](const Bounds& origins) {
+    double most = 0;
+    for (const Vec3& w : corners_of(travel_box(origins, domain))) {
+      double terms = 0;
+      for (int k = 0; k < 3; ++k) terms = up(terms + up(std::abs(n_est[k]) * std::abs(w[k])));
+      most = std::max(most, up(std::abs(n_est.dot(w)) + up(terms * 0x1p-40)));
+    }
+    return most;
+  };
   // A bound on |N − t̃D|·|d_kz| two ways, (8): `corners` takes |f_j| at the domain's corners;
   // `projected` takes f_j = β_j·n + h·n̂ × (v_b − v_a), over 1 − c.
   struct Along {
@@ -490,6 +504,7 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
   // |N − t̃D|·|d_kz| for origins in `origins` and dominant axis kz: (6), or (7) for a re-hit.
   auto along = [&](const Bounds& origins, int kz, bool rehit) {
     const int kx = (kz + 1) % 3, ky = (kz + 2) % 3;
+    const double n_w = rehit ? 0 : n_dot_travel(origins);
     const Vec3 W = travel(origins, domain), P = largest_abs(domain);
     Vec3 r;
     for (int i = 0; i < 3; ++i) r[i] = up(up(u * W[i]) + up(u * P[i] / down(1 - u)));
@@ -540,7 +555,22 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     }
     const double per_travel =
         rehit ? up(up(up(g2 * up(1 + g)) * S_u) + up(g * sum_e)) : up(S_u * up(g2 + up(g * up(1 + g2))));
-    const double rest = up(up(up(S_u * up(zeta + up(g3 * z_mag))) + weighted_e) + up(W[kz] * per_travel));
+    double rest = up(up(up(S_u * up(zeta + up(g3 * z_mag))) + weighted_e) + up(W[kz] * per_travel));
+    if (!rehit) {
+      // The same terms with the depth and Σ|ũ_i| of one ray together (6'): ζ_i + γ(3)|z̃_i d_kz| =
+      // z_coef·|A_i,kz| (A = v − o, its rounding and the depth's two), |A_i,kz| ≤ |t̃·d_kz| +
+      // E_i,kz + r_kz (v_i − p̃, then p̃ − o), Σ|ũ_i| ≤ |D| + Σ|e_i|, and |D|·|t̃·d_kz| = |n·t̃d|,
+      // at most n_w (and at most |n|₁·W_kz). Taking |D| ≤ |n|₁ and the depth ≤ W_kz apart, as (6) does, pays for a
+      // direction along n and a travel along kz at once, which no ray has.
+      const double z_coef = up(up(u + up(g2 * up(1 + u))) + up(g3 * up(up(1 + u) * up(1 + g2))));
+      const double kappa = up(g2 + up(g * up(1 + g2)));
+      double near = 0;  // the largest E_i,kz
+      for (int i = 0; i < 3; ++i) near = std::max(near, reach_from(domain, tri.v[i])[kz]);
+      near = up(near + r[kz]);
+      const double joint = up(up(up(z_coef + kappa) * std::min(n_w, up(n_1 * W[kz]))) +
+                              up(z_coef * up(up(n_1 * near) + up(sum_e * up(W[kz] + near)))));
+      rest = std::min(rest, up(up(joint + up(kappa * up(W[kz] * sum_e))) + weighted_e));
+    }
     const double c = up(c_sum / nb.length_lo);
     return Along{up(rest + at_corners), c <= 0.5 ? up(up(rest + projected) / down(1 - c)) : INFINITY};
   };
