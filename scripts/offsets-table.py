@@ -2,7 +2,8 @@
 """docs/results/offsets.md's table: `rayproof offsets` on the bundled bunny
 scene scaled by 2^k, k = -30 ... 30 in steps of 10, for Möller–Trumbore and the watertight test in
 double and float.
-Prints the Markdown rows (k values with identical rows merged) and the bracket distribution.
+Prints the Markdown rows (k values with identical rows merged); the brackets need more rays per
+triangle (report.html and offsets.json give them: `rayproof offsets ... --count 10000000`).
 Usage: scripts/offsets-table.py BUILD_DIR [--count N]   (about two minutes on 2 cores)
 """
 import json
