@@ -115,6 +115,13 @@
 // over a constant: below a knee K it lies under its chord, beyond it under its value at K times
 // (reach/K)³.
 //
+// Tightenings, each taken as the smaller of two valid bounds. Möller–Trumbore's edges v1 − v0,
+// v2 − v0 are rounded once per triangle: their error is computed exactly (0 where Sterbenz's lemma
+// holds), not bounded by u·|e|. N = e2·(s × e1) is linear in s and D in t·d, so every rounding
+// term of step 1 is |an affine function| times constants, convex over a box: evaluated at its
+// eight corners with signed values (a sum's magnitude |a + b| there) it is largest at one of
+// them. For the watertight test (6'), below, takes a ray's depth and Σ|ũ_i| together.
+//
 // Hearn–Baker's discriminant r² − |l|² is not rounded in proportion to the quadratic's
 // coefficients (its |l|² errs by γ·|o − m|² even where β and c vanish), so the small root's
 // bound above needs a lower bound on q that tangent rays from the surface do not give; it gets
@@ -561,8 +568,8 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
       // The same terms with the depth and Σ|ũ_i| of one ray together (6'): ζ_i + γ(3)|z̃_i d_kz| =
       // z_coef·|A_i,kz| (A = v − o, its rounding and the depth's two), |A_i,kz| ≤ |t̃·d_kz| +
       // E_i,kz + r_kz (v_i − p̃, then p̃ − o), Σ|ũ_i| ≤ |D| + Σ|e_i|, and |D|·|t̃·d_kz| = |n·t̃d|,
-      // at most n_w (and at most |n|₁·W_kz). Taking |D| ≤ |n|₁ and the depth ≤ W_kz apart, as (6) does, pays for a
-      // direction along n and a travel along kz at once, which no ray has.
+      // at most n_w (and at most |n|₁·W_kz). Taking |D| ≤ |n|₁ and the depth ≤ W_kz apart, as
+      // (6) does, pays for a direction along n and a travel along kz at once, which no ray has.
       const double z_coef = up(up(u + up(g2 * up(1 + u))) + up(g3 * up(up(1 + u) * up(1 + g2))));
       const double kappa = up(g2 + up(g * up(1 + g2)));
       double near = 0;  // the largest E_i,kz
