@@ -428,8 +428,8 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
       for (std::size_t i = P; i > 1; --i) std::swap(order[i - 1], order[s.next() % i]);
     }
     std::vector<std::uint64_t> ray_count(P, base);
-    const Bounds origin_box{to_precision(prec, report.box.lo), to_precision(prec, report.box.hi)};
     for (std::uint64_t k = 0; k < extra; ++k) ++ray_count[order[k]];
+    const Bounds origin_box{to_precision(prec, report.box.lo), to_precision(prec, report.box.hi)};
 
     std::mutex merge;
     std::atomic<std::size_t> next{0}, done{0};
@@ -486,8 +486,8 @@ OffsetsReport run_offsets(const SceneIndex& index, const std::string& scene_name
         // Then climb from the farthest point found: the error is a sum of roundings, each set by
         // the low bits of a few of the ray's six numbers, so moving one number re-draws only its
         // own roundings and keeps what the others gained. Random rays reach a few standard
-        // deviations of that sum; the climb lines the roundings up (on the bunny's triangles the
-        // bracket's median fell from 8.4x to ~3x for the same rays).
+        // deviations of that sum; the climb lines the roundings up (on the bunny's triangles, 133
+        // rays each, the bracket's median fell from 8.4x to 5.9x with the bound unchanged).
         if (po.farthest && spread < ray_count[j]) {
           Ray at = po.farthest->ray;
           double from = std::abs(po.farthest->distance);

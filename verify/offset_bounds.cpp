@@ -164,75 +164,58 @@ Vec3 in_precision(Precision p, const Vec3& v) {
   return {in_precision(p, v.x()), in_precision(p, v.y()), in_precision(p, v.z())};
 }
 
-// Step 1: a quantity's exact magnitude bound and the computed value's error bound.
+// Step 1: a quantity's exact value, known as an interval [lo, hi] (each end rounded outward; of
+// unknown sign: [−mag, mag]), and the computed value's error bound. Where signs are known (at one
+// point of a box) a sum's magnitude is |a + b| there, not |a| + |b|; over a box, a formula linear in
+// the point (Möller–Trumbore's N in s, D in t·d) has, in each rounding term, |an affine function|
+// times constants: the error bound is convex in the point, so its largest value is at a corner.
 struct Bounded {
-  double mag = 0, err = 0;
+  double lo = 0, hi = 0, err = 0;
+  static Bounded within(double mag, double err = 0) { return {-mag, mag, err}; }
+  double mag() const { return std::max(std::abs(lo), std::abs(hi)); }
 };
 using BVec = std::array<Bounded, 3>;
 
 struct RunningBound {
   double u;
-  static Bounded input(double mag) { return {mag, 0}; }
+  static Bounded input(double mag) { return Bounded::within(mag); }
   // a − b of two exact inputs with |a − b| ≤ mag: one rounding.
-  Bounded difference(double mag) const { return {mag, up(u * mag)}; }
-  Bounded add(const Bounded& a, const Bounded& b) const {  // a + b or a − b: the same bound
-    const double mag = up(a.mag + b.mag), err = up(a.err + b.err);
-    return {mag, up(err + up(u * up(mag + err)))};
+  Bounded difference(double mag) const { return Bounded::within(mag, up(u * mag)); }
+  Bounded rounded(double lo, double hi, double err) const {  // one rounding of the result
+    const double mag = Bounded{lo, hi}.mag();
+    return {lo, hi, up(err + up(u * up(mag + err)))};
   }
-  Bounded mul(const Bounded& a, const Bounded& b) const {
-    const double mag = up(a.mag * b.mag);
-    const double err = up(up(up(a.mag * b.err) + up(b.mag * a.err)) + up(a.err * b.err));
-    return {mag, up(err + up(u * up(mag + err)))};
-  }
-  // x − y of two computed values whose exact difference is known to be at most `mag`.
-  Bounded difference_within(const Bounded& x, const Bounded& y, double mag) const {
-    const double err = up(x.err + y.err);
-    return {mag, up(err + up(u * up(mag + err)))};
-  }
-  // In the order variants.cpp writes them: cross component a_j b_k − a_k b_j, dot (x + y) + z.
-  BVec cross(const BVec& a, const BVec& b) const {
-    return {add(mul(a[1], b[2]), mul(a[2], b[1])), add(mul(a[2], b[0]), mul(a[0], b[2])),
-            add(mul(a[0], b[1]), mul(a[1], b[0]))};
-  }
-  Bounded dot(const BVec& a, const BVec& b) const {
-    return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]));
-  }
-};
-// Step 1 at one point of a box: the exact values are known as intervals [lo, hi] (each end
-// rounded outward), so a sum's magnitude is |a + b| there, not |a| + |b|. Over a box, a formula
-// linear in the point (N in s, D in t·d) has, in each rounding term, |an affine function| times
-// constants: the error bound is convex in the point, so its largest value is at a corner.
-struct Signed {
-  double lo = 0, hi = 0, err = 0;
-  double mag() const { return std::max(std::abs(lo), std::abs(hi)); }
-};
-using SVec = std::array<Signed, 3>;
-struct SignedBound {
-  double u;
-  Signed rounded(double lo, double hi, double err) const {  // one rounding of the result
-    const Signed r{lo, hi, err};
-    return {lo, hi, up(err + up(u * up(r.mag() + err)))};
-  }
-  Signed add(const Signed& a, const Signed& b) const {
+  Bounded add(const Bounded& a, const Bounded& b) const {
     return rounded(down(a.lo + b.lo), up(a.hi + b.hi), up(a.err + b.err));
   }
-  Signed sub(const Signed& a, const Signed& b) const {
+  Bounded sub(const Bounded& a, const Bounded& b) const {
     return rounded(down(a.lo - b.hi), up(a.hi - b.lo), up(a.err + b.err));
   }
-  Signed mul(const Signed& a, const Signed& b) const {
+  Bounded mul(const Bounded& a, const Bounded& b) const {
     const double c[4] = {a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi};
     const double lo = down(std::min(std::min(c[0], c[1]), std::min(c[2], c[3])));
     const double hi = up(std::max(std::max(c[0], c[1]), std::max(c[2], c[3])));
     return rounded(lo, hi, up(up(up(a.mag() * b.err) + up(b.mag() * a.err)) + up(a.err * b.err)));
   }
-  SVec cross(const SVec& a, const SVec& b) const {
+  // x − y of two computed values whose exact difference is known to be at most `mag`.
+  Bounded difference_within(const Bounded& x, const Bounded& y, double mag) const {
+    return rounded(-mag, mag, up(x.err + y.err));
+  }
+  // In the order variants.cpp writes them: cross component a_j b_k − a_k b_j, dot (x + y) + z.
+  BVec cross(const BVec& a, const BVec& b) const {
     return {sub(mul(a[1], b[2]), mul(a[2], b[1])), sub(mul(a[2], b[0]), mul(a[0], b[2])),
             sub(mul(a[0], b[1]), mul(a[1], b[0]))};
   }
-  Signed dot(const SVec& a, const SVec& b) const { return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2])); }
+  Bounded dot(const BVec& a, const BVec& b) const {
+    return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]));
+  }
 };
+// The larger magnitude and the larger error of two (the worst of a box's corners).
+Bounded worse(const Bounded& a, const Bounded& b) {
+  return Bounded::within(std::max(a.mag(), b.mag()), std::max(a.err, b.err));
+}
 // An exact value known to 2^-45 (Expansion::estimate), with its computed rounding's error.
-Signed signed_of(const Expansion& e, double err) {
+Bounded signed_of(const Expansion& e, double err) {
   const double est = e.estimate(), slack = up(std::abs(est) * 0x1p-45);
   return {down(est - slack), up(est + slack), err};
 }
@@ -332,7 +315,7 @@ double point_rounding(Precision p, const Vec3& unit_abs_hi, const Vec3& travel, 
 double quotient_point_bound(Precision p, int roundings, const Bounded& N, const Bounded& D_at_travel,
                             const NormalBounds& nb, const Vec3& travel, const Vec3& point_abs) {
   const double gk = gamma_up(p, roundings), g = up(gk / down(1 - gk));
-  const double along = up(N.err + up(up(D_at_travel.err * up(1 + g)) + up(g * D_at_travel.mag)));
+  const double along = up(N.err + up(up(D_at_travel.err * up(1 + g)) + up(g * D_at_travel.mag())));
   return up(up(along / nb.length_lo) + point_rounding(p, nb.unit_abs_hi, travel, point_abs));
 }
 // (3) divided by |n|.
@@ -345,7 +328,7 @@ double quotient_rehit(Precision p, int roundings, double err_N, double err_D, co
 // bounded (often 0: Sterbenz, for a small triangle away from the axes' zeros).
 Bounded computed_difference(Precision p, double a, double b, const Expansion& exact) {
   const double computed = p == Precision::f32 ? double(float(float(a) - float(b))) : a - b;
-  return {upper_abs(exact), upper_abs(Expansion(computed) - exact)};
+  return Bounded::within(upper_abs(exact), upper_abs(Expansion(computed) - exact));
 }
 
 // Möller–Trumbore (variants.cpp moller_trumbore): p = d × e2, det = e1·p, q = s × e1,
@@ -390,36 +373,31 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
   };
   auto D_at = [&](const Vec3& travel_mag) { return A.dot(e1, A.cross(inputs(travel_mag), e2)); };
   // The same at the corners of a box (convex: the largest there), of s = o − v0 for N, of the
-  // travel t·d for D (whose |value| is then |n·t·d|, the g·mag_D of (1)).
-  const SignedBound S{unit_roundoff(p)};
-  SVec se1, se2;
+  // travel t·d for D (whose |value| is then |n·t·d|, the g·mag_D of (1)), with signed values.
+  BVec se1, se2;
   for (int i = 0; i < 3; ++i) {
     se1[i] = signed_of(e1x[i], e1[i].err);
     se2[i] = signed_of(e2x[i], e2[i].err);
   }
   auto N_over = [&](const Bounds& origins) {
-    Bounded worst;
+    Bounded most;
     for (const Vec3& c : corners_of(origins)) {
-      SVec sv;
+      BVec sv;
       for (int i = 0; i < 3; ++i) {
         const double d = c[i] - tri.v[0][i];  // within an ulp of the exact difference
-        const Signed exact{down(d), up(d), 0};
-        sv[i] = {exact.lo, exact.hi, up(S.u * exact.mag())};  // s = fl(o − v0)
+        const Bounded exact{down(d), up(d)};
+        sv[i] = {exact.lo, exact.hi, up(A.u * exact.mag())};  // s = fl(o − v0)
       }
-      const Signed n = S.dot(se2, S.cross(sv, se1));
-      worst = {std::max(worst.mag, n.mag()), std::max(worst.err, n.err)};
+      most = worse(most, A.dot(se2, A.cross(sv, se1)));
     }
-    return worst;
+    return most;
   };
   // t̃·d = p̃ − o − r: within travel_box.
   auto D_over = [&](const Bounds& origins, const Bounds& points) {
-    Bounded worst;
-    for (const Vec3& c : corners_of(travel_box(origins, points))) {
-      const SVec dv = {Signed{c[0], c[0], 0}, Signed{c[1], c[1], 0}, Signed{c[2], c[2], 0}};
-      const Signed d = S.dot(se1, S.cross(dv, se2));
-      worst = {std::max(worst.mag, d.mag()), std::max(worst.err, d.err)};
-    }
-    return worst;
+    Bounded most;
+    for (const Vec3& c : corners_of(travel_box(origins, points)))
+      most = worse(most, A.dot(se1, A.cross({Bounded{c[0], c[0]}, Bounded{c[1], c[1]}, Bounded{c[2], c[2]}}, se2)));
+    return most;
   };
   Bounds own;
   for (const Vec3& v : tri.v) own.grow(v);
@@ -519,7 +497,7 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     const double r_max = r.maxCoeff();
     // The shear's own rounding s̃ = S(1 + δ) is common to the three vertices: it is (8)'s last
     // term. X_rest, Y_rest carry every other error.
-    const Bounded shear{1, u}, shear_rest{up(1 + u), 0};
+    const Bounded shear = Bounded::within(1, u), shear_rest = Bounded::within(up(1 + u));
     std::array<Bounded, 3> X, Y, X_rest, Y_rest;
     double zeta = 0, z_mag = 0;
     std::array<double, 3> depth;
@@ -529,8 +507,8 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
       depth[i] = up(E[kz] + r[kz]);
       X[i] = A.difference_within(A.difference(far[kx]), A.mul(shear, az), up(up(E[kx] + r[kx]) + depth[i]));
       Y[i] = A.difference_within(A.difference(far[ky]), A.mul(shear, az), up(up(E[ky] + r[ky]) + depth[i]));
-      X_rest[i] = A.difference_within(A.difference(far[kx]), A.mul(shear_rest, az), X[i].mag);
-      Y_rest[i] = A.difference_within(A.difference(far[ky]), A.mul(shear_rest, az), Y[i].mag);
+      X_rest[i] = A.difference_within(A.difference(far[kx]), A.mul(shear_rest, az), X[i].mag());
+      Y_rest[i] = A.difference_within(A.difference(far[ky]), A.mul(shear_rest, az), Y[i].mag());
       zeta = std::max(zeta, up(az.err + up(g2 * up(far[kz] + az.err))));
       z_mag = std::max(z_mag, up(up(far[kz] + az.err) * up(1 + g2)));
     }
@@ -557,8 +535,8 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     for (int i = 0; i < 3; ++i) {
       const Bounded &xc = X[(i + 2) % 3], &yb = Y[(i + 1) % 3], &yc = Y[(i + 2) % 3], &xb = X[(i + 1) % 3];
       const double second = up(up(xc.err * yb.err) + up(yc.err * xb.err));
-      const double rounding =
-          up(g2 * up(up(up(xc.mag + xc.err) * up(yb.mag + yb.err)) + up(up(yc.mag + yc.err) * up(xb.mag + xb.err))));
+      const double rounding = up(g2 * up(up(up(xc.mag() + xc.err) * up(yb.mag() + yb.err)) +
+                                         up(up(yc.mag() + yc.err) * up(xb.mag() + xb.err))));
       weighted_e = up(weighted_e + up(depth[i] * up(second + rounding)));
     }
     const double per_travel =
@@ -707,10 +685,10 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   BVec oc;
   for (int i = 0; i < 3; ++i) oc[i] = A.difference(f_mag[i]);
   const Bounded C = A.add(A.dot(oc, oc), A.mul(RunningBound::input(R), RunningBound::input(R)));
-  const double Fb = up(F * (1 + g4));                                                     // |β̃|/|d|
-  const double delta_D = up(kappa * up(up(Fb * Fb / down(1 - g3)) + up(C.mag + C.err)));  // |δ_D|/ã
-  const double C_hat = up(up(C.mag + C.err) + delta_D);                                   // |Ĉ|
-  const double Sd = up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50));           // √D̃/|d|
+  const double Fb = up(F * (1 + g4));                                                       // |β̃|/|d|
+  const double delta_D = up(kappa * up(up(Fb * Fb / down(1 - g3)) + up(C.mag() + C.err)));  // |δ_D|/ã
+  const double C_hat = up(up(C.mag() + C.err) + delta_D);                                   // |Ĉ|
+  const double Sd = up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50));             // √D̃/|d|
   auto bound_for = [&](const Bounds& points) {
     const Vec3 w = travel(box, points);
     const double Lt = up(w.norm() * (1 + 0x1p-50));                                   // |t̃·d|
