@@ -106,6 +106,19 @@
 // the plane), f_j = β_j·n + h·n̂ × (v_b − v_a) (β_j, P's barycentric, is constant along n: at the
 // corners too), and h = |N − t̃D|·|d_kz|/|n| is what is bounded: moved to the left, the bound is
 // divided by 1 − c, c = Σ_j (|ΔX′_j| + |ΔY′_j|)·|v_a − v_b|/|n|, where c ≤ 1/2.
+// (8') A third way, the ray's own barycentrics. The first-order identity holds at any point Q of
+// the ray (X_i, Y_i are the same from any); at the exact plane hit X = o + t·d, f_j(X) = β_j·n,
+// β_j = U_j/D. So Σ_i e_i(v_i − P)_kz = Σ_i e_i(v_i − X)_kz + (t − t̃)d_kz·Σ_i e_i, where
+// |(t − t̃)d_kz| = H/|D| (H = |N − t̃D|·|d_kz|, what is bounded) and, in the second-order and ρ_i
+// terms (w: their coefficients' sum), |(v_i − X)_kz| ≤ E_i,kz + r_kz + H/|D|. A reported hit's ũ_i
+// share a sign: Σ|β_j| ≤ (Σ|ũ_j| + Σ|e_j|)/|D| ≤ 1 + 2Σ|e_i|/|D|. For a ray with |D| ≥ λ·T,
+// T = Σ|e_i| + w,
+//     H·(1 − 1/λ) ≤ [(6) or (6')] + u(W_kx|n_kx| + W_ky|n_ky|)
+//                   + (1 + 2/λ)·max_j (|ΔX′_j||n_kx| + |ΔY′_j||n_ky|);
+// for a ray with |D| < λ·T, (6') holds with |n·t̃d| = |D|·|t̃d_kz| < λ·T·W_kz and (8) as it stands.
+// Each λ gives a bound, the larger of the two cases; the smallest over λ = 8, 64, 512, 4096 is
+// taken. A steep ray thus pays its edge errors once (near a vertex, that vertex's), not the
+// domain corners' up to 3 times; a grazing one has almost no depth term left.
 // Re-hits as for (3): from o′ δ off on the side it leaves to, N and −t̃D have one sign, so
 // |N| + t̃|D| = |N − t̃D|, and g·t̃|D̃| ≤ g·t̃(|D| + Σ|e_i| + |ρ_D|) leaves, with g < 1 − c,
 //     δ·|n| ≤ S_u(max ζ_i + γ(3)·max|z̃_i d_kz|) + W′_kz(γ(2)(1 + g)S_u + g·Σ|e_i|)
@@ -531,34 +544,51 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
       at_corners = std::max(at_corners, up(common + sum));
       projected = std::max(projected, up(common + sum_projected));
     }
-    double weighted_e = 0;
+    double weighted_e = 0, second_sum = 0;  // second_sum: the same without the depths
     for (int i = 0; i < 3; ++i) {
       const Bounded &xc = X[(i + 2) % 3], &yb = Y[(i + 1) % 3], &yc = Y[(i + 2) % 3], &xb = X[(i + 1) % 3];
       const double second = up(up(xc.err * yb.err) + up(yc.err * xb.err));
       const double rounding = up(g2 * up(up(up(xc.mag() + xc.err) * up(yb.mag() + yb.err)) +
                                          up(up(yc.mag() + yc.err) * up(xb.mag() + xb.err))));
       weighted_e = up(weighted_e + up(depth[i] * up(second + rounding)));
+      second_sum = up(second_sum + up(second + rounding));
     }
     const double per_travel =
         rehit ? up(up(up(g2 * up(1 + g)) * S_u) + up(g * sum_e)) : up(S_u * up(g2 + up(g * up(1 + g2))));
-    double rest = up(up(up(S_u * up(zeta + up(g3 * z_mag))) + weighted_e) + up(W[kz] * per_travel));
-    if (!rehit) {
-      // The same terms with the depth and Σ|ũ_i| of one ray together (6'): ζ_i + γ(3)|z̃_i d_kz| =
-      // z_coef·|A_i,kz| (A = v − o, its rounding and the depth's two), |A_i,kz| ≤ |t̃·d_kz| +
-      // E_i,kz + r_kz (v_i − p̃, then p̃ − o), Σ|ũ_i| ≤ |D| + Σ|e_i|, and |D|·|t̃·d_kz| = |n·t̃d|,
-      // at most n_w (and at most |n|₁·W_kz). Taking |D| ≤ |n|₁ and the depth ≤ W_kz apart, as
-      // (6) does, pays for a direction along n and a travel along kz at once, which no ray has.
-      const double z_coef = up(up(u + up(g2 * up(1 + u))) + up(g3 * up(up(1 + u) * up(1 + g2))));
-      const double kappa = up(g2 + up(g * up(1 + g2)));
-      double near = 0;  // the largest E_i,kz
-      for (int i = 0; i < 3; ++i) near = std::max(near, reach_from(domain, tri.v[i])[kz]);
-      near = up(near + r[kz]);
-      const double joint = up(up(up(z_coef + kappa) * std::min(n_w, up(n_1 * W[kz]))) +
-                              up(z_coef * up(up(n_1 * near) + up(sum_e * up(W[kz] + near)))));
-      rest = std::min(rest, up(up(joint + up(kappa * up(W[kz] * sum_e))) + weighted_e));
-    }
+    const double rest_plain = up(up(up(S_u * up(zeta + up(g3 * z_mag))) + weighted_e) + up(W[kz] * per_travel));
+    // The same terms with the depth and Σ|ũ_i| of one ray together (6'): ζ_i + γ(3)|z̃_i d_kz| =
+    // z_coef·|A_i,kz| (A = v − o, its rounding and the depth's two), |A_i,kz| ≤ |t̃·d_kz| +
+    // E_i,kz + r_kz (v_i − p̃, then p̃ − o), Σ|ũ_i| ≤ |D| + Σ|e_i|, and |D|·|t̃·d_kz| = |n·t̃d|,
+    // at most `n_travel` (n_w, and at most |n|₁·W_kz). Taking |D| ≤ |n|₁ and the depth ≤ W_kz
+    // apart, as (6) does, pays for a direction along n and a travel along kz at once, which no
+    // ray has.
+    const double z_coef = up(up(u + up(g2 * up(1 + u))) + up(g3 * up(up(1 + u) * up(1 + g2))));
+    const double kappa = up(g2 + up(g * up(1 + g2)));
+    double near = 0;  // the largest E_i,kz
+    for (int i = 0; i < 3; ++i) near = std::max(near, reach_from(domain, tri.v[i])[kz]);
+    near = up(near + r[kz]);
+    auto joint_rest = [&](double n_travel) {
+      const double joint =
+          up(up(up(z_coef + kappa) * n_travel) + up(z_coef * up(up(n_1 * near) + up(sum_e * up(W[kz] + near)))));
+      return std::min(rest_plain, up(up(joint + up(kappa * up(W[kz] * sum_e))) + weighted_e));
+    };
+    const double rest = rehit ? rest_plain : joint_rest(std::min(n_w, up(n_1 * W[kz])));
     const double c = up(c_sum / nb.length_lo);
-    return Along{up(rest + at_corners), c <= 0.5 ? up(up(rest + projected) / down(1 - c)) : INFINITY};
+    Along way{up(rest + at_corners), c <= 0.5 ? up(up(rest + projected) / down(1 - c)) : INFINITY};
+    if (rehit) return way;
+    // (8'): a steep ray's edge errors weighted by its own barycentrics, a grazing ray's depth
+    // term nearly gone; for each λ the larger of the two, and the smallest over λ.
+    double M = 0;  // max_j |ΔX′_j||n_kx| + |ΔY′_j||n_ky|
+    for (int j = 0; j < 3; ++j) M = std::max(M, up(up(X_rest[j].err * n_abs[kx]) + up(Y_rest[j].err * n_abs[ky])));
+    const double T = up(sum_e + second_sum);
+    for (const double lambda : {8.0, 64.0, 512.0, 4096.0}) {
+      const double steep = up(up(up(rest + common) + up(up(1 + 2 / lambda) * M)) / down(1 - 1 / lambda));
+      const double grazing_rest = joint_rest(std::min({n_w, up(n_1 * W[kz]), up(up(lambda * T) * W[kz])}));
+      way.corners = std::min(way.corners, std::max(steep, up(grazing_rest + at_corners)));
+      if (c <= 0.5)
+        way.projected = std::min(way.projected, std::max(steep, up(up(grazing_rest + projected) / down(1 - c))));
+    }
+    return way;
   };
   // Over the three dominant axes, divided by |n|: each way, and the better.
   auto worst = [&](const Bounds& origins, bool rehit) {
