@@ -102,9 +102,10 @@ TEST(Offsets, NoWitnessBeyondTheBoundOnTheBundledMeshesAtThreeScales) {
                                      path + " at 2^" + std::to_string(k));
   }
   // Far from the origin, where the point's own rounding is most of the bound (double only: a
-  // float cannot hold the elephant at 2^20).
+  // float cannot hold the elephant at 2^20). There the bound is nearly met (the search comes
+  // within 1.01×): a derivation even 1.25× too optimistic would be contradicted.
   const Scene far = translated(scene_of_mesh(kMeshDir + "/elephant.off"), Vec3(0x1p20, 0.75 * 0x1p20, 0.5 * 0x1p20));
-  expect_no_witness_beyond_bound(far, named({"moller-trumbore"}), 500000, "elephant moved by 2^20");
+  expect_no_witness_beyond_bound(far, named({"moller-trumbore"}), 500000, "elephant moved by 2^20", 1.25);
 }
 
 // The watertight test's derivation ((5)–(8) in offset_bounds.cpp: sheared edge functions, whose
@@ -129,7 +130,7 @@ TEST(Offsets, NoWitnessBeyondTheWatertightBound) {
     }
   }
   const Scene far = translated(scene_of_mesh(kMeshDir + "/elephant.off"), Vec3(0x1p20, 0.75 * 0x1p20, 0.5 * 0x1p20));
-  expect_no_witness_beyond_bound(far, named({"watertight-top-left"}), 200000, "elephant moved by 2^20");
+  expect_no_witness_beyond_bound(far, named({"watertight-top-left"}), 200000, "elephant moved by 2^20", 1.25);
 }
 
 TEST(Offsets, NoWitnessBeyondTheBoundOnPlanesAndBoxes) {

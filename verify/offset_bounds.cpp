@@ -14,6 +14,12 @@
 // numbers below are upper bounds of the real ones. The bounds are homogeneous of degree one in
 // each input that enters a formula linearly (a direction, an origin offset): evaluating them at the
 // largest magnitudes bounds every smaller input, and t·bound(d) = bound(t·d).
+// Where a value is computed at its own size (not scaled afterwards), a rounding is bounded finer:
+// |fl(y) − y| ≤ ½ulp = u·2^⌊log2 |y|⌋ ≤ u·2^⌊log2 mag⌋ (half_ulp_at_most), up to 2× below u·mag.
+// That is not homogeneous (2^⌊·⌋ does not scale) nor convex in the inputs, so it serves the
+// hit side's N (Möller–Trumbore's s = o − v0 and its products; the plane's off − n·o; the
+// watertight test's sheared vertices and edge functions) and the point's own rounding, never D
+// (scaled by t̃), the corners' sums, nor the re-hit side's growth in the reach.
 //
 // Step 2, the hit point off the surface, a posteriori. Formulas that compute t = N/D (Möller–
 // Trumbore: N = e2·(s × e1), D = e1·(d × e2) with s = o − v0, and N/D the exact t on the
@@ -23,9 +29,10 @@
 // and Ñ = t̃·D̃/(1 + θ), so with g = γ(k)/(1 − γ(k)):
 //     |N − t̃·D| ≤ err_N + |t̃|·(err_D·(1 + g) + g·mag_D).                       (1)
 // No division by a small D: (1) holds for grazing rays too. The point the code computes,
-// p̃_i = fl(o_i + fl(t̃·d_i)) = o_i + t̃·d_i + r_i with |r_i| ≤ u·|t̃·d_i| + u·|p̃_i|/(1 − u), lies
-// off the plane by n̂·(p̃ − v0) = ±(N − t̃·D)/|n| + n̂·r, hence
-//     |n̂·(p̃ − v0)| ≤ (1)/|n| + Σ_i |n̂_i|·(u·W_i + u·P_i/(1 − u)),                  (2)
+// p̃_i = fl(o_i + fl(t̃·d_i)) = o_i + t̃·d_i + r_i with |r_i| ≤ u·2^⌊log2 W_i⌋ + u·2^⌊log2 P_i⌋
+// (half an ulp each: a sum that rounds up to a power of two errs by half the finer spacing),
+// lies off the plane by n̂·(p̃ − v0) = ±(N − t̃·D)/|n| + n̂·r, hence
+//     |n̂·(p̃ − v0)| ≤ (1)/|n| + Σ_i |n̂_i|·(u·2^⌊log2 W_i⌋ + u·2^⌊log2 P_i⌋),          (2)
 // with W_i ≥ |t̃·d_i| (the travel from an origin of the scene's box to a point of the domain) and
 // P_i ≥ |p̃_i|. |t̃|·err_D is err_D evaluated at the travel W (homogeneity).
 //
@@ -171,6 +178,14 @@ double gamma_up(Precision p, int k) {
   const double u = unit_roundoff(p);
   return up(k * u / down(1 - k * u));
 }
+// The rounding error of a result y with |y| ≤ mag: half an ulp of y's binade, u·2^⌊log2 |y|⌋ ≤
+// u·2^⌊log2 mag⌋ (no underflow, the model's range; a y that rounds up to the next power of two
+// errs by half the finer spacing). Up to 2× below u·mag, and what rounding can reach: a witness
+// meets it only with a value in the top binade. Valid only for a value computed at that size,
+// not for one scaled afterwards (t̃ times D's roundings: 2^⌊·⌋ does not scale).
+double half_ulp_at_most(double u, double mag) {
+  return mag > 0 && std::isfinite(mag) ? u * std::ldexp(1.0, std::ilogb(mag)) : up(u * mag);
+}
 // A number as the variant sees it.
 double in_precision(Precision p, double x) { return p == Precision::f32 ? double(to_nearest_float(x)) : x; }
 Vec3 in_precision(Precision p, const Vec3& v) {
@@ -191,12 +206,16 @@ using BVec = std::array<Bounded, 3>;
 
 struct RunningBound {
   double u;
+  // Each rounding as half an ulp of its result's largest binade (half_ulp_at_most), for values
+  // the code computes at their own size; else u times the magnitude (homogeneity holds).
+  bool at_size = false;
+  double rounding(double mag) const { return at_size ? half_ulp_at_most(u, mag) : up(u * mag); }
   static Bounded input(double mag) { return Bounded::within(mag); }
   // a − b of two exact inputs with |a − b| ≤ mag: one rounding.
-  Bounded difference(double mag) const { return Bounded::within(mag, up(u * mag)); }
+  Bounded difference(double mag) const { return Bounded::within(mag, rounding(mag)); }
   Bounded rounded(double lo, double hi, double err) const {  // one rounding of the result
     const double mag = Bounded{lo, hi}.mag();
-    return {lo, hi, up(err + up(u * up(mag + err)))};
+    return {lo, hi, up(err + rounding(up(mag + err)))};
   }
   Bounded add(const Bounded& a, const Bounded& b) const {
     return rounded(down(a.lo + b.lo), up(a.hi + b.hi), up(a.err + b.err));
@@ -315,12 +334,13 @@ Bounds in_precision(Precision p, const Bounds& box) {  // rounding is monotone: 
   return {in_precision(p, box.lo), in_precision(p, box.hi)};
 }
 
-// (2)'s last term: the rounding of o + t·d itself.
+// (2)'s last term: the rounding of o + t·d itself, each of its two roundings half an ulp of its
+// result's binade (fl(t̃·d_i) of |t̃·d_i| ≤ W_i, p̃_i of |p̃_i| ≤ P_i).
 double point_rounding(Precision p, const Vec3& unit_abs_hi, const Vec3& travel, const Vec3& point_abs) {
   const double u = unit_roundoff(p);
   double sum = 0;
   for (int i = 0; i < 3; ++i)
-    sum = up(sum + up(unit_abs_hi[i] * up(up(u * travel[i]) + up(u * point_abs[i] / down(1 - u)))));
+    sum = up(sum + up(unit_abs_hi[i] * up(half_ulp_at_most(u, travel[i]) + half_ulp_at_most(u, point_abs[i]))));
   return sum;
 }
 
@@ -379,10 +399,13 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
     e1[i] = computed_difference(p, tri.v[1][i], tri.v[0][i], e1x[i]);
     e2[i] = computed_difference(p, tri.v[2][i], tri.v[0][i], e2x[i]);
   }
-  auto N_at = [&](const Vec3& s_mag) {
+  // N at its own size (each rounding half an ulp of its binade), or in u·magnitude terms where
+  // it is scaled by the reach (homogeneity).
+  const RunningBound A_at_size{A.u, true};
+  auto N_at = [&](const Vec3& s_mag, const RunningBound& R) {
     BVec s;
-    for (int i = 0; i < 3; ++i) s[i] = A.difference(s_mag[i]);
-    return A.dot(e2, A.cross(s, e1));
+    for (int i = 0; i < 3; ++i) s[i] = R.difference(s_mag[i]);
+    return R.dot(e2, R.cross(s, e1));
   };
   auto D_at = [&](const Vec3& travel_mag) { return A.dot(e1, A.cross(inputs(travel_mag), e2)); };
   // The same at the corners of a box (convex: the largest there), of s = o − v0 for N, of the
@@ -420,11 +443,17 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
   // magnitudes' bound and the corners' (both valid; the corners' is smaller where signs cancel).
   const Vec3 s_mag = reach_from(box, tri.v[0]);
   const Bounded N_box = N_over(box);
+  // Each of (1)'s three terms holds alone: the smaller of the two ways, term by term (the
+  // corners' sums are convex only in u·magnitude terms, so they stay in those).
   auto bound_for = [&](const Bounds& points, bool at_corners) {
     const Vec3 w = travel(box, points);
-    const double by_axes = quotient_point_bound(p, 2, N_at(s_mag), D_at(w), nb, w, largest_abs(points));
-    if (!at_corners) return by_axes;
-    return std::min(by_axes, quotient_point_bound(p, 2, N_box, D_over(box, points), nb, w, largest_abs(points)));
+    Bounded N = N_at(s_mag, A_at_size), D = D_at(w);
+    if (at_corners) {
+      const Bounded D_corners = D_over(box, points);
+      N.err = std::min(N.err, N_box.err);
+      D = Bounded::within(std::min(D.mag(), D_corners.mag()), std::min(D.err, D_corners.err));
+    }
+    return quotient_point_bound(p, 2, N, D, nb, w, largest_abs(points));
   };
   OffsetProof proof;
   // (The first pass only sizes the domain: the cheaper bound serves, within a few ulps as wide.)
@@ -436,8 +465,8 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
   const Vec3 ones(1, 1, 1);
   const Vec3 near_mag = reach_from(proof.point_box, tri.v[0]);
   const Vec3 rehit_travel = travel(proof.point_box, proof.point_box);
-  proof.rehit_base = quotient_rehit(p, 2, N_at(near_mag).err, D_at(rehit_travel).err, nb);
-  proof.rehit_per_reach = quotient_rehit(p, 2, N_at(ones).err, D_at(ones).err, nb);
+  proof.rehit_base = quotient_rehit(p, 2, N_at(near_mag, A).err, D_at(rehit_travel).err, nb);
+  proof.rehit_per_reach = quotient_rehit(p, 2, N_at(ones, A).err, D_at(ones).err, nb);
   return proof;
 }
 
@@ -508,6 +537,9 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     Vec3 r;
     for (int i = 0; i < 3; ++i) r[i] = up(up(u * W[i]) + up(u * P[i] / down(1 - u)));
     const double r_max = r.maxCoeff();
+    // The hit side's roundings at their own size; the re-hit side's stay in u·magnitude terms,
+    // where (7)'s growth in the reach (a polynomial, its chord) is what is used.
+    const RunningBound R{u, !rehit};
     // The shear's own rounding s̃ = S(1 + δ) is common to the three vertices: it is (8)'s last
     // term. X_rest, Y_rest carry every other error.
     const Bounded shear = Bounded::within(1, u), shear_rest = Bounded::within(up(1 + u));
@@ -516,17 +548,17 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     std::array<double, 3> depth;
     for (int i = 0; i < 3; ++i) {
       const Vec3 far = reach_from(origins, tri.v[i]), E = reach_from(domain, tri.v[i]);
-      const Bounded az = A.difference(far[kz]);
+      const Bounded az = R.difference(far[kz]);
       depth[i] = up(E[kz] + r[kz]);
-      X[i] = A.difference_within(A.difference(far[kx]), A.mul(shear, az), up(up(E[kx] + r[kx]) + depth[i]));
-      Y[i] = A.difference_within(A.difference(far[ky]), A.mul(shear, az), up(up(E[ky] + r[ky]) + depth[i]));
-      X_rest[i] = A.difference_within(A.difference(far[kx]), A.mul(shear_rest, az), X[i].mag());
-      Y_rest[i] = A.difference_within(A.difference(far[ky]), A.mul(shear_rest, az), Y[i].mag());
+      X[i] = R.difference_within(R.difference(far[kx]), R.mul(shear, az), up(up(E[kx] + r[kx]) + depth[i]));
+      Y[i] = R.difference_within(R.difference(far[ky]), R.mul(shear, az), up(up(E[ky] + r[ky]) + depth[i]));
+      X_rest[i] = R.difference_within(R.difference(far[kx]), R.mul(shear_rest, az), X[i].mag());
+      Y_rest[i] = R.difference_within(R.difference(far[ky]), R.mul(shear_rest, az), Y[i].mag());
       zeta = std::max(zeta, up(az.err + up(g2 * up(far[kz] + az.err))));
       z_mag = std::max(z_mag, up(up(far[kz] + az.err) * up(1 + g2)));
     }
     // e_i bounded whole (for S_u), and (8): Σ e_i·(v_i − P)_kz, first order at the corners.
-    auto edge_err = [&](int i, int j) { return A.add(A.mul(X[i], Y[j]), A.mul(Y[i], X[j])).err; };
+    auto edge_err = [&](int i, int j) { return R.add(R.mul(X[i], Y[j]), R.mul(Y[i], X[j])).err; };
     const std::array<double, 3> e = {edge_err(2, 1), edge_err(0, 2), edge_err(1, 0)};  // opposite v_0, v_1, v_2
     const double sum_e = up(up(e[0] + e[1]) + e[2]), S_u = up(n_1 + sum_e);
     const double common = up(up(u * up(W[kx] * n_abs[kx])) + up(u * up(W[ky] * n_abs[ky])));
@@ -633,13 +665,16 @@ std::optional<OffsetProof> plane_proof(Precision p, const Plane& input, const Bo
   if (!(nb.length_lo > 0)) return std::nullopt;
   const RunningBound A{unit_roundoff(p)};
   const BVec nv = inputs(n.cwiseAbs());
-  auto N_at = [&](const Vec3& origin_mag, double off_mag) {
-    return A.add(RunningBound::input(off_mag), A.dot(nv, inputs(origin_mag)));
+  // N at its own size on the hit side, in u·magnitude terms where scaled by the reach.
+  const RunningBound A_at_size{A.u, true};
+  auto N_at = [&](const Vec3& origin_mag, double off_mag, const RunningBound& R) {
+    return R.add(RunningBound::input(off_mag), R.dot(nv, inputs(origin_mag)));
   };
   auto D_at = [&](const Vec3& travel_mag) { return A.dot(nv, inputs(travel_mag)); };
   auto bound_for = [&](const Bounds& points) {
     const Vec3 w = travel(box, points);
-    return quotient_point_bound(p, 1, N_at(largest_abs(box), std::abs(off)), D_at(w), nb, w, largest_abs(points));
+    return quotient_point_bound(p, 1, N_at(largest_abs(box), std::abs(off), A_at_size), D_at(w), nb, w,
+                                largest_abs(points));
   };
   OffsetProof proof;
   const double coarse = bound_for(box);
@@ -657,8 +692,8 @@ std::optional<OffsetProof> plane_proof(Precision p, const Plane& input, const Bo
   const Vec3 ones(1, 1, 1);
   const Vec3 rehit_travel = travel(proof.point_box, proof.point_box);
   proof.rehit_base =
-      quotient_rehit(p, 1, N_at(largest_abs(proof.point_box), std::abs(off)).err, D_at(rehit_travel).err, nb);
-  proof.rehit_per_reach = quotient_rehit(p, 1, N_at(ones, 0).err, D_at(ones).err, nb);
+      quotient_rehit(p, 1, N_at(largest_abs(proof.point_box), std::abs(off), A).err, D_at(rehit_travel).err, nb);
+  proof.rehit_per_reach = quotient_rehit(p, 1, N_at(ones, 0, A).err, D_at(ones).err, nb);
   return proof;
 }
 
