@@ -422,7 +422,7 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
       for (int i = 0; i < 3; ++i) {
         const double d = c[i] - tri.v[0][i];  // within an ulp of the exact difference
         const Bounded exact{down(d), up(d)};
-        sv[i] = {exact.lo, exact.hi, up(A.u * exact.mag())};  // s = fl(o − v0)
+        sv[i] = {exact.lo, exact.hi, A.rounding(exact.mag())};  // s = fl(o − v0)
       }
       most = worse(most, A.dot(se2, A.cross(sv, se1)));
     }
@@ -562,6 +562,9 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     const std::array<double, 3> e = {edge_err(2, 1), edge_err(0, 2), edge_err(1, 0)};  // opposite v_0, v_1, v_2
     const double sum_e = up(up(e[0] + e[1]) + e[2]), S_u = up(n_1 + sum_e);
     const double common = up(up(u * up(W[kx] * n_abs[kx])) + up(u * up(W[ky] * n_abs[ky])));
+    // Per vertex, |ΔX′_j||n_kx| + |ΔY′_j||n_ky|: its edge errors against a normal's share ((8), (8')).
+    std::array<double, 3> against_n;
+    for (int j = 0; j < 3; ++j) against_n[j] = up(up(X_rest[j].err * n_abs[kx]) + up(Y_rest[j].err * n_abs[ky]));
     double at_corners = common, projected = common, c_sum = 0;
     for (int j = 0; j < 3; ++j) c_sum = up(c_sum + up(up(X_rest[j].err + Y_rest[j].err) * edge_length[j]));
     const double sqrt3_r = up(up(std::sqrt(3.0)) * r_max);
@@ -571,7 +574,7 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
         sum = up(up(sum + up(X_rest[j].err * up(sub_normal[c][j][kx] + up(r_max * sub_slope[j][kx])))) +
                  up(Y_rest[j].err * up(sub_normal[c][j][ky] + up(r_max * sub_slope[j][ky]))));
         const double b = up(beta[c][j] + up(up(sqrt3_r * edge_length[j]) / nb.length_lo));
-        sum_projected = up(sum_projected + up(b * up(up(X_rest[j].err * n_abs[kx]) + up(Y_rest[j].err * n_abs[ky]))));
+        sum_projected = up(sum_projected + up(b * against_n[j]));
       }
       at_corners = std::max(at_corners, up(common + sum));
       projected = std::max(projected, up(common + sum_projected));
@@ -610,8 +613,7 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     if (rehit) return way;
     // (8'): a steep ray's edge errors weighted by its own barycentrics, a grazing ray's depth
     // term nearly gone; for each λ the larger of the two, and the smallest over λ.
-    double M = 0;  // max_j |ΔX′_j||n_kx| + |ΔY′_j||n_ky|
-    for (int j = 0; j < 3; ++j) M = std::max(M, up(up(X_rest[j].err * n_abs[kx]) + up(Y_rest[j].err * n_abs[ky])));
+    const double M = std::max({against_n[0], against_n[1], against_n[2]});
     const double T = up(sum_e + second_sum);
     for (const double lambda : {8.0, 64.0, 512.0, 4096.0}) {
       const double steep = up(up(up(rest + common) + up(up(1 + 2 / lambda) * M)) / down(1 - 1 / lambda));
