@@ -254,6 +254,43 @@ TEST(Offsets, RulesParseAndRefuseNonsense) {
     EXPECT_THROW(parse_offset_rule(bad), std::invalid_argument) << bad;
 }
 
+// difference_rounding against every float origin of ranges that do not hold zero (each error
+// exact: v − o of two floats is exact in double here), and against random double origins (the
+// error by TwoSum) over a range that does: never exceeded, met exactly where every origin is
+// tried, and 0 for a float vertex judged in double from origins at least as far out.
+TEST(Offsets, DifferenceRoundingBoundsEveryOrigin) {
+  for (const float v : {0.3f, -0.1f, 1.7f, 0.001f, -5.25f, -5.5f}) {
+    for (const auto& [lo, hi] : {std::pair{1.5f, 2.5f}, {-3.0f, -1.0f}, {0.25f, 0.75f}, {2.0f, 3.0f}}) {
+      double most = 0;
+      for (float o = lo; o <= hi; o = std::nextafter(o, INFINITY)) {
+        const double exact = double(v) - double(o);
+        most = std::max(most, std::abs(double(float(exact)) - exact));
+      }
+      const double bound = difference_rounding(Precision::f32, v, lo, hi);
+      // Met exactly, but where the range ends at an A that is a power of two (−5.5 − 2.5 = −8,
+      // exact, is taken for the start of its binade).
+      if (v == -5.5f && hi == 2.5f)
+        EXPECT_LE(most, bound);
+      else
+        EXPECT_EQ(bound, most) << v << " less [" << lo << ", " << hi << "]";
+    }
+  }
+  EXPECT_EQ(difference_rounding(Precision::f64, double(0.3f), 2, 3), 0);
+  EXPECT_GT(difference_rounding(Precision::f64, 0.3, 2, 3), 0);
+  std::mt19937_64 random(7);
+  for (const double v : {0.227139, double(0.3f), -0.0421, 3.25}) {
+    const double lo = -0.5, hi = 3, bound = difference_rounding(Precision::f64, v, lo, hi);
+    EXPECT_LE(bound, 0x1p-53 * 4) << v;  // half an ulp of |A| < 4
+    std::uniform_real_distribution<double> in(lo, hi);
+    for (int k = 0; k < 1'000'000; ++k) {
+      const double o = k % 2 ? in(random) : std::ldexp(1.0 + 0x1p-52 * double(k % 64), -(k % 40));
+      if (o < lo || o > hi) continue;
+      const double a = v - o, z = a - v, error = (v - (a - z)) + (-o - z);  // TwoSum: a + error = v − o
+      ASSERT_LE(std::abs(error), bound) << v << " less " << o;
+    }
+  }
+}
+
 // A point moved by more than its bound plus the re-hit bound is safe; one moved by less than its
 // bound is not proved.
 TEST(Offsets, ProvedSafeNeedsTheWholeMargin) {

@@ -154,6 +154,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -213,6 +214,11 @@ struct RunningBound {
   static Bounded input(double mag) { return Bounded::within(mag); }
   // a − b of two exact inputs with |a − b| ≤ mag: one rounding.
   Bounded difference(double mag) const { return Bounded::within(mag, rounding(mag)); }
+  // v − o for o in [o_lo, o_hi], |v − o| ≤ mag: at its own size, difference_rounding's grids too.
+  Bounded vertex_minus_origin(Precision p, double v, double o_lo, double o_hi, double mag) const {
+    const double err = rounding(mag);
+    return Bounded::within(mag, at_size ? std::min(err, difference_rounding(p, v, o_lo, o_hi)) : err);
+  }
   Bounded rounded(double lo, double hi, double err) const {  // one rounding of the result
     const double mag = Bounded{lo, hi}.mag();
     return {lo, hi, up(err + rounding(up(mag + err)))};
@@ -404,7 +410,7 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
   const RunningBound A_at_size{A.u, true};
   auto N_at = [&](const Vec3& s_mag, const RunningBound& R) {
     BVec s;
-    for (int i = 0; i < 3; ++i) s[i] = R.difference(s_mag[i]);
+    for (int i = 0; i < 3; ++i) s[i] = R.vertex_minus_origin(p, tri.v[0][i], box.lo[i], box.hi[i], s_mag[i]);
     return R.dot(e2, R.cross(s, e1));
   };
   auto D_at = [&](const Vec3& travel_mag) { return A.dot(e1, A.cross(inputs(travel_mag), e2)); };
@@ -480,7 +486,6 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
   const Bounds box = in_precision(p, scene_box);
   const Vec3 n_est(nx[0].estimate(), nx[1].estimate(), nx[2].estimate());
   const double u = unit_roundoff(p), g2 = gamma_up(p, 2), g3 = gamma_up(p, 3), g = up(u / down(1 - u));
-  const RunningBound A{u};
   const Bounds& domain = mt->point_box;
   // (8): per vertex j and the pair (a, b) after it, f_j(x) = (v_a − x) × (v_b − x) at the domain's
   // corners, per axis, and β_j(x) = n·f_j(x)/|n|² there; the gradients' sizes in x.
@@ -529,7 +534,12 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
   struct Along {
     double corners, projected;
   };
-  // |N − t̃D|·|d_kz| for origins in `origins` and dominant axis kz: (6), or (7) for a re-hit.
+  // The rounding of each ã_i,k = v_i,k − o_k from the scene's origins, once for the three axes kz.
+  std::array<Vec3, 3> a_rounding;
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) a_rounding[i][k] = difference_rounding(p, tri.v[i][k], box.lo[k], box.hi[k]);
+  // |N − t̃D|·|d_kz| for origins in `origins` (the scene's box unless `rehit`) and dominant axis
+  // kz: (6), or (7) for a re-hit.
   auto along = [&](const Bounds& origins, int kz, bool rehit) {
     const int kx = (kz + 1) % 3, ky = (kz + 2) % 3;
     const double n_w = rehit ? 0 : n_dot_travel(origins);
@@ -544,16 +554,21 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     // term. X_rest, Y_rest carry every other error.
     const Bounded shear = Bounded::within(1, u), shear_rest = Bounded::within(up(1 + u));
     std::array<Bounded, 3> X, Y, X_rest, Y_rest;
-    double zeta = 0, z_mag = 0;
+    double zeta = 0, z_mag = 0, a_err = 0;  // a_err: the largest rounding of ã_i,kz
     std::array<double, 3> depth;
     for (int i = 0; i < 3; ++i) {
       const Vec3 far = reach_from(origins, tri.v[i]), E = reach_from(domain, tri.v[i]);
-      const Bounded az = R.difference(far[kz]);
+      auto a = [&](int k) {  // ã_i,k: the hit side's from the grids (difference_rounding)
+        const Bounded plain = R.difference(far[k]);
+        return rehit ? plain : Bounded::within(far[k], std::min(plain.err, a_rounding[i][k]));
+      };
+      const Bounded az = a(kz), ax = a(kx), ay = a(ky);
+      a_err = std::max(a_err, az.err);
       depth[i] = up(E[kz] + r[kz]);
-      X[i] = R.difference_within(R.difference(far[kx]), R.mul(shear, az), up(up(E[kx] + r[kx]) + depth[i]));
-      Y[i] = R.difference_within(R.difference(far[ky]), R.mul(shear, az), up(up(E[ky] + r[ky]) + depth[i]));
-      X_rest[i] = R.difference_within(R.difference(far[kx]), R.mul(shear_rest, az), X[i].mag());
-      Y_rest[i] = R.difference_within(R.difference(far[ky]), R.mul(shear_rest, az), Y[i].mag());
+      X[i] = R.difference_within(ax, R.mul(shear, az), up(up(E[kx] + r[kx]) + depth[i]));
+      Y[i] = R.difference_within(ay, R.mul(shear, az), up(up(E[ky] + r[ky]) + depth[i]));
+      X_rest[i] = R.difference_within(ax, R.mul(shear_rest, az), X[i].mag());
+      Y_rest[i] = R.difference_within(ay, R.mul(shear_rest, az), Y[i].mag());
       zeta = std::max(zeta, up(az.err + up(g2 * up(far[kz] + az.err))));
       z_mag = std::max(z_mag, up(up(far[kz] + az.err) * up(1 + g2)));
     }
@@ -591,20 +606,24 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     const double per_travel =
         rehit ? up(up(up(g2 * up(1 + g)) * S_u) + up(g * sum_e)) : up(S_u * up(g2 + up(g * up(1 + g2))));
     const double rest_plain = up(up(up(S_u * up(zeta + up(g3 * z_mag))) + weighted_e) + up(W[kz] * per_travel));
-    // The same terms with the depth and Σ|ũ_i| of one ray together (6'): ζ_i + γ(3)|z̃_i d_kz| =
-    // z_coef·|A_i,kz| (A = v − o, its rounding and the depth's two), |A_i,kz| ≤ |t̃·d_kz| +
-    // E_i,kz + r_kz (v_i − p̃, then p̃ − o), Σ|ũ_i| ≤ |D| + Σ|e_i|, and |D|·|t̃·d_kz| = |n·t̃d|,
-    // at most `n_travel` (n_w, and at most |n|₁·W_kz). Taking |D| ≤ |n|₁ and the depth ≤ W_kz
-    // apart, as (6) does, pays for a direction along n and a travel along kz at once, which no
-    // ray has.
-    const double z_coef = up(up(u + up(g2 * up(1 + u))) + up(g3 * up(up(1 + u) * up(1 + g2))));
+    // The same terms with the depth and Σ|ũ_i| of one ray together (6'): with α_i the rounding
+    // of ã_i,kz, ζ_i + γ(3)|z̃_i d_kz| ≤ α_i·a_coef + |A_i,kz|·z_coef (the depth's two roundings
+    // and the dot's γ(3), on |ã| ≤ |A| + α), |A_i,kz| ≤ |t̃·d_kz| + E_i,kz + r_kz (v_i − p̃, then
+    // p̃ − o), Σ|ũ_i| ≤ |D| + Σ|e_i|, and |D|·|t̃·d_kz| = |n·t̃d|, at most `n_travel` (n_w, and at
+    // most |n|₁·W_kz). Taking |D| ≤ |n|₁ and the depth ≤ W_kz apart, as (6) does, pays for a
+    // direction along n and a travel along kz at once, which no ray has. α_i the smaller of
+    // u·|A_i,kz| (joint too) and its grid bound a_err (difference_rounding) times S_u.
+    const double a_coef = up(up(1 + g2) + up(g3 * up(1 + g2)));
+    const double z_coef = up(g2 + up(g3 * up(1 + g2)));
     const double kappa = up(g2 + up(g * up(1 + g2)));
     double near = 0;  // the largest E_i,kz
     for (int i = 0; i < 3; ++i) near = std::max(near, reach_from(domain, tri.v[i])[kz]);
     near = up(near + r[kz]);
     auto joint_rest = [&](double n_travel) {
+      const double depth_sum = up(up(n_travel + up(n_1 * near)) + up(sum_e * up(W[kz] + near)));
+      const double rounding_a = std::min(up(up(u * a_coef) * depth_sum), up(up(a_coef * a_err) * S_u));
       const double joint =
-          up(up(up(z_coef + kappa) * n_travel) + up(z_coef * up(up(n_1 * near) + up(sum_e * up(W[kz] + near)))));
+          up(up(up(up(z_coef + kappa) * n_travel) + up(z_coef * up(depth_sum - n_travel))) + rounding_a);
       return std::min(rest_plain, up(up(joint + up(kappa * up(W[kz] * sum_e))) + weighted_e));
     };
     const double rest = rehit ? rest_plain : joint_rest(std::min(n_w, up(n_1 * W[kz])));
@@ -874,6 +893,65 @@ std::vector<std::string_view> variants_with_offset_proofs() {
   return names;
 }
 
+// difference_rounding (offset_bounds.h).
+// A = v − o rounds to the spacing g of its binade [2^E, 2^(E+1)) (g = 2^(E+1−P), P = 53 or 24).
+// Where o's binade is at least A's, o is a multiple of g, so fl(A) − A is v's distance to the
+// nearest multiple of g: fixed by v's low bits. A vertex read from a float file and judged in
+// double is such a multiple for every origin at least as far out as the vertex's travel: the
+// difference is exact there, and only origins of finer spacing (nearer zero, so nearer v in that
+// axis) round at all. Those on a grid h < g reach g/2 less v's distance to h's grid; the finest
+// (o within 2^-4|v| of zero) half an ulp, u·2^E, half_ulp_at_most's.
+double difference_rounding(Precision p, double v, double o_lo, double o_hi) {
+  if (v == 0) return 0;  // fl(0 − o) = −o
+  const int bits = p == Precision::f32 ? 24 : 53;
+  const double u = std::ldexp(1.0, -bits);
+  double most = 0;
+  auto off_grid = [&](double g) {  // v's distance to the nearest multiple of g (fmod is exact)
+    const double r = std::abs(std::fmod(v, g));
+    return std::min(r, g - r);
+  };
+  // A over [a_lo, a_hi], from origins whose binade is o_binade (or finer, INT_MIN).
+  auto over = [&](double a_lo, double a_hi, int o_binade) {
+    const double m_hi = std::max(std::abs(a_lo), std::abs(a_hi));
+    const double m_lo = a_lo <= 0 && a_hi >= 0 ? 0 : std::min(std::abs(a_lo), std::abs(a_hi));
+    if (!(m_hi > 0)) return;
+    // Below v's binade less 2, o lies within 2^-2|v| of v, in a binade at least v's less 1: on a
+    // grid of g, which v is on too (its spacing, at least g's): exact.
+    const int lowest = std::max(m_lo > 0 ? std::ilogb(m_lo) : std::numeric_limits<int>::min(), std::ilogb(v) - 1);
+    for (int E = std::ilogb(m_hi); E >= lowest; --E) {
+      const double half = u * std::ldexp(1.0, E);
+      if (half <= most) break;  // finer binades round by less
+      const double g = std::ldexp(1.0, E + 1 - bits);
+      if (o_binade >= E) {
+        most = std::max(most, off_grid(g));
+      } else if (o_binade != std::numeric_limits<int>::min()) {
+        // o on the finer grid h: v − o is v's residue plus multiples of h, and g/2 is one of
+        // them: the nearest the residues come to g/2 (half way between two of g) is v's
+        // distance to h's grid.
+        most = std::max(most, half - off_grid(std::ldexp(1.0, o_binade + 1 - bits)));
+      } else {
+        most = half;
+      }
+    }
+  };
+  // Each sign of o apart, binade by binade of |o| from the largest, until they are finer than v's
+  // by 4 (then A is within 2^-3|v| of v: the rest at once, as rounding at any spacing).
+  const int stop = std::ilogb(v) - 4;
+  for (const int sign : {1, -1}) {
+    const double lo = sign > 0 ? std::max(o_lo, 0.0) : std::max(-o_hi, 0.0);
+    const double hi = sign > 0 ? o_hi : -o_lo;
+    if (!(hi >= lo) || hi == 0) continue;
+    int e = std::ilogb(hi);
+    for (; e > stop && std::ldexp(1.0, e + 1) > lo; --e) {
+      if (u * std::ldexp(1.0, std::ilogb(std::ldexp(1.0, e + 1) + std::abs(v))) <= most) break;  // no larger below
+      const double from = std::max(lo, std::ldexp(1.0, e)), to = std::min(hi, std::ldexp(1.0, e + 1));
+      if (from <= to) over(v - sign * to, v - sign * from, e);
+    }
+    const double rest_hi = std::min(hi, std::ldexp(1.0, e + 1));
+    if (lo < rest_hi) over(v - sign * rest_hi, v - sign * lo, std::numeric_limits<int>::min());
+  }
+  return most;
+}
 double ulp_in(Precision precision, double x) {
   const int digits = precision == Precision::f32 ? 24 : 53;
   const double smallest = precision == Precision::f32 ? 0x1p-149 : 0x1p-1074;

@@ -87,4 +87,9 @@ double proved_offset(const OffsetProof& proof, Precision precision, const Vec3& 
 // subnormal's at 0).
 double ulp_in(Precision precision, double x);
 
+// The largest rounding error |fl(v − o) − (v − o)| of a difference computed in `precision`, v
+// fixed, over every number o of that precision in [o_lo, o_hi] (no underflow): grids, not only
+// half an ulp (offset_bounds.cpp derives it). A vertex less an origin, as the variants compute it.
+double difference_rounding(Precision precision, double v, double o_lo, double o_hi);
+
 }  // namespace rayproof
