@@ -902,7 +902,8 @@ std::vector<std::string_view> variants_with_offset_proofs() {
 // axis) round at all. Those on a grid h < g reach g/2 less v's distance to h's grid; the finest
 // (o within 2^-4|v| of zero) half an ulp, u·2^E, half_ulp_at_most's.
 double difference_rounding(Precision p, double v, double o_lo, double o_hi) {
-  if (v == 0) return 0;  // fl(0 − o) = −o
+  if (v == 0) return 0;                                                                    // fl(0 − o) = −o
+  if (!std::isfinite(o_lo) || !std::isfinite(o_hi) || !std::isfinite(v)) return INFINITY;  // `all`: no grids
   const int bits = p == Precision::f32 ? 24 : 53;
   const double u = std::ldexp(1.0, -bits);
   double most = 0;
