@@ -911,13 +911,14 @@ double difference_rounding(Precision p, double v, double o_lo, double o_hi) {
     const double r = std::abs(std::fmod(v, g));
     return std::min(r, g - r);
   };
-  // A over [a_lo, a_hi], from origins whose binade is o_binade (or finer, INT_MIN).
-  auto over = [&](double a_lo, double a_hi, int o_binade) {
+  // A between a_0 and a_1, from origins whose binade is o_binade (or finer, INT_MIN).
+  auto over = [&](double a_0, double a_1, int o_binade) {  // v − o at the range's ends, widened a double
+    const double a_lo = down(std::min(a_0, a_1)), a_hi = up(std::max(a_0, a_1));
     const double m_hi = std::max(std::abs(a_lo), std::abs(a_hi));
     const double m_lo = a_lo <= 0 && a_hi >= 0 ? 0 : std::min(std::abs(a_lo), std::abs(a_hi));
     if (!(m_hi > 0)) return;
-    // Below v's binade less 2, o lies within 2^-2|v| of v, in a binade at least v's less 1: on a
-    // grid of g, which v is on too (its spacing, at least g's): exact.
+    // For E ≤ ilogb(v) − 2, |A| < |v|/2, so |o| > |v|/2: o's spacing is at least 2g and v's 4g,
+    // so A is on g's grid: exact.
     const int lowest = std::max(m_lo > 0 ? std::ilogb(m_lo) : std::numeric_limits<int>::min(), std::ilogb(v) - 1);
     for (int E = std::ilogb(m_hi); E >= lowest; --E) {
       const double half = u * std::ldexp(1.0, E);
@@ -929,7 +930,8 @@ double difference_rounding(Precision p, double v, double o_lo, double o_hi) {
         // o on the finer grid h: v − o is v's residue plus multiples of h, and g/2 is one of
         // them: the nearest the residues come to g/2 (half way between two of g) is v's
         // distance to h's grid.
-        most = std::max(most, half - off_grid(std::ldexp(1.0, o_binade + 1 - bits)));
+        const double x = off_grid(std::ldexp(1.0, o_binade + 1 - bits)), d = half - x;
+        most = std::max(most, (half - d) - x > 0 ? up(d) : d);  // Fast2Sum: d + that is half − x
       } else {
         most = half;
       }
