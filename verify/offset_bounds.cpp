@@ -214,10 +214,11 @@ struct RunningBound {
   static Bounded input(double mag) { return Bounded::within(mag); }
   // a − b of two exact inputs with |a − b| ≤ mag: one rounding.
   Bounded difference(double mag) const { return Bounded::within(mag, rounding(mag)); }
-  // v − o for o in [o_lo, o_hi], |v − o| ≤ mag: at its own size, difference_rounding's grids too.
-  Bounded vertex_minus_origin(Precision p, double v, double o_lo, double o_hi, double mag) const {
+  // A vertex less an origin, whose rounding difference_rounding bounds by `grid` too (at its own
+  // size: the grids do not scale).
+  Bounded difference(double mag, double grid) const {
     const double err = rounding(mag);
-    return Bounded::within(mag, at_size ? std::min(err, difference_rounding(p, v, o_lo, o_hi)) : err);
+    return Bounded::within(mag, at_size ? std::min(err, grid) : err);
   }
   Bounded rounded(double lo, double hi, double err) const {  // one rounding of the result
     const double mag = Bounded{lo, hi}.mag();
@@ -408,9 +409,11 @@ std::optional<OffsetProof> moller_trumbore_proof(Precision p, const RoundedTrian
   // N at its own size (each rounding half an ulp of its binade), or in u·magnitude terms where
   // it is scaled by the reach (homogeneity).
   const RunningBound A_at_size{A.u, true};
+  Vec3 s_rounding;  // of s = o − v0 from the scene's origins
+  for (int i = 0; i < 3; ++i) s_rounding[i] = difference_rounding(p, tri.v[0][i], box.lo[i], box.hi[i]);
   auto N_at = [&](const Vec3& s_mag, const RunningBound& R) {
     BVec s;
-    for (int i = 0; i < 3; ++i) s[i] = R.vertex_minus_origin(p, tri.v[0][i], box.lo[i], box.hi[i], s_mag[i]);
+    for (int i = 0; i < 3; ++i) s[i] = R.difference(s_mag[i], s_rounding[i]);
     return R.dot(e2, R.cross(s, e1));
   };
   auto D_at = [&](const Vec3& travel_mag) { return A.dot(e1, A.cross(inputs(travel_mag), e2)); };
@@ -558,10 +561,7 @@ std::optional<OffsetProof> watertight_proof(Precision p, const RoundedTriangle& 
     std::array<double, 3> depth;
     for (int i = 0; i < 3; ++i) {
       const Vec3 far = reach_from(origins, tri.v[i]), E = reach_from(domain, tri.v[i]);
-      auto a = [&](int k) {  // ã_i,k: the hit side's from the grids (difference_rounding)
-        const Bounded plain = R.difference(far[k]);
-        return rehit ? plain : Bounded::within(far[k], std::min(plain.err, a_rounding[i][k]));
-      };
+      auto a = [&](int k) { return R.difference(far[k], a_rounding[i][k]); };  // R is at size unless rehit
       const Bounded az = a(kz), ax = a(kx), ay = a(ky);
       a_err = std::max(a_err, az.err);
       depth[i] = up(E[kz] + r[kz]);
