@@ -270,14 +270,20 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
                      Stream& s) {
   const int pattern = int(s.next() % 4);
   const auto [target, n] = target_on(shape, box, pattern == 3 ? 0 : pattern, s);
-  // After the listed origins, every other ray from the box corner farthest from the target: the
-  // longest reach, where the proof's error terms are largest.
+  // After the listed origins, every other ray from the box corner farthest from the target's
+  // tangent plane: the proof's error terms grow with the travel along the normal, |n·t̃d| (the
+  // corner farthest in each coordinate may lie much nearer the plane).
   Vec3 origin;
   if (local < listed.size()) {
     origin = listed[local];
   } else if (local % 2 == 0) {
-    for (int i = 0; i < 3; ++i)
-      origin[i] = std::abs(box.lo[i] - target[i]) > std::abs(box.hi[i] - target[i]) ? box.lo[i] : box.hi[i];
+    double farthest = -1;
+    for (const double side : {1.0, -1.0}) {
+      Vec3 corner;
+      for (int i = 0; i < 3; ++i) corner[i] = side * n[i] > 0 ? box.hi[i] : box.lo[i];
+      const double along = std::abs(n.dot(corner - target));
+      if (along > farthest) farthest = along, origin = corner;
+    }
   } else {
     origin = random_in(box, s);
   }
