@@ -311,7 +311,7 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
   // roundings a witness lines up, in units of u·|n̂·t̃d|, averaged 0.53 for the quotient.
   Vec3 direction = normalized(target - origin);
   const double reach = (target - origin).norm();
-  if (s.next() & 1 && reach > 0 && std::isfinite(reach)) {
+  if (s.next() % 4 != 0 && reach > 0 && std::isfinite(reach)) {
     const double above = 1 + std::ldexp(1 + s.unit(), -12 + below(s, 8));  // 1 + [2^-12, 2^-4)
     direction *= reach / (std::ldexp(1.0, std::ilogb(reach)) * above);
   }
