@@ -272,12 +272,18 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
   // does (a terrain); steep rays carry the largest travel along the normal.
   const int pick = int(s.next() % 8), pattern = pick == 7 ? 3 : pick % 3;
   const auto [target, n] = target_on(shape, box, pattern == 3 ? 0 : pattern, s);
-  // After the listed origins, every other ray from the box corner farthest from the target's
+  // After the listed origins, three rays in four from the box corner farthest from the target's
   // tangent plane: the proof's error terms grow with the travel along the normal, |n·t̃d| (the
-  // corner farthest in each coordinate may lie much nearer the plane).
+  // corner farthest in each coordinate may lie much nearer the plane). A sphere's grow with the
+  // origin's distance to its centre (c = |o − m|² − R² cancels): the corner farthest from it.
   Vec3 origin;
   if (local < listed.size()) {
     origin = listed[local];
+  } else if (const auto* sphere = std::get_if<Sphere>(&shape); sphere && local % 4 != 3) {
+    for (int i = 0; i < 3; ++i) {
+      const double m = sphere->center[i];
+      origin[i] = std::abs(box.lo[i] - m) > std::abs(box.hi[i] - m) ? box.lo[i] : box.hi[i];
+    }
   } else if (local % 4 != 3) {
     double farthest = -1;
     for (const double side : {1.0, -1.0}) {

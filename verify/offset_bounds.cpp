@@ -55,7 +55,8 @@
 // of the right sign, and widening by K̃ keeps a sign. Any δ > 0 suffices: the re-hit bound is 0.
 //
 // Spheres (textbook, stable, stable-fma), with f(t) = a t² − 2βt + c = |o + t·d − m|² − R²
-// (β = −d·(o − m)): the point o + t̃·d lies off the sphere by |f(t̃)|/(|p − m| + R) ≤ |f(t̃)|/R.
+// (β = −d·(o − m)): the point p = o + t̃·d lies off the sphere by h = |f(t̃)|/(|p − m| + R) ≤
+// |f(t̃)|/R = h₁, and since |p − m| ≥ R − h ≥ R − h₁, by h ≤ |f(t̃)|/(2R − h₁) where h₁ < 2R.
 // The code computes ã, β̃, C̃ (errors E_a, E_β, E_C against a, β, c) and D̃, the discriminant in
 // β² − ac units (disc/4), with δ_D = D̃ − (β̃² − ãC̃), |δ_D| ≤ κ(β̃² + ã|C̃|), κ = γ(2) (b² − 4ac
 // in three roundings; Kahan's FMA form within γ(3)). Let Ĉ = (β̃² − D̃)/ã: then D̃ = β̃² − ãĈ
@@ -795,7 +796,9 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
       G = std::max(big, small);
     }
     const double f_bound = up(f_minus_G + G);
-    return up(up(f_bound / R) + point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points)));
+    const double h1 = up(f_bound / R), two_R = 2 * R;  // exact: a power of two times R
+    const double h = h1 < two_R ? std::min(h1, up(f_bound / down(two_R - h1))) : h1;
+    return up(h + point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points)));
   };
   Bounds own;
   own.grow(Vec3(down(m.x() - R), down(m.y() - R), down(m.z() - R)));
