@@ -64,11 +64,18 @@
 // magnitude, |T2| ≤ |T1|) are what the code computes up to its last roundings. So
 //     |f(t̃)| ≤ |f − G|(t̃) + |G(t̃)|,  |f − G|(t̃) ≤ E_a·t̃² + 2E_β|t̃| + E_C + |δ_D|/ã,     (4)
 // and G(t̃) = ã(t̃ − T)(t̃ − T′) for t̃ near its root T:
-//   stable q/a: t̃ = T1(1 + η), |η| ≤ γ(3): |G| ≤ γ(3)/(1 − γ(3))·|t̃|·(ã|t̃| + |β̃| + √D̃);
+//   stable q/a: t̃ = T1(1 + η), |η| ≤ γ(3): |G| ≤ γ(3)/(1 − γ(3))·|t̃|·(ã|t̃| + |β̃| + √D̃), or,
+//     as G(t̃) = ãηT1(T1 − T2 + ηT1) with |T1 − T2| = 2√D̃/ã and ã|T1| = |β̃| + √D̃,
+//     |G| ≤ γ(3)/(1 − γ(3))·|t̃|·(2√D̃ + γ(3)(|β̃| + √D̃)), where D̃ ≤ |d|²R² + its errors;
 //   stable c/q: t̃ = (C̃/q̂)(1 + η) = T2(1 + η) + (δ_D/ã)(1 + η)/q̂; with q̂² ≥ β̃², q̂² ≥ ã|Ĉ| (D̃ ≥
 //     0 for any reported hit), |δ_D|/q̂² ≤ ρ = 2κ/(1 − κ) and ã|t̃|/|q̂| ≤ (1 + γ(3))(1 + ρ), so
 //     |G| ≤ γ(3)(ã t̃² + (1 + γ(3))²(1 + ρ)|δ_D|/ã)/(1 − γ(3)) + γ(3)|Ĉ|
 //           + ((1 + γ(3))(1 + ρ) + 1)(1 + γ(3))|δ_D|/ã;
+//     or, signed: C̃ = Ĉ + δ_D/ã, so ã(t̃ − T2) = (δ_D + ãηC̃)/q̂ and, with q̂ = ãT1,
+//     G(t̃) = (δ_D/ã + ηC̃)(t̃ − T1)/T1: (4)'s δ_D/ã cancels against it, leaving
+//     f(t̃) = (f − G − δ_D/ã)(t̃) + (δ_D/ã)·t̃/T1 + ηC̃(t̃/T1 − 1), and |t̃/T1| = ã|t̃|/|q̂| ≤ s:
+//     |f(t̃)| ≤ E_a·t̃² + 2E_β|t̃| + E_C + s·|δ_D|/ã + γ(3)(1 + s)|C̃|, s = (1 + γ(3))(1 + ρ) (4′)
+//     (far from the sphere δ_D is most of the error: (4) pays it three times, (4′) once);
 //   textbook (β̃ ± √D̃)/ã: t̃ = (T + e/(2ã))(1 + ε), |e| ≤ 2u√D̃ + u|numerator|, so
 //     |G| ≤ (ã|t̃| + |β̃| + √D̃)(u|T| + (1 + u)|e|/(2ã)).
 // Every term is homogeneous of degree 0 in d: with |t̃·d| ≤ |W| (the travel), |β̃| ≤ |d|F(1 + γ(4))
@@ -775,7 +782,14 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   const double Fb = up(F * (1 + g4));                                                       // |β̃|/|d|
   const double delta_D = up(kappa * up(up(Fb * Fb / down(1 - g3)) + up(C.mag() + C.err)));  // |δ_D|/ã
   const double C_hat = up(up(C.mag() + C.err) + delta_D);                                   // |Ĉ|
-  const double Sd = up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50));             // √D̃/|d|
+  // √D̃/|d|, two ways: D̃ ≤ β̃² + ã|Ĉ|; or D̃ = D + (β̃² − β²) − (ãC̃ − ac) + δ_D with the exact
+  // D = β² − ac = |d|²R² − |d × (o − m)|² ≤ |d|²R², |β̃² − β²| ≤ E_β(2|β| + E_β) and
+  // |ãC̃ − ac| ≤ ãE_C + E_a|c|, E_a ≤ γ(3)|d|²: far from the sphere √D̃ is about |d|R, not |d|F.
+  const double E_beta = A.dot(inputs(Vec3(1, 1, 1)), oc).err;  // E_β/|d| (|d_i| ≤ |d|)
+  const double D_near = up(up(up(up(R * R) + up(E_beta * up(up(2 * F) + E_beta))) + up(up(1 + g3) * C.err)) +
+                           up(up(g3 * C.mag()) + up(up(1 + g3) * delta_D)));
+  const double Sd = std::min(up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50)),
+                             up(std::sqrt(D_near) * (1 + 0x1p-50)));
   auto bound_for = [&](const Bounds& points) {
     const Vec3 w = travel(box, points);
     const double Lt = up(w.norm() * (1 + 0x1p-50));                                   // |t̃·d|
@@ -783,19 +797,23 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
     const Bounded beta = A.dot(inputs(w), oc);                                        // E_β·|t̃|
     const double f_minus_G = up(up(up(a.err + up(2 * beta.err)) + C.err) + delta_D);  // (4)
     const double Q = up(up(up(Lt * (1 + g3)) + Fb) + Sd);                             // (ã|t̃| + |β̃| + √D̃)/|d|
-    double G;
+    double f_bound;  // |f(t̃)|
     if (formula == SphereFormula::textbook) {
       const double E0 = up(u * up(Sd + up(up((1 + u) * (1 + u)) * up(Fb + Sd))) / down(1 - g3));  // |e|/(2ã)·|d|
-      G = up(Q * up(up(u * up(Lt + up((1 + u) * E0)) / down(1 - u)) + up((1 + u) * E0)));
+      const double G = up(Q * up(up(u * up(Lt + up((1 + u) * E0)) / down(1 - u)) + up((1 + u) * E0)));
+      f_bound = up(f_minus_G + G);
     } else {
-      const double big = up(Q * up(up(g3 / down(1 - g3)) * Lt));
+      // q/a: t̃ = T1(1 + η), G(t̃) = ãηT1(T1 − T2 + ηT1), |T1 − T2| = 2√D̃/ã, ã|T1| = |β̃| + √D̃.
+      const double big = up(up(up(g3 / down(1 - g3)) * Lt) * std::min(Q, up(up(2 * Sd) + up(g3 * up(Fb + Sd)))));
       const double t2 = up(up(Lt * Lt) * (1 + g3));  // ã·t̃²
       const double spread = up(up(1 + g3) * up(1 + rho));
       const double small = up(up(up(g3 * up(t2 + up(up(spread * (1 + g3)) * delta_D))) / down(1 - g3)) +
                               up(up(g3 * C_hat) + up(up(up(spread + 1) * (1 + g3)) * delta_D)));
-      G = std::max(big, small);
+      // c/q: (4) with |G| above, or (4′), the smaller; q/a: (4).
+      const double signed_small = up(up(up(up(a.err + up(2 * beta.err)) + C.err) + up(spread * delta_D)) +
+                                     up(up(g3 * up(1 + spread)) * up(C.mag() + C.err)));
+      f_bound = std::max(up(f_minus_G + big), std::min(up(f_minus_G + small), signed_small));
     }
-    const double f_bound = up(f_minus_G + G);
     const double h1 = up(f_bound / R), two_R = 2 * R;  // exact: a power of two times R
     const double h = h1 < two_R ? std::min(h1, up(f_bound / down(two_R - h1))) : h1;
     return up(h + point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points)));
