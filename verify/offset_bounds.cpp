@@ -788,8 +788,8 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   const double E_beta = A.dot(inputs(Vec3(1, 1, 1)), oc).err;  // E_β/|d| (|d_i| ≤ |d|)
   const double D_near = up(up(up(up(R * R) + up(E_beta * up(up(2 * F) + E_beta))) + up(up(1 + g3) * C.err)) +
                            up(up(g3 * C.mag()) + up(up(1 + g3) * delta_D)));
-  const double Sd = std::min(up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50)),
-                             up(std::sqrt(D_near) * (1 + 0x1p-50)));
+  const double Sd =
+      std::min(up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50)), up(std::sqrt(D_near) * (1 + 0x1p-50)));
   auto bound_for = [&](const Bounds& points) {
     const Vec3 w = travel(box, points);
     const double Lt = up(w.norm() * (1 + 0x1p-50));                                   // |t̃·d|
@@ -797,7 +797,7 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
     const Bounded beta = A.dot(inputs(w), oc);                                        // E_β·|t̃|
     const double f_minus_G = up(up(up(a.err + up(2 * beta.err)) + C.err) + delta_D);  // (4)
     const double Q = up(up(up(Lt * (1 + g3)) + Fb) + Sd);                             // (ã|t̃| + |β̃| + √D̃)/|d|
-    double f_bound;  // |f(t̃)|
+    double f_bound;                                                                   // |f(t̃)|
     if (formula == SphereFormula::textbook) {
       const double E0 = up(u * up(Sd + up(up((1 + u) * (1 + u)) * up(Fb + Sd))) / down(1 - g3));  // |e|/(2ã)·|d|
       const double G = up(Q * up(up(u * up(Lt + up((1 + u) * E0)) / down(1 - u)) + up((1 + u) * E0)));
