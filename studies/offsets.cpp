@@ -312,7 +312,7 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
   }
   SearchRay r;
   // A unit direction, as renderers use: a long one would overflow float's products (b² of a far
-  // sphere at 2^30), outside the proofs' domain. Every other ray shortens it (by at most 2×) so
+  // sphere at 2^30), outside the proofs' domain. Three rays in four shorten it (by at most 2×) so
   // that t lands just above a power of two: a rounding errs by at most half an ulp of its binade,
   // u·2^⌊log2 |y|⌋, so only there does the quotient's rounding reach u·|t| (and the watertight
   // test's depths z_i ≈ t theirs). The bound allows any length; on the bunny's triangles the
