@@ -78,8 +78,10 @@
 //     (far from the sphere δ_D is most of the error: (4) pays it three times, (4′) once);
 //   textbook (β̃ ± √D̃)/ã: t̃ = (T + e/(2ã))(1 + ε), |e| ≤ 2u√D̃ + u|numerator|, so
 //     |G| ≤ (ã|t̃| + |β̃| + √D̃)(u|T| + (1 + u)|e|/(2ã)).
+// The rounding α of o − m enters as an origin moved by α (after it the code computes exactly
+// what it computes for o′ = m + fl(o − m)): the bound is o′'s, with o′ − m exact, plus |α|.
 // Every term is homogeneous of degree 0 in d: with |t̃·d| ≤ |W| (the travel), |β̃| ≤ |d|F(1 + γ(4))
-// (F ≥ |o − m|), ã ≥ |d|²(1 − γ(3)), each is a number of the scene. The re-hit side: a ray from
+// (F ≥ |o′ − m|), ã ≥ |d|²(1 − γ(3)), each is a number of the scene. The re-hit side: a ray from
 // an origin δ outside, going away (b ≥ 0), is reported only if C̃ ≤ 0, or b̃ < 0 by rounding with
 // b̃²(1 + κ) ≥ 4ãC̃(1 − κ) (stable: b̃² ≤ 4γ(4)²|d|²F′²), or the textbook's √disc exceeds b̃,
 // which needs 4ãC̃(1 − κ) < κb̃²; c = δ(2R + δ) ≥ 2Rδ beyond E_C plus that rules all out.
@@ -774,10 +776,21 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   const double u = unit_roundoff(p), g3 = gamma_up(p, 3), g4 = gamma_up(p, 4), g6 = gamma_up(p, 6);
   const double kappa = gamma_up(p, formula == SphereFormula::stable_fma ? 3 : 2), rho = up(2 * kappa / down(1 - kappa));
   const RunningBound A{u};
+  // The subtraction õc = fl(o − m) = (o − m) + α is the code's only use of o: from there it
+  // computes exactly what it computes, without that rounding, for the origin o′ = m + õc. So the
+  // bound below is o′'s, its õc exact (|õc_i| ≤ |o_i − m_i|(1 + u)), and the point o + t̃·d lies
+  // within |α| of o′ + t̃·d: |α| is added. Carried as errors of õc instead, α would be paid in c
+  // and in β·t̃ at |o − m| times its size each, where the point moves by |α| only.
   const Vec3 f_mag = reach_from(box, m);
-  const double F = up(f_mag.norm() * (1 + 0x1p-50));
+  double alpha_squared = 0;  // |α|²
   BVec oc;
-  for (int i = 0; i < 3; ++i) oc[i] = A.difference(f_mag[i]);
+  for (int i = 0; i < 3; ++i) {
+    const double a_i = half_ulp_at_most(u, f_mag[i]);
+    alpha_squared = up(alpha_squared + up(a_i * a_i));
+    oc[i] = RunningBound::input(up(f_mag[i] * (1 + u)));
+  }
+  const double alpha = up(std::sqrt(alpha_squared) * (1 + 0x1p-50));
+  const double F = up(up(f_mag.norm() * (1 + 0x1p-50)) * (1 + u));  // ≥ |õc|
   const Bounded C = A.add(A.dot(oc, oc), A.mul(RunningBound::input(R), RunningBound::input(R)));
   const double Fb = up(F * (1 + g4));                                                       // |β̃|/|d|
   const double delta_D = up(kappa * up(up(Fb * Fb / down(1 - g3)) + up(C.mag() + C.err)));  // |δ_D|/ã
@@ -816,7 +829,7 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
     }
     const double h1 = up(f_bound / R), two_R = 2 * R;  // exact: a power of two times R
     const double h = h1 < two_R ? std::min(h1, up(f_bound / down(two_R - h1))) : h1;
-    return up(h + point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points)));
+    return up(up(h + alpha) + point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points)));
   };
   Bounds own;
   own.grow(Vec3(down(m.x() - R), down(m.y() - R), down(m.z() - R)));
