@@ -279,12 +279,14 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
   Vec3 origin;
   if (local < listed.size()) {
     origin = listed[local];
-  } else if (const auto* sphere = std::get_if<Sphere>(&shape); sphere && local % 4 != 3) {
+  } else if (local % 4 == 3) {
+    origin = random_in(box, s);
+  } else if (const auto* sphere = std::get_if<Sphere>(&shape)) {
     for (int i = 0; i < 3; ++i) {
       const double m = sphere->center[i];
       origin[i] = std::abs(box.lo[i] - m) > std::abs(box.hi[i] - m) ? box.lo[i] : box.hi[i];
     }
-  } else if (local % 4 != 3) {
+  } else {
     double farthest = -1;
     for (const double side : {1.0, -1.0}) {
       Vec3 corner;
@@ -292,8 +294,6 @@ SearchRay search_ray(const Shape& shape, const Bounds& box, const std::vector<Ve
       const double along = std::abs(n.dot(corner - target));
       if (along > farthest) farthest = along, origin = corner;
     }
-  } else {
-    origin = random_in(box, s);
   }
   if (pattern == 3) {  // grazing: from far along the surface's tangent plane, lifted a little
     const Vec3 along = perpendicular(n);

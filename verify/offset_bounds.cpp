@@ -792,9 +792,10 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   const double alpha = up(std::sqrt(alpha_squared) * (1 + 0x1p-50));
   const double F = up(up(f_mag.norm() * (1 + 0x1p-50)) * (1 + u));  // ≥ |õc|
   const Bounded C = A.add(A.dot(oc, oc), A.mul(RunningBound::input(R), RunningBound::input(R)));
-  const double Fb = up(F * (1 + g4));                                                       // |β̃|/|d|
-  const double delta_D = up(kappa * up(up(Fb * Fb / down(1 - g3)) + up(C.mag() + C.err)));  // |δ_D|/ã
-  const double C_hat = up(up(C.mag() + C.err) + delta_D);                                   // |Ĉ|
+  const double C_computed = up(C.mag() + C.err);                                   // |C̃|
+  const double Fb = up(F * (1 + g4));                                              // |β̃|/|d|
+  const double delta_D = up(kappa * up(up(Fb * Fb / down(1 - g3)) + C_computed));  // |δ_D|/ã
+  const double C_hat = up(C_computed + delta_D);                                   // |Ĉ|
   // √D̃/|d|, two ways: D̃ ≤ β̃² + ã|Ĉ|; or D̃ = D + (β̃² − β²) − (ãC̃ − ac) + δ_D with the exact
   // D = β² − ac = |d|²R² − |d × (o − m)|² ≤ |d|²R², |β̃² − β²| ≤ E_β(2|β| + E_β) and
   // |ãC̃ − ac| ≤ ãE_C + E_a|c|, E_a ≤ γ(3)|d|²: far from the sphere √D̃ is about |d|R, not |d|F.
@@ -824,7 +825,7 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
                               up(up(g3 * C_hat) + up(up(up(spread + 1) * (1 + g3)) * delta_D)));
       // c/q: (4) with |G| above, or (4′), the smaller; q/a: (4).
       const double signed_small = up(up(up(up(a.err + up(2 * beta.err)) + C.err) + up(spread * delta_D)) +
-                                     up(up(g3 * up(1 + spread)) * up(C.mag() + C.err)));
+                                     up(up(g3 * up(1 + spread)) * C_computed));
       f_bound = std::max(up(f_minus_G + big), std::min(up(f_minus_G + small), signed_small));
     }
     const double h1 = up(f_bound / R), two_R = 2 * R;  // exact: a power of two times R
@@ -939,7 +940,7 @@ double difference_rounding(Precision p, double v, double o_lo, double o_hi) {
   if (v == 0) return 0;                                                                    // fl(0 − o) = −o
   if (!std::isfinite(o_lo) || !std::isfinite(o_hi) || !std::isfinite(v)) return INFINITY;  // `all`: no grids
   const int bits = p == Precision::f32 ? 24 : 53;
-  const double u = std::ldexp(1.0, -bits);
+  const double u = unit_roundoff(p);
   double most = 0;
   auto off_grid = [&](double g) {  // v's distance to the nearest multiple of g (fmod is exact)
     const double r = std::abs(std::fmod(v, g));
