@@ -165,7 +165,9 @@ TEST(Offsets, NoWitnessBeyondTheBoundOnSpheres) {
   base.lights.push_back({Vec3(4, 3, -2), 1});
   for (int k : {-30, 0, 30})
     expect_no_witness_beyond_bound(
-        scaled(base, k), named({"textbook", "stable", "stable-fma", "textbook-f32", "stable-f32", "stable-fma-f32"}),
+        scaled(base, k),
+        named({"textbook", "stable", "stable-fma", "hearn-baker", "textbook-f32", "stable-f32", "stable-fma-f32",
+               "hearn-baker-f32"}),
         100000, "spheres at 2^" + std::to_string(k), 3.5);
 }
 
@@ -332,8 +334,13 @@ TEST(Offsets, ProvedSafeNeedsTheWholeMargin) {
     EXPECT_GE(wt->rehit_at(reach), previous) << reach;
     previous = wt->rehit_at(reach);
   }
-  // No derivation for users' code or formulas not derived: the witness side only.
-  EXPECT_FALSE(offset_proof(*find_variant("hearn-baker"), Sphere{Vec3(0, 0, 0), 1}, box).has_value());
+  // Every built-in formula is derived, Hearn–Baker's too; the exact oracle has no rounding to bound
+  // and users' code is a black box: the witness side only.
+  EXPECT_TRUE(offset_proof(*find_variant("hearn-baker"), Sphere{Vec3(0, 0, 0), 1}, box).has_value());
+  register_certified_variants();
+  const Variant* oracle = find_variant("certified-sphere");
+  ASSERT_NE(oracle, nullptr);
+  EXPECT_FALSE(offset_proof(*oracle, Sphere{Vec3(0, 0, 0), 1}, box).has_value());
 }
 
 TEST(Offsets, CommandWritesItsFilesAndTheCasesReplay) {

@@ -152,10 +152,44 @@
 // eight corners with signed values (a sum's magnitude |a + b| there) it is largest at one of
 // them. For the watertight test (6'), below, takes a ray's depth and Σ|ũ_i| together.
 //
-// Hearn–Baker's discriminant r² − |l|² is not rounded in proportion to the quadratic's
-// coefficients (its |l|² errs by γ·|o − m|² even where β and c vanish), so the small root's
-// bound above needs a lower bound on q that tangent rays from the surface do not give; it gets
-// the witness side only: its rules stay `unproved` unless a witness shows `unsafe`.
+// Hearn–Baker (variants.cpp hearn_baker) computes the discriminant from the centre's distance to
+// the line, Δ = R² − |l|², l = f + t*·d (f = o′ − m, t* = β/a, β = −f·d), and D̃ = fl(ã·Δ̃),
+// q̂ = β̃ + σ√D̃ (σ = sgn β̃), t̃1 = fl(q/ã), t̃0 = fl(C̃/q). Its D̃ errs in proportion to R², not
+// to β̃² + ã|C̃| (|l̃|² ≈ R² even where β and c vanish), so the bound is its own; with |d| = 1 (all
+// terms are homogeneous of degree 0 in d) and f(t) = (t − t*)² − Δ (since aΔ = β² − ac):
+// (9) Granules. A reported hit has Δ̃ ≥ 0, so |l̃|²(1 − γ3) ≤ r̃2(1 + u): |l̃| ≤ Λ. A positive Δ̃ is
+//     fl(r̃2 − L̃) ≥ u·2^⌊log2 r̃2⌋ (exact by Sterbenz where L̃ ≥ r̃2/2, a multiple of L̃'s spacing), so
+//     D̃ ≥ (1 − γ3)(1 − u)·u·2^⌊log2 r̃2⌋ =: D_lo: |q̂| = |β̃| + √D̃ never falls below √D_lo.
+// (10) The errors, for an origin with |f| ≤ F: E_β = γ3F bounds |β̃ − β|; e* = β̃/ã − t*, |e*| ≤
+//     2γ3F/(1 − γ3). The code's projection k̃ = fl(f·d/ã) = −(t* + e*)(1 + ε) leaves ℓ = f − k̃d =
+//     l + e′_k·d, |e′_k| ≤ |e*| + u(F + |e*|), and since l ⊥ d, |ℓ|² = |l|² + e′_k² (the projection's
+//     error costs its square); l̃ = ℓ + ρ, |ρ| ≤ (u(1 + u)|k̃| + uΛ)/(1 − u). With r̃2 = R²(1 + ε₁),
+//     L̃ = |l̃|²(1 + θ), |θ| ≤ γ3, Δ̃ = (r̃2 − L̃)(1 + ε₂):
+//       E_Δ := |Δ̃ − Δ| ≤ uR² + e′_k² + 2(Λ + ρ)ρ + ρ² + γ3Λ² + uΔ̃/(1 − u).
+//     For the small root, δ = C̃ − Ĉ, Ĉ = (β̃² − D̃)/ã (so that Ĉ/q̂ = β̃/ã − σS, S = √D̃/ã): r̃2
+//     cancels in C̃ + Δ̃, and |f|² − |l̃|² = β² − e′_k² − 2ℓ·ρ − |ρ|², so δ = (β² − β̃²/ã) + δ₀ with
+//       |δ₀| ≤ e′_k² + 2(Λ + ρ)ρ + ρ² + γ3(F² + Λ²) + (u|C̃| + 2uΔ̃)/(1 − u),
+//       |β² − β̃²/ã| ≤ E_β(2|β̃| + E_β) + γ3β̃²/(1 − γ3).
+// (11) The large root t̃1 = (β̃/ã + σS)(1 + η), |η| ≤ γ3: t̃1 − t* = σS + Z, |Z| ≤ |e*| + γ3|t̃1|/(1 − γ3),
+//       |f(t̃1)| ≤ |S² − Δ| + 2S|Z| + Z², |S² − Δ| ≤ (E_Δ + uΔ̃ + γ3|Δ|)/(1 − γ3);
+//     a touching ray (Δ̃ = 0, S = 0) is the same with |Δ| ≤ E_Δ.
+// (12) The small root t̃0 = (β̃/ã − σS + δ/q̂)(1 + η): t̃0 − t* = Y − σS, |f(t̃0)| ≤ |S² − Δ| + 2S|Y| + Y²,
+//       |Y| ≤ |e*| + γ3|t̃0|/(1 − γ3) + 2E_β + γ3|β̃|/(1 − γ3) + E_β²/|q̂| + |δ₀|/|q̂|,
+//     where 2S|δ₀|/|q̂| ≤ 2|δ₀|S/(|β̃| + (1 − γ3)S) (far from the sphere S/|β̃| ≈ R/F: the error of c is
+//     paid as γF·R, not γF²), and |q̂| ≥ |β̃| + √D_lo with |β̃| ≥ √(F_a² − (Λ + ρ)²) − E_β for origins
+//     at |f| ≥ F_a (a hit's |l| ≤ |ℓ| ≤ Λ + ρ). The origins' |f| is cut into slices [F_a, F_b],
+//     geometric beyond R, each bounded with F_b's errors and F_a's |β̃|; the largest is taken.
+// (12′) A touching ray's small root (q̂ = β̃): under the nearest rule it is reported only when
+//     0 < t̃0 ≤ t̃1, and under the entering rule only when the code's (p̃ − m)·d < 0, i.e. t̃0 − t* <
+//     γ4|p̃ − m| + |α| + |r| (the point's rounding r); either way |Y| ≤ max(|β̃| + E_β, that, |Z|).
+//     With (12)'s |Y| ≤ … + (E_β² + |δ₀|)/|β̃|: the first holds where |β̃| ≤ κ = √(E_β² + |δ₀|), the
+//     second, its last term at most κ, where |β̃| > κ: Y² is of order |δ₀|, never unbounded.
+// (13) Re-hits: from o′ at R + δ from m, going away (β ≤ 0): c′ ≥ 2Rδ − 2uF′² (o − m's rounding,
+//     F′ = R + δ). C̃ > 0 once c′ > E_C = γ4F′² + γ2R², and then a positive root needs β̃ ≥ 0, so
+//     |β| ≤ E_β and Δ̃ ≥ 0 needs c′ = β² − Δ ≤ E_β² + E_Δ: no hit once 2Rδ − 2uF′² exceeds both.
+// Where it is loose: (12)'s Y² at the smallest D̃ pays |δ₀|²/D_lo, of order 10²·uR² for rays
+// leaving the surface tangentially, where the roundings of C̃ and Δ̃ (nearly the same dot product
+// there) largely cancel.
 #include "rayproof/verify/offset_bounds.h"
 
 #include <algorithm>
@@ -852,7 +886,162 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   return proof;
 }
 
-enum class Formula { none, moller_trumbore, watertight, plane_direct, slab, robust_slab, textbook, stable, stable_fma };
+// Hearn–Baker (the derivation (9)–(12) above), for the origin o′ = m + fl(o − m) as the sphere
+// variants above, |α| added; in units where |d| = 1 (every term is homogeneous of degree 0 in d).
+std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, const Bounds& scene_box) {
+  const Vec3 m = in_precision(p, input.center);
+  const double R = in_precision(p, input.radius);
+  if (!(R > 0)) return std::nullopt;
+  const Bounds box = in_precision(p, scene_box);
+  const double u = unit_roundoff(p), g2 = gamma_up(p, 2), g3 = gamma_up(p, 3), g4 = gamma_up(p, 4);
+  const double g3q = up(g3 / down(1 - g3));  // γ3/(1 − γ3): η′, e*'s and ã's relative errors
+  // r̃2 = fl(R·R) as the code computes it, and the smallest positive Δ̃ (9).
+  const double r2 = p == Precision::f32 ? double(float(R) * float(R)) : R * R;
+  const double granule = std::ldexp(u, std::ilogb(r2));
+  const double R2 = up(R * R), delta_max = up(up(R2 * (1 + u)) * (1 + u));                   // Δ̃ ≤ r̃2(1 + u)
+  const double Lambda = up(std::sqrt(up(up(R2 * (1 + u)) / down(1 - g3))) * (1 + 0x1p-50));  // |l̃|
+  const double S_max = up(std::sqrt(up(up(delta_max * (1 + u)) / down(1 - g3))) * (1 + 0x1p-50));
+  const double sqrt_D_lo = down(std::sqrt(down(down(1 - g3) * down(down(1 - u) * granule))) * (1 - 0x1p-50));
+  // |ρ| ≤ ρ₀ + ρ₁|β̃| (10): |k̃| ≤ |β̃|(1 + u)/(1 − γ3).
+  const double rho0 = up(up(u * Lambda) / down(1 - u));
+  const double rho1 = up(up(up(u * (1 + u)) * up(1 + u)) / down(down(1 - g3) * down(1 - u)));
+  // The errors (10) for origins |o′ − m| ≤ F: E_β, |e*|, |e′_k|, |ρ|, E_Δ, and δ₀ = d₀ + d₁|β̃| + d₂β̃²
+  // (its ρ terms 2(Λ + ρ)ρ + ρ² = 2Λρ + 3ρ² expanded in |β̃|: a tangent ray's small β̃ pays less).
+  struct Errors {
+    double E_beta, e_star, e_k, rho, E_Delta, delta0, d0, d1, d2;
+  };
+  auto errors = [&](double F) {
+    Errors e;
+    e.E_beta = up(g3 * F);
+    e.e_star = up(2 * up(g3q * F));
+    e.e_k = up(e.e_star + up(u * up(F + e.e_star)));
+    e.rho = up(rho0 + up(rho1 * up(F * (1 + g3))));
+    const double shared = up(up(up(e.e_k * e.e_k) + up(2 * up(up(Lambda + e.rho) * e.rho))) +
+                             up(up(e.rho * e.rho) + up(g3 * up(Lambda * Lambda))));
+    e.E_Delta = up(up(shared + up(u * R2)) + up(u * delta_max / down(1 - u)));
+    e.delta0 = up(shared + up(g3 * up(F * F)));
+    e.d0 = up(up(up(e.e_k * e.e_k) + up(g3 * up(up(F * F) + up(Lambda * Lambda)))) +
+              up(up(2 * up(Lambda * rho0)) + up(3 * up(rho0 * rho0))));
+    e.d1 = up(up(2 * up(Lambda * rho1)) + up(6 * up(rho0 * rho1)));
+    e.d2 = up(3 * up(rho1 * rho1));
+    return e;
+  };
+  const Vec3 f_mag = reach_from(box, m);
+  double alpha_squared = 0, F_lo_squared = 0;
+  for (int i = 0; i < 3; ++i) {
+    const double a_i = half_ulp_at_most(u, f_mag[i]);
+    alpha_squared = up(alpha_squared + up(a_i * a_i));
+    const double gap = std::max(0.0, std::max(down(box.lo[i] - m[i]), down(m[i] - box.hi[i])));
+    F_lo_squared = std::max(0.0, down(F_lo_squared + down(gap * gap)));
+  }
+  const double alpha = up(std::sqrt(alpha_squared) * (1 + 0x1p-50));
+  const double F_hi = up(up(f_mag.norm() * (1 + 0x1p-50)) * (1 + u));                                // ≥ |õc|
+  const double F_lo = std::max(0.0, down(down(std::sqrt(F_lo_squared) * (1 - 0x1p-50)) * (1 - u)));  // ≤ |õc|
+  if (!std::isfinite(F_hi)) return std::nullopt;
+  // The origins' distances in slices [F_a, F_b], geometric beyond R (the near root's |β̃| from
+  // below, (11), needs F_a close to F_b): at most 4,096.
+  std::vector<double> cuts{F_lo};
+  if (F_hi > std::max(F_lo, R)) {
+    const double from = std::max(F_lo, R);
+    const double ratio = std::max(1 + 1.0 / 64, std::pow(F_hi / from, 1.0 / 4096));
+    if (from > F_lo) cuts.push_back(from);
+    for (double x = up(from * ratio); x < F_hi; x = up(x * ratio)) cuts.push_back(x);
+  }
+  cuts.push_back(std::max(F_lo, F_hi));
+  auto bound_for = [&](const Bounds& points) {
+    const Vec3 w = travel(box, points);
+    const double L = up(w.norm() * (1 + 0x1p-50));  // |t̃·d|
+    const double rounding = point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points));
+    const double check = up(up(up(g4 * up(reach_from(points, m).norm() * (1 + 0x1p-50))) + alpha) + rounding);
+    double f_bound = 0;
+    for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+      const double F_a = cuts[k], F_b = cuts[k + 1];
+      const Errors e = errors(F_b);
+      const double b_hi = up(F_b * (1 + g3));  // |β̃|
+      const double l_hi = up(Lambda + e.rho), beta_squared_lo = down(down(F_a * F_a) - up(l_hi * l_hi));
+      const double b_lo =
+          beta_squared_lo > 0 ? std::max(0.0, down(down(std::sqrt(beta_squared_lo) * (1 - 0x1p-50)) - e.E_beta)) : 0;
+      const double q_lo = down(b_lo + sqrt_D_lo);
+      const double Delta_abs = up(delta_max + e.E_Delta);
+      const double base = up(up(up(e.E_Delta + up(u * delta_max)) + up(g3 * Delta_abs)) / down(1 - g3));  // |S² − Δ|
+      const double along = up(e.e_star + up(g3q * L));  // |e*| + |η′t̃|
+      // (11) the far root q/a (touching too).
+      const double far = up(up(base + up(2 * up(S_max * along))) + up(along * along));
+      // (12) the near root c/q with Δ̃ > 0: e* + δ_β/q̂ = (σ√D̃·e* − β·e_β)/q̂, then δ₀/q̂, then c's and
+      // Δ̃'s last roundings, at most u′(|q̂|/ã + |δ|/|q̂|) and 2u′|q̂|/ã (u′ = u/(1 − u)², |Ĉ| ≤ q̂²/ã).
+      const double q_hi = up(b_hi + up((1 + g3) * S_max)), u2 = up(u / down(down(1 - u) * down(1 - u)));
+      auto last_roundings = [&](double q_low, bool touching) {
+        const double delta_over_q = up(up(up(2 * e.E_beta) + up(g3q * b_hi)) +
+                                       up(up(up(e.E_beta * e.E_beta) + e.delta0) / q_low));  // |δ_β + δ₀|/|q̂|
+        const double q_over_a = up(q_hi / down(1 - g3));
+        return up(up(u2 * up(q_over_a + up(delta_over_q * (1 + 0x1p-40)))) +
+                  (touching ? 0 : up(2 * up(u2 * q_over_a))));
+      };
+      const double centre = up(up(e.e_star * up(up((1 + g3) * S_max) / up(b_lo + up((1 + g3) * S_max)))) +
+                               up(e.E_beta + up(e.E_beta * e.E_beta / q_lo)));
+      const double Y_c = up(up(centre + up(g3q * L)) + last_roundings(q_lo, false));
+      // δ₀/|q̂| ≤ d₀/(|β̃| + √D_lo) + d₁ + d₂|β̃| (|q̂| ≥ |β̃| + √D_lo, |β̃|/|q̂| ≤ 1).
+      const double beta_part = up(e.d1 + up(e.d2 * b_hi));
+      const double Y = up(up(Y_c + up(e.d0 / q_lo)) + beta_part);
+      const double spread =
+          up(up(up(2 * up(e.d0 * S_max)) / down(b_lo + down(down(1 - g3) * S_max))) + up(2 * up(S_max * beta_part)));
+      const double near = up(up(up(base + up(2 * up(S_max * Y_c))) + spread) + up(Y * Y));
+      // (12′) the near root of a touching ray (Δ̃ = 0, q̂ = β̃): |e* + δ_β/β̃| ≤ E_β(1 + E_β/|β̃|).
+      const double K = up(up(e.E_beta * e.E_beta) + e.delta0), kappa = up(std::sqrt(K) * (1 + 0x1p-50));
+      const double b_split = std::max(b_lo, kappa);
+      const double tail = up(up(up(up(g3q * L) + e.E_beta) + up(K / b_split)) + last_roundings(b_split, true));
+      double Y_t = tail;
+      if (b_lo <= kappa) Y_t = std::max(Y_t, std::max(up(kappa + e.E_beta), std::max(check, along)));
+      const double touching = up(e.E_Delta + up(Y_t * Y_t));
+      const double worst = std::max(far, std::max(near, touching));
+      if (!(worst >= 0)) return double(INFINITY);  // a NaN must not pass for a bound
+      f_bound = std::max(f_bound, worst);
+    }
+    const double h1 = up(f_bound / R), two_R = 2 * R;
+    const double h = h1 < two_R ? std::min(h1, up(f_bound / down(two_R - h1))) : h1;
+    return up(up(h + alpha) + rounding);
+  };
+  Bounds own;
+  own.grow(Vec3(down(m.x() - R), down(m.y() - R), down(m.z() - R)));
+  own.grow(Vec3(up(m.x() + R), up(m.y() + R), up(m.z() + R)));
+  OffsetProof proof;
+  const double coarse = bound_for(box);
+  if (!std::isfinite(coarse)) return std::nullopt;
+  proof.point_box = widened(own, coarse);
+  proof.point = std::min(coarse, bound_for(proof.point_box));
+  // (13) Re-hits: no hit once 2Rδ exceeds P(F′) = max(E_C, E_β² + E_Δ) + 2uF′² at F′(1 + u),
+  // F′ = R + point + reach; each a polynomial in F′ with nonnegative coefficients: the larger
+  // coefficient of each degree bounds both.
+  const double s = 1 + u, s2 = up(s * s);
+  // E_Δ's coefficients in F: e′_k is linear (no constant), ρ = ρ₀ + ρ₁(1 + γ3)F.
+  const double e_k1 = errors(1).e_k, rho_per_F = up(rho1 * (1 + g3));
+  const double delta_c0 =
+      up(up(up(u * R2) + up(g3 * up(Lambda * Lambda))) +
+         up(up(u * delta_max / down(1 - u)) + up(up(2 * up(Lambda * rho0)) + up(3 * up(rho0 * rho0)))));
+  const double delta_c1 = up(up(2 * up(Lambda * rho_per_F)) + up(6 * up(rho0 * rho_per_F)));
+  const double delta_c2 = up(up(e_k1 * e_k1) + up(3 * up(rho_per_F * rho_per_F)));
+  const double c0 = std::max(up(g2 * R2), delta_c0);
+  const double c1 = up(delta_c1 * s);
+  const double c2 = up(up(std::max(g4, up(up(g3 * g3) + delta_c2)) * s2) + up(2 * u));
+  const double F0 = up(R + proof.point), two_R = down(2 * R);
+  proof.rehit_base = up(up(up(c0 + up(c1 * F0)) + up(c2 * up(F0 * F0))) / two_R);
+  proof.rehit_per_reach = up(up(c1 + up(2 * up(c2 * F0))) / two_R);
+  proof.rehit_per_reach_squared = up(c2 / two_R);
+  return proof;
+}
+
+enum class Formula {
+  none,
+  moller_trumbore,
+  watertight,
+  plane_direct,
+  slab,
+  robust_slab,
+  textbook,
+  stable,
+  stable_fma,
+  hearn_baker
+};
 // The formula a built-in variant computes (its structure-of-arrays twins are bit-identical).
 Formula formula_of(const Variant& v) {
   if (v.external != nullptr || v.kernel == nullptr || v.is_oracle) return Formula::none;
@@ -867,6 +1056,7 @@ Formula formula_of(const Variant& v) {
   if (name == "textbook") return Formula::textbook;
   if (name == "stable") return Formula::stable;
   if (name == "stable-fma") return Formula::stable_fma;
+  if (name == "hearn-baker") return Formula::hearn_baker;
   return Formula::none;
 }
 // The batch twins report double but compute in the precision their name says.
@@ -915,6 +1105,9 @@ std::optional<OffsetProof> offset_proof(const Variant& v, const Shape& shape, co
                                                                    : SphereFormula::stable_fma;
         return sphere_proof(p, f, *sp, scene_box);
       }
+      break;
+    case Formula::hearn_baker:
+      if (const auto* sp = std::get_if<Sphere>(&shape)) return hearn_baker_proof(p, *sp, scene_box);
       break;
     case Formula::none: break;
   }
