@@ -164,11 +164,10 @@ TEST(Offsets, NoWitnessBeyondTheBoundOnSpheres) {
     base.objects.push_back({Sphere{Vec3(u(rng), u(rng), u(rng)), 0.02 + 0.4 * std::abs(u(rng))}});
   base.lights.push_back({Vec3(4, 3, -2), 1});
   for (int k : {-30, 0, 30})
-    expect_no_witness_beyond_bound(
-        scaled(base, k),
-        named({"textbook", "stable", "stable-fma", "hearn-baker", "textbook-f32", "stable-f32", "stable-fma-f32",
-               "hearn-baker-f32"}),
-        100000, "spheres at 2^" + std::to_string(k), 3.5);
+    expect_no_witness_beyond_bound(scaled(base, k),
+                                   named({"textbook", "stable", "stable-fma", "hearn-baker", "textbook-f32",
+                                          "stable-f32", "stable-fma-f32", "hearn-baker-f32"}),
+                                   100000, "spheres at 2^" + std::to_string(k), 3.5);
 }
 
 // Exits from inside a robust slab's box overshoot the far face by its widening 1 + 2γ(3): the
