@@ -168,6 +168,31 @@ TEST(Offsets, NoWitnessBeyondTheBoundOnSpheres) {
                                    named({"textbook", "stable", "stable-fma", "hearn-baker", "textbook-f32",
                                           "stable-f32", "stable-fma-f32", "hearn-baker-f32"}),
                                    100000, "spheres at 2^" + std::to_string(k), 3.5);
+  // Balls up to 3 across with the light inside one of them: rays leave surfaces tangentially from
+  // inside and out, where Hearn–Baker's bound is loosest ((12)'s d₀²/D_lo: 8–10×, 12× asked).
+  Scene big;
+  for (int i = 0; i < 12; ++i)
+    big.objects.push_back({Sphere{Vec3(u(rng), u(rng), u(rng)), 0.001 + 1.5 * std::abs(u(rng))}});
+  big.lights.push_back({Vec3(0.1, 0.2, 0.3), 1});
+  for (int k : {0, 30})
+    expect_no_witness_beyond_bound(scaled(big, k), named({"stable", "hearn-baker", "stable-f32", "hearn-baker-f32"}),
+                                   200000, "big spheres at 2^" + std::to_string(k), 12);
+}
+
+// Hearn–Baker computes the discriminant from the centre's distance to the line: for an origin far
+// from a small ball its error grows as γ·|o − m|·R, not γ·|o − m|² as the quadratic's b² − 4ac. The
+// derivation keeps that ((12): c's rounding paid over |β̃|): its proved bound is far below stable's.
+TEST(Offsets, HearnBakerIsProvedTighterThanStableFarFromTheBall) {
+  Bounds box;
+  box.grow(Vec3(-64, -64, -64));
+  box.grow(Vec3(64, 64, 64));
+  for (const double r : {0.01, 0.1, 1.0}) {
+    const Sphere ball{Vec3(0.3, -0.2, 0.1), r};
+    const auto hb = offset_proof(*find_variant("hearn-baker"), ball, box);
+    const auto st = offset_proof(*find_variant("stable"), ball, box);
+    ASSERT_TRUE(hb && st);
+    EXPECT_LT(hb->point, st->point / 10) << r;
+  }
 }
 
 // Exits from inside a robust slab's box overshoot the far face by its widening 1 + 2γ(3): the

@@ -167,29 +167,34 @@
 //     L̃ = |l̃|²(1 + θ), |θ| ≤ γ3, Δ̃ = (r̃2 − L̃)(1 + ε₂):
 //       E_Δ := |Δ̃ − Δ| ≤ uR² + e′_k² + 2(Λ + ρ)ρ + ρ² + γ3Λ² + uΔ̃/(1 − u).
 //     For the small root, δ = C̃ − Ĉ, Ĉ = (β̃² − D̃)/ã (so that Ĉ/q̂ = β̃/ã − σS, S = √D̃/ã): r̃2
-//     cancels in C̃ + Δ̃, and |f|² − |l̃|² = β² − e′_k² − 2ℓ·ρ − |ρ|², so δ = (β² − β̃²/ã) + δ₀ with
-//       |δ₀| ≤ e′_k² + 2(Λ + ρ)ρ + ρ² + γ3(F² + Λ²) + (u|C̃| + 2uΔ̃)/(1 − u),
-//       |β² − β̃²/ã| ≤ E_β(2|β̃| + E_β) + γ3β̃²/(1 − γ3).
+//     cancels in C̃ + Δ̃, and |f|² − |l̃|² = β² − e′_k² − 2ℓ·ρ − |ρ|², so δ = (β² − β̃²/ã) + δ₀ + the
+//     last roundings of C̃ and Δ̃ (and D̃'s ε_D·Δ̃), with
+//       |δ₀| ≤ e′_k² + 2Λρ + 3ρ² + γ3(F² + Λ²) = d₀ + d₁|β̃| + d₂β̃²  (|ρ| ≤ ρ₀ + ρ₁|β̃| by |k̃|),
+//       |β² − β̃²/ã| ≤ E_β(2|β̃| + E_β) + γ3β̃²/(1 − γ3);
+//     the last roundings are u-multiples of |C̃| ≤ q̂²/ã + |δ| and Δ̃ ≤ q̂²/(ã(1 − u)): over |q̂|, O(u|q̂|).
 // (11) The large root t̃1 = (β̃/ã + σS)(1 + η), |η| ≤ γ3: t̃1 − t* = σS + Z, |Z| ≤ |e*| + γ3|t̃1|/(1 − γ3),
 //       |f(t̃1)| ≤ |S² − Δ| + 2S|Z| + Z², |S² − Δ| ≤ (E_Δ + uΔ̃ + γ3|Δ|)/(1 − γ3);
 //     a touching ray (Δ̃ = 0, S = 0) is the same with |Δ| ≤ E_Δ.
-// (12) The small root t̃0 = (β̃/ã − σS + δ/q̂)(1 + η): t̃0 − t* = Y − σS, |f(t̃0)| ≤ |S² − Δ| + 2S|Y| + Y²,
-//       |Y| ≤ |e*| + γ3|t̃0|/(1 − γ3) + 2E_β + γ3|β̃|/(1 − γ3) + E_β²/|q̂| + |δ₀|/|q̂|,
-//     where 2S|δ₀|/|q̂| ≤ 2|δ₀|S/(|β̃| + (1 − γ3)S) (far from the sphere S/|β̃| ≈ R/F: the error of c is
+// (12) The small root t̃0 = (β̃/ã − σS + δ/q̂)(1 + η): t̃0 − t* = Y − σS, |f(t̃0)| ≤ |S² − Δ| + 2S|Y| + Y²
+//     with Y = e* + δ/q̂ + ηt̃0/(1 + η). The centre's error and β's cancel to first order:
+//     e* + (β² − β̃²/ã)/q̂ = (σ√D̃·e* − β(β̃ − β))/q̂, at most |e*|√D̃/|q̂| + E_β + E_β²/|q̂|, so
+//       |Y| ≤ |e*|√D̃/|q̂| + E_β + E_β²/|q̂| + γ3|t̃0|/(1 − γ3) + O(u|q̂|) + d₀/|q̂| + d₁ + d₂|β̃|,
+//     where 2S·d₀/|q̂| ≤ 2d₀S/(|β̃| + (1 − γ3)S) (far from the sphere S/|β̃| ≈ R/F: the error of c is
 //     paid as γF·R, not γF²), and |q̂| ≥ |β̃| + √D_lo with |β̃| ≥ √(F_a² − (Λ + ρ)²) − E_β for origins
 //     at |f| ≥ F_a (a hit's |l| ≤ |ℓ| ≤ Λ + ρ). The origins' |f| is cut into slices [F_a, F_b],
 //     geometric beyond R, each bounded with F_b's errors and F_a's |β̃|; the largest is taken.
-// (12′) A touching ray's small root (q̂ = β̃): under the nearest rule it is reported only when
-//     0 < t̃0 ≤ t̃1, and under the entering rule only when the code's (p̃ − m)·d < 0, i.e. t̃0 − t* <
-//     γ4|p̃ − m| + |α| + |r| (the point's rounding r); either way |Y| ≤ max(|β̃| + E_β, that, |Z|).
-//     With (12)'s |Y| ≤ … + (E_β² + |δ₀|)/|β̃|: the first holds where |β̃| ≤ κ = √(E_β² + |δ₀|), the
-//     second, its last term at most κ, where |β̃| > κ: Y² is of order |δ₀|, never unbounded.
+// (12′) A touching ray's small root (q̂ = β̃, so e* + (β² − β̃²/ã)/β̃ is at most E_β(1 + E_β/|β̃|)):
+//     under the nearest rule it is reported only when 0 < t̃0 ≤ t̃1, and under the entering rule
+//     only when the code's (p̃ − m)·d < 0, i.e. t̃0 − t* < γ4|p̃ − m| + |α| + |r| (r: the point's
+//     rounding); either way |Y| ≤ max(|β̃| + E_β, that, |Z|). With (12)'s |Y| ≤ … + (E_β² + |δ₀|)/|β̃|:
+//     the first holds where |β̃| ≤ κ = √(E_β² + |δ₀|), the second, its last term at most κ, where
+//     |β̃| > κ: Y² is of order |δ₀|, never unbounded.
 // (13) Re-hits: from o′ at R + δ from m, going away (β ≤ 0): c′ ≥ 2Rδ − 2uF′² (o − m's rounding,
 //     F′ = R + δ). C̃ > 0 once c′ > E_C = γ4F′² + γ2R², and then a positive root needs β̃ ≥ 0, so
 //     |β| ≤ E_β and Δ̃ ≥ 0 needs c′ = β² − Δ ≤ E_β² + E_Δ: no hit once 2Rδ − 2uF′² exceeds both.
-// Where it is loose: (12)'s Y² at the smallest D̃ pays |δ₀|²/D_lo, of order 10²·uR² for rays
+// Where it is loose: (12)'s Y² at the smallest D̃ pays d₀²/D_lo, of order 10²·uR², for rays
 // leaving the surface tangentially, where the roundings of C̃ and Δ̃ (nearly the same dot product
-// there) largely cancel.
+// there) largely cancel: on balls of radius 0.001 to 3 the bracket reaches 8–10×.
 #include "rayproof/verify/offset_bounds.h"
 
 #include <algorithm>
@@ -886,7 +891,7 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   return proof;
 }
 
-// Hearn–Baker (the derivation (9)–(12) above), for the origin o′ = m + fl(o − m) as the sphere
+// Hearn–Baker (the derivation (9)–(13) above), for the origin o′ = m + fl(o − m) as the sphere
 // variants above, |α| added; in units where |d| = 1 (every term is homogeneous of degree 0 in d).
 std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, const Bounds& scene_box) {
   const Vec3 m = in_precision(p, input.center);
@@ -967,15 +972,18 @@ std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, c
       const double along = up(e.e_star + up(g3q * L));  // |e*| + |η′t̃|
       // (11) the far root q/a (touching too).
       const double far = up(up(base + up(2 * up(S_max * along))) + up(along * along));
-      // (12) the near root c/q with Δ̃ > 0: e* + δ_β/q̂ = (σ√D̃·e* − β·e_β)/q̂, then δ₀/q̂, then c's and
-      // Δ̃'s last roundings, at most u′(|q̂|/ã + |δ|/|q̂|) and 2u′|q̂|/ã (u′ = u/(1 − u)², |Ĉ| ≤ q̂²/ã).
-      const double q_hi = up(b_hi + up((1 + g3) * S_max)), u2 = up(u / down(down(1 - u) * down(1 - u)));
+      // (12) the near root c/q with Δ̃ > 0: e* + δ_β/q̂ = (σ√D̃·e* − β·e_β)/q̂, then δ₀/q̂, then the last
+      // roundings of C̃ and Δ̃ over |q̂|: T ≤ u₁(|q̂|/ã + |δ|/|q̂|) + (u₁ + u)|q̂|/(ã(1 − u)), u₁ = u/(1 − u)
+      // (|Ĉ| ≤ q̂²/ã, Δ̃ ≤ q̂²/(ã(1 − u))), with |δ|/|q̂| ≤ (|δ_β + δ₀|/|q̂| + T's q-terms)/(1 − u₁).
+      const double q_hi = up(b_hi + up((1 + g3) * S_max)), u1 = up(u / down(1 - u));
       auto last_roundings = [&](double q_low, bool touching) {
         const double delta_over_q = up(up(up(2 * e.E_beta) + up(g3q * b_hi)) +
                                        up(up(up(e.E_beta * e.E_beta) + e.delta0) / q_low));  // |δ_β + δ₀|/|q̂|
         const double q_over_a = up(q_hi / down(1 - g3));
-        return up(up(u2 * up(q_over_a + up(delta_over_q * (1 + 0x1p-40)))) +
-                  (touching ? 0 : up(2 * up(u2 * q_over_a))));
+        const double from_delta = touching ? 0 : up(up(up(u1 + u) * q_over_a) / down(1 - u));  // Δ̃'s: none if 0
+        const double q_terms = up(up(u1 * q_over_a) + from_delta);
+        const double delta_total = up(up(delta_over_q + q_terms) / down(1 - u1));
+        return up(up(u1 * up(q_over_a + delta_total)) + from_delta);
       };
       const double centre = up(up(e.e_star * up(up((1 + g3) * S_max) / up(b_lo + up((1 + g3) * S_max)))) +
                                up(e.E_beta + up(e.E_beta * e.E_beta / q_lo)));
