@@ -423,6 +423,10 @@ std::pair<double, double> proved_offset_and_ulps(const OffsetProof& proof, Preci
     const double lo = proof.point_box.lo[i], hi = proof.point_box.hi[i];
     smallest_max = std::max(smallest_max, lo <= 0 && hi >= 0 ? 0.0 : std::min(std::abs(lo), std::abs(hi)));
   }
+  if (const auto* sp = std::get_if<Sphere>(&shape)) {  // a box round the origin: |p| ≥ ||m| − R| − point
+    const double apart = std::abs(sp->center.norm() - sp->radius) * (1 - 0x1p-50) - proof.point;
+    smallest_max = std::max(smallest_max, apart / std::sqrt(3.0) * (1 - 0x1p-50));
+  }
   return std::pair{worst, smallest_max > 0 ? worst / ulp_in(prec, smallest_max) : INFINITY};
 }
 }  // namespace
