@@ -803,6 +803,31 @@ std::optional<OffsetProof> box_proof(Precision p, bool robust, const Box& input,
   return proof;  // re-hits: none from strictly outside (rehit 0)
 }
 
+// A sphere's point bound from |f(t̃)| (the derivation above (4)): h ≤ |f(t̃)|/(2R − h₁) where
+// h₁ = |f(t̃)|/R < 2R, plus |α| (o − m's rounding, a moved origin) and the point's own rounding; first
+// over the scene's box, then over the points that bound allows. `f_bound(points, w)`: |f(t̃)| for
+// hits whose computed point lies in `points`, w the travel to them.
+template <class FBound>
+std::optional<OffsetProof> sphere_point_proof(Precision p, const Vec3& m, double R, double alpha, const Bounds& box,
+                                              const FBound& f_bound) {
+  auto bound_for = [&](const Bounds& points) {
+    const Vec3 w = travel(box, points);
+    const double f = f_bound(points, w);
+    const double h1 = up(f / R), two_R = 2 * R;  // exact: a power of two times R
+    const double h = h1 < two_R ? std::min(h1, up(f / down(two_R - h1))) : h1;
+    return up(up(h + alpha) + point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points)));
+  };
+  Bounds own;
+  own.grow(Vec3(down(m.x() - R), down(m.y() - R), down(m.z() - R)));
+  own.grow(Vec3(up(m.x() + R), up(m.y() + R), up(m.z() + R)));
+  OffsetProof proof;
+  const double coarse = bound_for(box);
+  if (!std::isfinite(coarse)) return std::nullopt;
+  proof.point_box = widened(own, coarse);
+  proof.point = std::min(coarse, bound_for(proof.point_box));
+  return proof;
+}
+
 enum class SphereFormula { textbook, stable, stable_fma };
 
 // The sphere variants (the derivation above (4)).
@@ -843,8 +868,7 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
                            up(up(g3 * C.mag()) + up(up(1 + g3) * delta_D)));
   const double Sd =
       std::min(up(Fb + std::sqrt(up(up(1 + g3) * C_hat)) * (1 + 0x1p-50)), up(std::sqrt(D_near) * (1 + 0x1p-50)));
-  auto bound_for = [&](const Bounds& points) {
-    const Vec3 w = travel(box, points);
+  auto proof = sphere_point_proof(p, m, R, alpha, box, [&](const Bounds&, const Vec3& w) {
     const double Lt = up(w.norm() * (1 + 0x1p-50));                                   // |t̃·d|
     const Bounded a = A.dot(inputs(w), inputs(w));                                    // E_a·t̃² (homogeneity)
     const Bounded beta = A.dot(inputs(w), oc);                                        // E_β·|t̃|
@@ -867,27 +891,18 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
                                      up(up(g3 * up(1 + spread)) * C_computed));
       f_bound = std::max(up(f_minus_G + big), std::min(up(f_minus_G + small), signed_small));
     }
-    const double h1 = up(f_bound / R), two_R = 2 * R;  // exact: a power of two times R
-    const double h = h1 < two_R ? std::min(h1, up(f_bound / down(two_R - h1))) : h1;
-    return up(up(h + alpha) + point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points)));
-  };
-  Bounds own;
-  own.grow(Vec3(down(m.x() - R), down(m.y() - R), down(m.z() - R)));
-  own.grow(Vec3(up(m.x() + R), up(m.y() + R), up(m.z() + R)));
-  OffsetProof proof;
-  const double coarse = bound_for(box);
-  if (!std::isfinite(coarse)) return std::nullopt;
-  proof.point_box = widened(own, coarse);
-  proof.point = std::min(coarse, bound_for(proof.point_box));
+    return f_bound;
+  });
+  if (!proof) return std::nullopt;
   // Re-hits from origins within point + reach of the surface: F′ = R + point + reach.
   const double coef =
       formula == SphereFormula::textbook
           ? up(kappa * up((1 + g4) * (1 + g4)) / down(down(1 - g3) * down(1 - kappa)))
           : up(up(g4 * g4) * up(up((1 + kappa) * (1 + g4) * (1 + g4)) / down(down(1 - kappa) * down(1 - g3))));
-  const double k2 = up(g6 + coef), F0 = up(R + proof.point), two_R = down(2 * R);
-  proof.rehit_base = up(up(up(k2 * up(F0 * F0)) + up(g6 * up(R * R))) / two_R);
-  proof.rehit_per_reach = up(up(2 * up(k2 * F0)) / two_R);
-  proof.rehit_per_reach_squared = up(k2 / two_R);
+  const double k2 = up(g6 + coef), F0 = up(R + proof->point), two_R = down(2 * R);
+  proof->rehit_base = up(up(up(k2 * up(F0 * F0)) + up(g6 * up(R * R))) / two_R);
+  proof->rehit_per_reach = up(up(2 * up(k2 * F0)) / two_R);
+  proof->rehit_per_reach_squared = up(k2 / two_R);
   return proof;
 }
 
@@ -953,8 +968,7 @@ std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, c
     for (double x = up(from * ratio); x < F_hi; x = up(x * ratio)) cuts.push_back(x);
   }
   cuts.push_back(std::max(F_lo, F_hi));
-  auto bound_for = [&](const Bounds& points) {
-    const Vec3 w = travel(box, points);
+  auto proof = sphere_point_proof(p, m, R, alpha, box, [&](const Bounds& points, const Vec3& w) {
     const double L = up(w.norm() * (1 + 0x1p-50));  // |t̃·d|
     const double rounding = point_rounding(p, Vec3(1, 1, 1), w, largest_abs(points));
     const double check = up(up(up(g4 * up(reach_from(points, m).norm() * (1 + 0x1p-50))) + alpha) + rounding);
@@ -1005,18 +1019,9 @@ std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, c
       if (!(worst >= 0)) return double(INFINITY);  // a NaN must not pass for a bound
       f_bound = std::max(f_bound, worst);
     }
-    const double h1 = up(f_bound / R), two_R = 2 * R;
-    const double h = h1 < two_R ? std::min(h1, up(f_bound / down(two_R - h1))) : h1;
-    return up(up(h + alpha) + rounding);
-  };
-  Bounds own;
-  own.grow(Vec3(down(m.x() - R), down(m.y() - R), down(m.z() - R)));
-  own.grow(Vec3(up(m.x() + R), up(m.y() + R), up(m.z() + R)));
-  OffsetProof proof;
-  const double coarse = bound_for(box);
-  if (!std::isfinite(coarse)) return std::nullopt;
-  proof.point_box = widened(own, coarse);
-  proof.point = std::min(coarse, bound_for(proof.point_box));
+    return f_bound;
+  });
+  if (!proof) return std::nullopt;
   // (13) Re-hits: no hit once 2Rδ exceeds P(F′) = max(E_C, E_β² + E_Δ) + 2uF′² at F′(1 + u),
   // F′ = R + point + reach; each a polynomial in F′ with nonnegative coefficients: the larger
   // coefficient of each degree bounds both.
@@ -1031,10 +1036,10 @@ std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, c
   const double c0 = std::max(up(g2 * R2), delta_c0);
   const double c1 = up(delta_c1 * s);
   const double c2 = up(up(std::max(g4, up(up(g3 * g3) + delta_c2)) * s2) + up(2 * u));
-  const double F0 = up(R + proof.point), two_R = down(2 * R);
-  proof.rehit_base = up(up(up(c0 + up(c1 * F0)) + up(c2 * up(F0 * F0))) / two_R);
-  proof.rehit_per_reach = up(up(c1 + up(2 * up(c2 * F0))) / two_R);
-  proof.rehit_per_reach_squared = up(c2 / two_R);
+  const double F0 = up(R + proof->point), two_R = down(2 * R);
+  proof->rehit_base = up(up(up(c0 + up(c1 * F0)) + up(c2 * up(F0 * F0))) / two_R);
+  proof->rehit_per_reach = up(up(c1 + up(2 * up(c2 * F0))) / two_R);
+  proof->rehit_per_reach_squared = up(c2 / two_R);
   return proof;
 }
 
