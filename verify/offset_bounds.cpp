@@ -959,7 +959,7 @@ std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, c
   const double F_lo = std::max(0.0, down(down(std::sqrt(F_lo_squared) * (1 - 0x1p-50)) * (1 - u)));  // ≤ |õc|
   if (!std::isfinite(F_hi)) return std::nullopt;
   // The origins' distances in slices [F_a, F_b], geometric beyond R (the near root's |β̃| from
-  // below, (11), needs F_a close to F_b): at most 4,096.
+  // below, (12), needs F_a close to F_b): at most 4,096.
   std::vector<double> cuts{F_lo};
   if (F_hi > std::max(F_lo, R)) {
     const double from = std::max(F_lo, R);
