@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <mutex>
@@ -777,6 +778,15 @@ std::string kind_plural(const VariantOffsets& v) {
 }
 }  // namespace
 
+// Why a variant has no bound: no derivation for its formula (users' code), or one whose bound is
+// not finite on this scene (beyond the precision's proved range: products that overflow).
+const char* why_unproved(const VariantOffsets& v) {
+  const std::vector<std::string_view> derived = variants_with_offset_proofs();
+  return std::find(derived.begin(), derived.end(), std::string_view(v.variant->name)) != derived.end()
+             ? "derived, but no finite bound on this scene (beyond the proved range): witnesses only"
+             : "no derivation for this variant: witnesses only";
+}
+
 std::vector<std::string> offsets_summary_lines(const OffsetsReport& report) {
   std::vector<std::string> lines;
   for (const VariantOffsets& v : report.variants) {
@@ -793,7 +803,7 @@ std::vector<std::string> offsets_summary_lines(const OffsetsReport& report) {
       if (v.derived)
         line += markup::format(" (needs %.3g ulps at most)", v.needs_ulps_at_most());
       else
-        line += " (no derivation for this variant: witnesses only)";
+        line += std::string(" (") + why_unproved(v) + ")";
       lines.push_back(line);
     }
   }
@@ -836,7 +846,9 @@ std::string offsets_html(const OffsetsReport& report, const SceneIndex& index) {
           100.0 * double(within4) / double(b.size()), v.needs_ulps_at_most());
     }
     if (!v.derived) {
-      html += "<p class=unproved>No derivation for this variant's formula: the witness side only.</p>";
+      std::string why = why_unproved(v);
+      why[0] = char(std::toupper(static_cast<unsigned char>(why[0])));
+      html += "<p class=unproved>" + why + ".</p>";
       continue;
     }
     // The picture: the camera's view, each pixel coloured by its primitive's required offset in

@@ -193,6 +193,25 @@ TEST(Offsets, HearnBakerIsProvedTighterThanStableFarFromTheBall) {
     ASSERT_TRUE(hb && st);
     EXPECT_LT(hb->point, st->point / 10) << r;
   }
+  // At 10^150 every product of the formula is still finite, and so is the bound (its evaluation
+  // must not overflow where the code does not: d₀·S did); at 10^200 |o − m|² overflows in the
+  // code itself, and the report says the derivation has no finite bound there.
+  Bounds far_box;
+  far_box.grow(Vec3(-4e150, -4e150, -4e150));
+  far_box.grow(Vec3(4e150, 4e150, 4e150));
+  const auto huge = offset_proof(*find_variant("hearn-baker"), Sphere{Vec3(0, 0, 0), 1e150}, far_box);
+  ASSERT_TRUE(huge.has_value());
+  EXPECT_TRUE(std::isfinite(huge->point) && huge->point < 1e150 * 1e-12) << huge->point;
+  Scene beyond;
+  beyond.objects.push_back({Sphere{Vec3(0, 0, 0), 1e200}});
+  beyond.lights.push_back({Vec3(3e200, 2e200, 1e200), 1});
+  OffsetsOptions options;
+  options.rays = 1000;
+  const studies::OffsetsReport report =
+      studies::run_offsets(SceneIndex(beyond), "beyond", named({"hearn-baker"}), options);
+  const std::vector<std::string> lines = studies::offsets_summary_lines(report);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_NE(lines[0].find("derived, but no finite bound on this scene"), std::string::npos) << lines[0];
 }
 
 // Exits from inside a robust slab's box overshoot the far face by its widening 1 + 2γ(3): the

@@ -1005,8 +1005,8 @@ std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, c
       // δ₀/|q̂| ≤ d₀/(|β̃| + √D_lo) + d₁ + d₂|β̃| (|q̂| ≥ |β̃| + √D_lo, |β̃|/|q̂| ≤ 1).
       const double beta_part = up(e.d1 + up(e.d2 * b_hi));
       const double Y = up(up(Y_c + up(e.d0 / q_lo)) + beta_part);
-      const double spread =
-          up(up(up(2 * up(e.d0 * S_max)) / down(b_lo + down(down(1 - g3) * S_max))) + up(2 * up(S_max * beta_part)));
+      const double S_share = up(S_max / down(b_lo + down(down(1 - g3) * S_max)));  // S/|q̂| first: d₀·S may overflow
+      const double spread = up(up(2 * up(e.d0 * S_share)) + up(2 * up(S_max * beta_part)));
       const double near = up(up(up(base + up(2 * up(S_max * Y_c))) + spread) + up(Y * Y));
       // (12′) the near root of a touching ray (Δ̃ = 0, q̂ = β̃): |e* + δ_β/β̃| ≤ E_β(1 + E_β/|β̃|).
       const double K = up(up(e.E_beta * e.E_beta) + e.delta0), kappa = up(std::sqrt(K) * (1 + 0x1p-50));
