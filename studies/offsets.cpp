@@ -776,8 +776,6 @@ std::string with_commas(std::uint64_t n) {
 std::string kind_plural(const VariantOffsets& v) {
   return std::string(to_string(v.variant->shape)) + (v.variant->shape == ShapeKind::box ? "es" : "s");
 }
-}  // namespace
-
 // Why a variant has no bound: no derivation for its formula (users' code), or one whose bound is
 // not finite on this scene (beyond the precision's proved range: products that overflow).
 const char* why_unproved(const VariantOffsets& v) {
@@ -786,6 +784,7 @@ const char* why_unproved(const VariantOffsets& v) {
              ? "derived, but no finite bound on this scene (beyond the proved range): witnesses only"
              : "no derivation for this variant: witnesses only";
 }
+}  // namespace
 
 std::vector<std::string> offsets_summary_lines(const OffsetsReport& report) {
   std::vector<std::string> lines;

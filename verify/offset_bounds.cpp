@@ -803,6 +803,24 @@ std::optional<OffsetProof> box_proof(Precision p, bool robust, const Box& input,
   return proof;  // re-hits: none from strictly outside (rehit 0)
 }
 
+// The subtraction õc = fl(o − m) = (o − m) + α is a sphere formula's only use of o: from there it
+// computes exactly what it computes, without that rounding, for the origin o′ = m + õc. So a bound
+// is o′'s, its õc exact (|õc_i| ≤ |o_i − m_i|(1 + u)), and the point o + t̃·d lies within |α| of
+// o′ + t̃·d: |α| is added. Carried as errors of õc instead, α would be paid in c and in β·t̃ at
+// |o − m| times its size each, where the point moves by |α| only. For origins `reach` from m per
+// axis: |α| and |õc| from above.
+struct MovedOrigin {
+  double alpha = 0, F = 0;
+};
+MovedOrigin moved_origin(double u, const Vec3& reach) {
+  double alpha_squared = 0;
+  for (int i = 0; i < 3; ++i) {
+    const double a_i = half_ulp_at_most(u, reach[i]);
+    alpha_squared = up(alpha_squared + up(a_i * a_i));
+  }
+  return {up(std::sqrt(alpha_squared) * (1 + 0x1p-50)), up(up(reach.norm() * (1 + 0x1p-50)) * (1 + u))};
+}
+
 // A sphere's point bound from |f(t̃)| (the derivation above (4)): h ≤ |f(t̃)|/(2R − h₁) where
 // h₁ = |f(t̃)|/R < 2R, plus |α| (o − m's rounding, a moved origin) and the point's own rounding; first
 // over the scene's box, then over the points that bound allows. `f_bound(points, w)`: |f(t̃)| for
@@ -840,21 +858,12 @@ std::optional<OffsetProof> sphere_proof(Precision p, SphereFormula formula, cons
   const double u = unit_roundoff(p), g3 = gamma_up(p, 3), g4 = gamma_up(p, 4), g6 = gamma_up(p, 6);
   const double kappa = gamma_up(p, formula == SphereFormula::stable_fma ? 3 : 2), rho = up(2 * kappa / down(1 - kappa));
   const RunningBound A{u};
-  // The subtraction õc = fl(o − m) = (o − m) + α is the code's only use of o: from there it
-  // computes exactly what it computes, without that rounding, for the origin o′ = m + õc. So the
-  // bound below is o′'s, its õc exact (|õc_i| ≤ |o_i − m_i|(1 + u)), and the point o + t̃·d lies
-  // within |α| of o′ + t̃·d: |α| is added. Carried as errors of õc instead, α would be paid in c
-  // and in β·t̃ at |o − m| times its size each, where the point moves by |α| only.
+  // The origin o′ = m + fl(o − m) (moved_origin): its õc exact, |α| added to the point.
   const Vec3 f_mag = reach_from(box, m);
-  double alpha_squared = 0;  // |α|²
+  const MovedOrigin moved = moved_origin(u, f_mag);
+  const double alpha = moved.alpha, F = moved.F;  // F ≥ |õc|
   BVec oc;
-  for (int i = 0; i < 3; ++i) {
-    const double a_i = half_ulp_at_most(u, f_mag[i]);
-    alpha_squared = up(alpha_squared + up(a_i * a_i));
-    oc[i] = RunningBound::input(up(f_mag[i] * (1 + u)));
-  }
-  const double alpha = up(std::sqrt(alpha_squared) * (1 + 0x1p-50));
-  const double F = up(up(f_mag.norm() * (1 + 0x1p-50)) * (1 + u));  // ≥ |õc|
+  for (int i = 0; i < 3; ++i) oc[i] = RunningBound::input(up(f_mag[i] * (1 + u)));
   const Bounded C = A.add(A.dot(oc, oc), A.mul(RunningBound::input(R), RunningBound::input(R)));
   const double C_computed = up(C.mag() + C.err);                                   // |C̃|
   const double Fb = up(F * (1 + g4));                                              // |β̃|/|d|
@@ -946,16 +955,13 @@ std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, c
     e.d2 = up(3 * up(rho1 * rho1));
     return e;
   };
-  const Vec3 f_mag = reach_from(box, m);
-  double alpha_squared = 0, F_lo_squared = 0;
+  const MovedOrigin moved = moved_origin(u, reach_from(box, m));
+  const double alpha = moved.alpha, F_hi = moved.F;  // F_hi ≥ |õc|
+  double F_lo_squared = 0;
   for (int i = 0; i < 3; ++i) {
-    const double a_i = half_ulp_at_most(u, f_mag[i]);
-    alpha_squared = up(alpha_squared + up(a_i * a_i));
     const double gap = std::max(0.0, std::max(down(box.lo[i] - m[i]), down(m[i] - box.hi[i])));
     F_lo_squared = std::max(0.0, down(F_lo_squared + down(gap * gap)));
   }
-  const double alpha = up(std::sqrt(alpha_squared) * (1 + 0x1p-50));
-  const double F_hi = up(up(f_mag.norm() * (1 + 0x1p-50)) * (1 + u));                                // ≥ |õc|
   const double F_lo = std::max(0.0, down(down(std::sqrt(F_lo_squared) * (1 - 0x1p-50)) * (1 - u)));  // ≤ |õc|
   if (!std::isfinite(F_hi)) return std::nullopt;
   // The origins' distances in slices [F_a, F_b], geometric beyond R (the near root's |β̃| from
@@ -1028,9 +1034,7 @@ std::optional<OffsetProof> hearn_baker_proof(Precision p, const Sphere& input, c
   const double s = 1 + u, s2 = up(s * s);
   // E_Δ's coefficients in F: e′_k is linear (no constant), ρ = ρ₀ + ρ₁(1 + γ3)F.
   const double e_k1 = errors(1).e_k, rho_per_F = up(rho1 * (1 + g3));
-  const double delta_c0 =
-      up(up(up(u * R2) + up(g3 * up(Lambda * Lambda))) +
-         up(up(u * delta_max / down(1 - u)) + up(up(2 * up(Lambda * rho0)) + up(3 * up(rho0 * rho0)))));
+  const double delta_c0 = errors(0).E_Delta;
   const double delta_c1 = up(up(2 * up(Lambda * rho_per_F)) + up(6 * up(rho0 * rho_per_F)));
   const double delta_c2 = up(up(e_k1 * e_k1) + up(3 * up(rho_per_F * rho_per_F)));
   const double c0 = std::max(up(g2 * R2), delta_c0);
